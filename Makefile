@@ -1,0 +1,42 @@
+# Set-up is part of every target: a bare clone needs only python3 (3.11 or 3.12) with venv.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+# Each test picks its own ROS domain; keep discovery on this machine.
+export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
+export PYTHONDONTWRITEBYTECODE := 1
+
+.PHONY: demo test bench soak accuracy lint build clean
+
+$(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -r requirements.txt -c constraints.txt
+	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(PY) -m eye_bci_ros2.demo $(ARGS)
+
+test: $(STAMP)
+	$(PY) -m pytest test $(ARGS)
+
+bench: $(STAMP)
+	$(PY) -m bench.run_all $(ARGS)
+
+soak: $(STAMP)
+	$(PY) -m bench.soak $(ARGS)
+
+accuracy: $(STAMP)
+	$(PY) -m eye_bci_ros2.accuracy_test $(ARGS)
+
+lint: $(STAMP)
+	$(PY) -m pytest test/test_flake8.py test/test_pep257.py
+
+# colcon build into ./install, as on a ROS machine (uses the venv's colcon and rclpy).
+build: $(STAMP)
+	$(VENV)/bin/colcon build --base-paths . --build-base build --install-base install
+
+clean:
+	rm -rf $(VENV) build install log demo_output bench_results.json .pytest_cache

@@ -1,0 +1,1 @@
+"""Choose among RViz markers by looking at them: gaze over LSL, projection, arbitration."""

@@ -1,0 +1,390 @@
+"""Projection geometry of the RViz camera: pure numpy, no rclpy.
+
+Conventions (see DESIGN.md):
+
+* world: the RViz fixed frame, metres.
+* camera (optical, REP-103): origin at the eye, z forward, x right, y down, metres.
+* image: top-left of the render panel, u right, v down, pixels.
+* screen: image + (X0, Y0), pixels.
+* Quaternions are ordered x, y, z, w (as in ROS messages).
+
+An *External* is the 4x4 homogeneous transform world -> camera; an *Intrinsic*
+is the 3x4 matrix [[fx, s, cx, 0], [0, fy, cy, 0], [0, 0, 1, 0]].  Every
+function is vectorised over points and markers and raises ``ValueError`` with
+a readable message on bad input.
+"""
+
+from typing import Tuple
+
+import numpy as np
+
+#: Corner ``i`` of a box has local offset ``signs[i] * scale / 2``; bit 0 of ``i``
+#: is +x, bit 1 +y, bit 2 +z.
+CORNER_SIGNS = np.array(
+    [[1.0 if (i >> axis) & 1 else -1.0 for axis in range(3)] for i in range(8)])
+
+#: Points closer than this in front of the camera (m) count as behind it.
+MIN_DEPTH = 1e-6
+
+
+def _finite_array(name: str, value, shape_tail: Tuple[int, ...]) -> np.ndarray:
+    """Return ``value`` as a float array whose trailing shape is ``shape_tail``."""
+    array = np.asarray(value, dtype=float)
+    if array.shape[array.ndim - len(shape_tail):] != shape_tail or \
+            array.ndim < len(shape_tail):
+        raise ValueError(f'{name} must have shape (..., {", ".join(map(str, shape_tail))}), '
+                         f'got {array.shape}')
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f'{name} contains NaN or infinite values')
+    return array
+
+
+def look_at(eye, focus, up) -> np.ndarray:
+    """
+    Build the External (world -> optical camera) of an RViz view.
+
+    :param eye: camera position P in the world frame, shape (3,), m.
+    :param focus: point F the camera looks at, world frame, shape (3,), m.
+    :param up: world vector that appears pointing up (-v) in the image, shape (3,).
+    :returns: 4x4 homogeneous transform; rows of its rotation are the camera's
+        x (right), y (down), z (forward) axes expressed in the world frame.
+    :raises ValueError: eye == focus, up parallel to the view, zero up or NaN.
+    """
+    eye = _finite_array('eye', eye, (3,))
+    focus = _finite_array('focus', focus, (3,))
+    up = _finite_array('up', up, (3,))
+    forward = focus - eye
+    distance = np.linalg.norm(forward)
+    if distance < 1e-9:
+        raise ValueError(f'degenerate camera: eye {eye.tolist()} equals focus')
+    z_axis = forward / distance
+    up_norm = np.linalg.norm(up)
+    if up_norm < 1e-12:
+        raise ValueError('degenerate camera: up vector is zero')
+    up_perp = up / up_norm - np.dot(up / up_norm, z_axis) * z_axis
+    perp_norm = np.linalg.norm(up_perp)
+    if perp_norm < 1e-6:
+        raise ValueError(f'degenerate camera: up {up.tolist()} is parallel to the view '
+                         f'direction {z_axis.tolist()}')
+    y_axis = -up_perp / perp_norm
+    x_axis = np.cross(y_axis, z_axis)
+    external = np.eye(4)
+    external[0, :3] = x_axis
+    external[1, :3] = y_axis
+    external[2, :3] = z_axis
+    external[:3, 3] = -external[:3, :3] @ eye
+    return external
+
+
+def external_from_pose(position, quaternion_xyzw) -> np.ndarray:
+    """
+    Build the External from an optical camera pose in the world frame.
+
+    :param position: camera centre in the world frame, shape (3,), m.
+    :param quaternion_xyzw: orientation of the optical camera frame in the
+        world frame, order x, y, z, w (need not be unit, must not be zero).
+    :returns: 4x4 world -> camera transform.
+    """
+    position = _finite_array('position', position, (3,))
+    rotation = quaternion_to_matrix(quaternion_xyzw)
+    external = np.eye(4)
+    external[:3, :3] = rotation.T
+    external[:3, 3] = -rotation.T @ position
+    return external
+
+
+def quaternion_to_matrix(quaternion_xyzw) -> np.ndarray:
+    """
+    Rotation matrices of quaternions, normalised first.
+
+    :param quaternion_xyzw: shape (4,) or (M, 4), order x, y, z, w.
+    :returns: shape (3, 3) or (M, 3, 3).
+    :raises ValueError: a zero or non-finite quaternion.
+    """
+    q = _finite_array('quaternion', quaternion_xyzw, (4,))
+    norm = np.linalg.norm(q, axis=-1, keepdims=True)
+    if np.any(norm < 1e-9):
+        raise ValueError('quaternion has zero length')
+    x, y, z, w = np.moveaxis(q / norm, -1, 0)
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+    ], -2)
+
+
+def matrix_to_quaternion(rotation) -> np.ndarray:
+    """
+    Quaternion (x, y, z, w) of a rotation matrix, with w >= 0.
+
+    :param rotation: shape (3, 3), proper orthonormal.
+    :returns: shape (4,).
+    """
+    m = np.asarray(rotation, dtype=float)
+    trace = np.trace(m)
+    if trace > 0:
+        s = 2.0 * np.sqrt(trace + 1.0)
+        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, s / 4]
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+        q = [s / 4, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s, (m[2, 1] - m[1, 2]) / s]
+    elif m[1, 1] > m[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
+        q = [(m[0, 1] + m[1, 0]) / s, s / 4, (m[1, 2] + m[2, 1]) / s, (m[0, 2] - m[2, 0]) / s]
+    else:
+        s = 2.0 * np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
+        q = [(m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, s / 4, (m[1, 0] - m[0, 1]) / s]
+    q = np.array(q)
+    return q if q[3] >= 0 else -q
+
+
+def project_points(points, intrinsic, external) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Project world points to image pixels.
+
+    :param points: shape (N, 3), world frame, m.
+    :param intrinsic: shape (3, 4).
+    :param external: shape (4, 4), world -> camera.
+    :returns: ``(uv, depth)``: uv shape (N, 2) in image px, depth shape (N,) in m
+        along the optical axis.  Points with depth <= 0 are behind the camera:
+        their uv is NaN.
+    """
+    points = _finite_array('points', points, (3,)).reshape(-1, 3)
+    projection = np.asarray(intrinsic, dtype=float) @ np.asarray(external, dtype=float)
+    homogeneous = points @ projection[:, :3].T + projection[:, 3]
+    depth = homogeneous[:, 2]
+    with np.errstate(divide='ignore', invalid='ignore'):
+        uv = homogeneous[:, :2] / depth[:, None]
+    uv[depth <= MIN_DEPTH] = np.nan
+    return uv, depth
+
+
+def cube_corners(position, quaternion_xyzw, scale) -> np.ndarray:
+    """
+    Corners of a cube marker.
+
+    :param position: marker centre, shape (3,), world frame, m.
+    :param quaternion_xyzw: orientation, order x, y, z, w.
+    :param scale: full side lengths (sx, sy, sz), m; must be positive.
+    :returns: shape (8, 3); corner ``i`` is ``p + R (signs[i] * scale / 2)``,
+        see :data:`CORNER_SIGNS`.
+    """
+    return cube_corners_batch(np.reshape(position, (1, 3)), np.reshape(quaternion_xyzw, (1, 4)),
+                              np.reshape(scale, (1, 3)))[0]
+
+
+def cube_corners_batch(positions, quaternions_xyzw, scales) -> np.ndarray:
+    """
+    Corners of M cube markers at once.
+
+    :param positions: shape (M, 3), world frame, m.
+    :param quaternions_xyzw: shape (M, 4), order x, y, z, w.
+    :param scales: shape (M, 3), full side lengths, m, all > 0.
+    :returns: shape (M, 8, 3).
+    """
+    positions = _finite_array('positions', positions, (3,)).reshape(-1, 3)
+    scales = _finite_array('scales', scales, (3,)).reshape(-1, 3)
+    if np.any(scales <= 0):
+        raise ValueError('cube scale must be positive on every axis')
+    rotations = quaternion_to_matrix(np.reshape(quaternions_xyzw, (-1, 4)))
+    local = CORNER_SIGNS[None, :, :] * (scales[:, None, :] / 2)
+    return positions[:, None, :] + np.einsum('mij,mkj->mki', rotations, local)
+
+
+def _convex_hull_indices(points: np.ndarray) -> list:
+    """Indices of the convex hull of 2-D points, counter-clockwise (monotone chain)."""
+    order = sorted(range(len(points)), key=lambda i: (points[i][0], points[i][1]))
+
+    def cross(o, a, b):
+        return ((points[a][0] - points[o][0]) * (points[b][1] - points[o][1])
+                - (points[a][1] - points[o][1]) * (points[b][0] - points[o][0]))
+
+    lower, upper = [], []
+    for i in order:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], i) <= 1e-12:
+            lower.pop()
+        lower.append(i)
+    for i in reversed(order):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], i) <= 1e-12:
+            upper.pop()
+        upper.append(i)
+    return lower[:-1] + upper[:-1]
+
+
+def _silhouette_table() -> np.ndarray:
+    """
+    Silhouette corner cycles of a box for each region the eye can be in.
+
+    The eye's position relative to the box's three slabs (below, inside,
+    above on each local axis) fixes which faces face it, hence which edges
+    form the outline (Schmalstieg and Tobler, "Fast projected area
+    computation for 3D bounding boxes", 1999).  The table is derived once
+    here from a representative eye in each of the 26 outside regions.
+    Rows hold 6 corner indices; 4-vertex outlines repeat their last index.
+    """
+    table = np.zeros((27, 6), dtype=np.intp)
+    corners = CORNER_SIGNS / 2
+    for code in range(27):
+        cls = np.array([code % 3, (code // 3) % 3, code // 9]) - 1
+        if not cls.any():
+            continue  # eye inside the box: no silhouette
+        eye = cls * 3.0
+        up = np.array([0.0, 0.0, 1.0]) if abs(cls[2]) == 0 or cls[:2].any() \
+            else np.array([0.0, 1.0, 0.0])
+        uv, _ = project_points(corners, np.array([[1.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]),
+                               look_at(eye, np.zeros(3), up))
+        hull = _convex_hull_indices(uv.tolist())
+        table[code] = hull + [hull[-1]] * (6 - len(hull))
+    return table
+
+
+_SILHOUETTE = _silhouette_table()
+
+
+def box_silhouettes(positions, quaternions_xyzw, scales, intrinsic,
+                    external) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Image outlines of M boxes: the convex hull of each one's projected corners.
+
+    For a box wholly in front of the camera this is its exact silhouette under
+    perspective.  Boxes with any corner at depth <= 0, and boxes that contain
+    the eye, have no outline: they are reported invisible, never drawn
+    inverted.
+
+    :param positions: shape (M, 3), world frame, m.
+    :param quaternions_xyzw: shape (M, 4), order x, y, z, w.
+    :param scales: shape (M, 3), m, > 0.
+    :param intrinsic: shape (3, 4).
+    :param external: shape (4, 4), world -> camera.
+    :returns: ``(polygons, visible)``: polygons shape (M, 6, 2) in image px,
+        counter-clockwise on the screen as a person sees it (u right, v down,
+        so the signed area in (u, v) is negative); 4-vertex outlines repeat their last
+        vertex.  visible shape (M,) bool; rows of invisible boxes are NaN.
+    """
+    positions = _finite_array('positions', positions, (3,)).reshape(-1, 3)
+    scales = _finite_array('scales', scales, (3,)).reshape(-1, 3)
+    quaternions = np.reshape(quaternions_xyzw, (-1, 4))
+    count = len(positions)
+    corners = cube_corners_batch(positions, quaternions, scales)
+    uv, depth = project_points(corners.reshape(-1, 3), intrinsic, external)
+    uv = uv.reshape(count, 8, 2)
+    in_front = np.all(depth.reshape(count, 8) > MIN_DEPTH, axis=1)
+
+    # Eye in each box's local frame decides which outline the box shows.
+    rotations = quaternion_to_matrix(quaternions)
+    eye_world = -external[:3, :3].T @ external[:3, 3]
+    eye_local = np.einsum('mji,mj->mi', rotations, eye_world - positions)
+    half = scales / 2
+    cls = (eye_local > half).astype(np.intp) - (eye_local < -half).astype(np.intp) + 1
+    code = cls[:, 0] + 3 * cls[:, 1] + 9 * cls[:, 2]
+    visible = in_front & (code != 13)
+    polygons = np.take_along_axis(uv, _SILHOUETTE[code][:, :, None], axis=1)
+    polygons = orient_polygons(polygons)
+    polygons[~visible] = np.nan
+    return polygons, visible
+
+
+def polygon_signed_area(polygons) -> np.ndarray:
+    """
+    Shoelace signed area of polygons, shape (..., K, 2) -> (...,).
+
+    Positive when the vertices turn counter-clockwise in a right-handed (x
+    right, y up) plane, so negative for an on-screen counter-clockwise loop in
+    image coordinates (v down).
+    """
+    p = np.asarray(polygons, dtype=float)
+    x, y = p[..., 0], p[..., 1]
+    return 0.5 * np.sum(x * np.roll(y, -1, axis=-1) - np.roll(x, -1, axis=-1) * y, axis=-1)
+
+
+def orient_polygons(polygons) -> np.ndarray:
+    """Return convex polygons (M, K, 2) reordered to a negative signed area in (u, v)."""
+    polygons = np.array(polygons, dtype=float)
+    flip = polygon_signed_area(polygons) > 0
+    polygons[flip] = polygons[flip, ::-1]
+    return polygons
+
+
+def points_in_convex_polygons(points, polygons, tolerance: float = 1e-9) -> np.ndarray:
+    """
+    Which points lie in which convex polygons (edges count as inside).
+
+    :param points: shape (N, 2), px.
+    :param polygons: shape (R, K, 2), convex, either winding (repeated
+        vertices allowed as padding); NaN rows contain nothing.
+    :param tolerance: slack in px^2 on the edge test.
+    :returns: shape (N, R) bool.
+    """
+    return PolygonSet(polygons).contains(points, tolerance)
+
+
+class PolygonSet:
+    """
+    Convex polygons prepared for fast point tests (edge half-planes as a matrix).
+
+    Each edge k of polygon r is the half-plane ``a x + b y + c >= 0``; testing
+    N points is one (N, 3) x (3, R*K) product, then a minimum over K.
+    """
+
+    def __init__(self, polygons):
+        """Prepare ``polygons`` (R, K, 2), convex, any winding, NaN = empty."""
+        polygons = np.asarray(polygons, dtype=float)
+        if polygons.ndim != 3 or polygons.shape[2] != 2:
+            raise ValueError(f'polygons must have shape (R, K, 2), got {polygons.shape}')
+        self.polygons = polygons
+        self.count, self.vertex_count = polygons.shape[:2]
+        valid = np.all(np.isfinite(polygons), axis=(1, 2))
+        oriented = np.where(valid[:, None, None], polygons, 0.0)
+        # Orient every polygon one way so a single sign test works.
+        oriented = orient_polygons(oriented)
+        start = oriented
+        end = np.roll(oriented, -1, axis=1)
+        edge = end - start
+        # Inside of a negative-area (image-CCW) loop is where cross(edge, p - start) <= 0.
+        a = edge[..., 1]
+        b = -edge[..., 0]
+        c = -(a * start[..., 0] + b * start[..., 1])
+        self._coefficients = np.stack([a, b, c]).reshape(3, -1)
+        self._valid = valid
+
+    def contains(self, points, tolerance: float = 1e-9) -> np.ndarray:
+        """
+        Inside test.
+
+        :param points: shape (N, 2), px; NaN points are inside nothing.
+        :returns: shape (N, R) bool.
+        """
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        homogeneous = np.empty((len(points), 3))
+        homogeneous[:, :2] = points
+        homogeneous[:, 2] = 1.0
+        values = homogeneous @ self._coefficients
+        worst = values.reshape(len(points), self.count, self.vertex_count).min(axis=2)
+        return (worst >= -tolerance) & self._valid[None, :]
+
+
+def back_project(pixels, intrinsic, external) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    World rays through image pixels.
+
+    :param pixels: shape (N, 2), image px.
+    :param intrinsic: shape (3, 4); ``intrinsic @ external`` must have an
+        invertible left 3x3 block.
+    :param external: shape (4, 4), world -> camera.
+    :returns: ``(origin, directions)``: the eye, shape (3,), and unit ray
+        directions, shape (N, 3), in the world frame.  Every point
+        ``origin + t * direction`` with t > 0 projects to the pixel.
+    """
+    pixels = _finite_array('pixels', pixels, (2,)).reshape(-1, 2)
+    # General form, so calibrated intrinsics with a non-zero 4th column work too.
+    projection = np.asarray(intrinsic, dtype=float) @ np.asarray(external, dtype=float)
+    left = projection[:, :3]
+    if abs(np.linalg.det(left)) < 1e-12 * max(1.0, np.abs(left).max() ** 3):
+        raise ValueError('projection is singular: cannot back-project')
+    origin = -np.linalg.solve(left, projection[:, 3])
+    homogeneous = np.column_stack([pixels, np.ones(len(pixels))])
+    directions = np.linalg.solve(left, homogeneous.T).T
+    # A ray points forward when its depth (third row) grows along it.
+    directions *= np.sign(directions @ left[2])[:, None]
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    return origin, directions

@@ -1,0 +1,121 @@
+"""In-process ROS 2 test harness: private Context, own domain id, one executor.
+
+Modelled on rclpy's own tests: every test gets a fresh ``Context`` on a
+domain id reserved by ``domain_coordinator`` so tests never see each other's
+traffic, and tears down executor -> nodes -> context.
+"""
+
+import contextlib
+import time
+from typing import Any, Callable, Dict, List, Optional
+
+from domain_coordinator import domain_id
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter, parameter_value_to_python
+from rclpy.parameter_client import AsyncParameterClient
+
+
+class RosGraph:
+    """A private ROS 2 graph: a context, an executor and the nodes on it."""
+
+    def __init__(self, context: Context, domain: int):
+        self.context = context
+        self.domain = domain
+        self.executor = SingleThreadedExecutor(context=context)
+        self.nodes: List[Node] = []
+
+    def add(self, node_class, *args, **kwargs) -> Any:
+        """Create a node on this graph (``context=`` filled in) and spin it."""
+        node = node_class(*args, context=self.context, **kwargs)
+        self.nodes.append(node)
+        self.executor.add_node(node)
+        return node
+
+    def node(self, name: str) -> Node:
+        """A plain helper node for test publishers and subscribers."""
+        return self.add(Node, name)
+
+    def spin_for(self, seconds: float) -> None:
+        """Spin the executor for ``seconds`` of wall time."""
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=min(0.01, max(0.0, end - time.monotonic())))
+
+    def spin_until(self, predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
+        """Spin until ``predicate()`` is true; return whether it became true."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if predicate():
+                return True
+            self.executor.spin_once(timeout_sec=0.01)
+        return predicate()
+
+    def wait_future(self, future, timeout: float = 5.0):
+        """Spin until ``future`` is done and return its result."""
+        self.executor.spin_until_future_complete(future, timeout_sec=timeout)
+        assert future.done(), 'timed out waiting for a ROS future'
+        return future.result()
+
+    def set_parameters(self, node_name: str, values: Dict[str, Any],
+                       timeout: float = 5.0) -> list:
+        """
+        Set parameters over the parameter services, as ``ros2 param set`` does.
+
+        :returns: the list of ``SetParametersResult``, one per parameter.
+        """
+        client = self._param_client(node_name, timeout)
+        parameters = [value if isinstance(value, Parameter) else Parameter(name, value=value)
+                      for name, value in values.items()]
+        response = self.wait_future(client.set_parameters(parameters), timeout)
+        return list(response.results)
+
+    def get_parameters(self, node_name: str, names: List[str], timeout: float = 5.0) -> list:
+        """Read parameters over the parameter services (``ros2 param get``)."""
+        client = self._param_client(node_name, timeout)
+        response = self.wait_future(client.get_parameters(names), timeout)
+        return [parameter_value_to_python(value) for value in response.values]
+
+    def _param_client(self, node_name: str, timeout: float) -> AsyncParameterClient:
+        helper = getattr(self, '_param_helper', None)
+        if helper is None:
+            helper = self._param_helper = self.node('test_param_client')
+        client = AsyncParameterClient(helper, node_name)
+        assert self.spin_until(lambda: client.services_are_ready(), timeout), \
+            f'parameter services of {node_name} not ready'
+        return client
+
+    def shutdown(self) -> None:
+        """Tear down executor -> nodes -> context."""
+        self.executor.shutdown()
+        for node in self.nodes:
+            node.destroy_node()
+        self.context.try_shutdown()
+
+
+@contextlib.contextmanager
+def ros_graph():
+    """Yield a :class:`RosGraph` on a fresh context and a reserved domain id."""
+    with domain_id() as domain:
+        context = Context()
+        rclpy.init(context=context, domain_id=domain)
+        graph = RosGraph(context, domain)
+        try:
+            yield graph
+        finally:
+            graph.shutdown()
+
+
+class Collector:
+    """Subscribe to a topic and keep every message received."""
+
+    def __init__(self, node: Node, msg_type, topic: str, qos):
+        self.messages: List[Any] = []
+        self.subscription = node.create_subscription(msg_type, topic, self.messages.append, qos)
+
+    @property
+    def last(self) -> Optional[Any]:
+        """The newest message, or None."""
+        return self.messages[-1] if self.messages else None
