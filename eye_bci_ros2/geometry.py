@@ -1,4 +1,5 @@
-"""Projection geometry of the RViz camera: pure numpy, no rclpy.
+"""
+Projection geometry of the RViz camera: pure numpy, no rclpy.
 
 Conventions (see DESIGN.md):
 
@@ -34,6 +35,16 @@ def _finite_array(name: str, value, shape_tail: Tuple[int, ...]) -> np.ndarray:
             array.ndim < len(shape_tail):
         raise ValueError(f'{name} must have shape (..., {", ".join(map(str, shape_tail))}), '
                          f'got {array.shape}')
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f'{name} contains NaN or infinite values')
+    return array
+
+
+def _matrix(name: str, value, shape: Tuple[int, int]) -> np.ndarray:
+    """Return ``value`` as a finite float matrix of exactly ``shape``."""
+    array = np.asarray(value, dtype=float)
+    if array.shape != shape:
+        raise ValueError(f'{name} must be a {shape[0]}x{shape[1]} matrix, got shape {array.shape}')
     if not np.all(np.isfinite(array)):
         raise ValueError(f'{name} contains NaN or infinite values')
     return array
@@ -150,7 +161,7 @@ def project_points(points, intrinsic, external) -> Tuple[np.ndarray, np.ndarray]
         their uv is NaN.
     """
     points = _finite_array('points', points, (3,)).reshape(-1, 3)
-    projection = np.asarray(intrinsic, dtype=float) @ np.asarray(external, dtype=float)
+    projection = _matrix('intrinsic', intrinsic, (3, 4)) @ _matrix('external', external, (4, 4))
     homogeneous = points @ projection[:, :3].T + projection[:, 3]
     depth = homogeneous[:, 2]
     with np.errstate(divide='ignore', invalid='ignore'):
@@ -169,8 +180,13 @@ def cube_corners(position, quaternion_xyzw, scale) -> np.ndarray:
     :returns: shape (8, 3); corner ``i`` is ``p + R (signs[i] * scale / 2)``,
         see :data:`CORNER_SIGNS`.
     """
-    return cube_corners_batch(np.reshape(position, (1, 3)), np.reshape(quaternion_xyzw, (1, 4)),
-                              np.reshape(scale, (1, 3)))[0]
+    position = _finite_array('position', position, (3,))
+    quaternion_xyzw = _finite_array('quaternion', quaternion_xyzw, (4,))
+    scale = _finite_array('scale', scale, (3,))
+    if position.ndim != 1 or quaternion_xyzw.ndim != 1 or scale.ndim != 1:
+        raise ValueError('cube_corners takes one marker: position (3,), quaternion (4,), '
+                         'scale (3,); use cube_corners_batch for several')
+    return cube_corners_batch(position[None], quaternion_xyzw[None], scale[None])[0]
 
 
 def cube_corners_batch(positions, quaternions_xyzw, scales) -> np.ndarray:
@@ -183,16 +199,20 @@ def cube_corners_batch(positions, quaternions_xyzw, scales) -> np.ndarray:
     :returns: shape (M, 8, 3).
     """
     positions = _finite_array('positions', positions, (3,)).reshape(-1, 3)
+    quaternions = _finite_array('quaternions', quaternions_xyzw, (4,)).reshape(-1, 4)
     scales = _finite_array('scales', scales, (3,)).reshape(-1, 3)
+    if not len(positions) == len(quaternions) == len(scales):
+        raise ValueError(f'got {len(positions)} positions, {len(quaternions)} quaternions and '
+                         f'{len(scales)} scales: one of each per marker')
     if np.any(scales <= 0):
         raise ValueError('cube scale must be positive on every axis')
-    rotations = quaternion_to_matrix(np.reshape(quaternions_xyzw, (-1, 4)))
+    rotations = quaternion_to_matrix(quaternions)
     local = CORNER_SIGNS[None, :, :] * (scales[:, None, :] / 2)
     return positions[:, None, :] + np.einsum('mij,mkj->mki', rotations, local)
 
 
 def _convex_hull_indices(points: np.ndarray) -> list:
-    """Indices of the convex hull of 2-D points, counter-clockwise (monotone chain)."""
+    """Return the convex hull of 2-D points as indices, counter-clockwise (monotone chain)."""
     order = sorted(range(len(points)), key=lambda i: (points[i][0], points[i][1]))
 
     def cross(o, a, b):
@@ -211,7 +231,7 @@ def _convex_hull_indices(points: np.ndarray) -> list:
     return lower[:-1] + upper[:-1]
 
 
-def _silhouette_table() -> np.ndarray:
+def _silhouette_table() -> Tuple[np.ndarray, np.ndarray]:
     """
     Silhouette corner cycles of a box for each region the eye can be in.
 
@@ -221,8 +241,12 @@ def _silhouette_table() -> np.ndarray:
     computation for 3D bounding boxes", 1999).  The table is derived once
     here from a representative eye in each of the 26 outside regions.
     Rows hold 6 corner indices; 4-vertex outlines repeat their last index.
+    Row order gives a negative signed area in (u, v) for every eye in the
+    region (a proper camera cannot mirror the outline); the second table
+    holds the same cycles reversed, for mirrored (e.g. fy < 0) intrinsics.
     """
     table = np.zeros((27, 6), dtype=np.intp)
+    mirrored = np.zeros((27, 6), dtype=np.intp)
     corners = CORNER_SIGNS / 2
     for code in range(27):
         cls = np.array([code % 3, (code // 3) % 3, code // 9]) - 1
@@ -233,12 +257,13 @@ def _silhouette_table() -> np.ndarray:
             else np.array([0.0, 1.0, 0.0])
         uv, _ = project_points(corners, np.array([[1.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]),
                                look_at(eye, np.zeros(3), up))
-        hull = _convex_hull_indices(uv.tolist())
+        hull = _convex_hull_indices(uv.tolist())[::-1]
         table[code] = hull + [hull[-1]] * (6 - len(hull))
-    return table
+        mirrored[code] = hull[::-1] + [hull[0]] * (6 - len(hull))
+    return table, mirrored
 
 
-_SILHOUETTE = _silhouette_table()
+_SILHOUETTE, _SILHOUETTE_MIRRORED = _silhouette_table()
 
 
 def box_silhouettes(positions, quaternions_xyzw, scales, intrinsic,
@@ -261,9 +286,10 @@ def box_silhouettes(positions, quaternions_xyzw, scales, intrinsic,
         so the signed area in (u, v) is negative); 4-vertex outlines repeat their last
         vertex.  visible shape (M,) bool; rows of invisible boxes are NaN.
     """
+    external = _matrix('external', external, (4, 4))
     positions = _finite_array('positions', positions, (3,)).reshape(-1, 3)
     scales = _finite_array('scales', scales, (3,)).reshape(-1, 3)
-    quaternions = np.reshape(quaternions_xyzw, (-1, 4))
+    quaternions = _finite_array('quaternions', quaternions_xyzw, (4,)).reshape(-1, 4)
     count = len(positions)
     corners = cube_corners_batch(positions, quaternions, scales)
     uv, depth = project_points(corners.reshape(-1, 3), intrinsic, external)
@@ -279,7 +305,10 @@ def box_silhouettes(positions, quaternions_xyzw, scales, intrinsic,
     code = cls[:, 0] + 3 * cls[:, 1] + 9 * cls[:, 2]
     visible = in_front & (code != 13)
     polygons = np.take_along_axis(uv, _SILHOUETTE[code][:, :, None], axis=1)
-    polygons = orient_polygons(polygons)
+    mirror = polygon_signed_area(polygons) > 0
+    if np.any(mirror):
+        polygons[mirror] = np.take_along_axis(
+            uv[mirror], _SILHOUETTE_MIRRORED[code[mirror]][:, :, None], axis=1)
     polygons[~visible] = np.nan
     return polygons, visible
 
@@ -354,7 +383,10 @@ class PolygonSet:
         :param points: shape (N, 2), px; NaN points are inside nothing.
         :returns: shape (N, R) bool.
         """
-        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        points = np.asarray(points, dtype=float)
+        if points.ndim not in (1, 2) or points.shape[-1] != 2:
+            raise ValueError(f'points must have shape (N, 2), got {points.shape}')
+        points = points.reshape(-1, 2)
         homogeneous = np.empty((len(points), 3))
         homogeneous[:, :2] = points
         homogeneous[:, 2] = 1.0
@@ -377,7 +409,7 @@ def back_project(pixels, intrinsic, external) -> Tuple[np.ndarray, np.ndarray]:
     """
     pixels = _finite_array('pixels', pixels, (2,)).reshape(-1, 2)
     # General form, so calibrated intrinsics with a non-zero 4th column work too.
-    projection = np.asarray(intrinsic, dtype=float) @ np.asarray(external, dtype=float)
+    projection = _matrix('intrinsic', intrinsic, (3, 4)) @ _matrix('external', external, (4, 4))
     left = projection[:, :3]
     if abs(np.linalg.det(left)) < 1e-12 * max(1.0, np.abs(left).max() ** 3):
         raise ValueError('projection is singular: cannot back-project')

@@ -12,6 +12,6 @@ from ros_harness import ros_graph  # noqa: E402
 
 @pytest.fixture
 def graph():
-    """A fresh ROS 2 context on its own domain id, torn down after the test."""
+    """Provide a fresh ROS 2 context on its own domain id, torn down after the test."""
     with ros_graph() as g:
         yield g

@@ -1,4 +1,5 @@
-"""In-process ROS 2 test harness: private Context, own domain id, one executor.
+"""
+In-process ROS 2 test harness: private Context, own domain id, one executor.
 
 Modelled on rclpy's own tests: every test gets a fresh ``Context`` on a
 domain id reserved by ``domain_coordinator`` so tests never see each other's
@@ -35,7 +36,7 @@ class RosGraph:
         return node
 
     def node(self, name: str) -> Node:
-        """A plain helper node for test publishers and subscribers."""
+        """Create a plain helper node for test publishers and subscribers."""
         return self.add(Node, name)
 
     def spin_for(self, seconds: float) -> None:
@@ -117,5 +118,5 @@ class Collector:
 
     @property
     def last(self) -> Optional[Any]:
-        """The newest message, or None."""
+        """Return the newest message, or None."""
         return self.messages[-1] if self.messages else None

@@ -1,4 +1,5 @@
-"""Message <-> numpy conversions at the node edges.
+"""
+Message <-> numpy conversions at the node edges.
 
 Regions on ``choices/regions`` (visualization_msgs/MarkerArray): each message is
 the complete current set, one closed LINE_STRIP per visible marker, frame

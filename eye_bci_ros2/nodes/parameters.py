@@ -1,4 +1,5 @@
-"""Declare node parameters from a table: descriptors, validation, live apply.
+"""
+Declare node parameters from a table: descriptors, validation, live apply.
 
 Every node lists its parameters as :class:`ParamSpec` rows.  rclpy itself
 rejects a wrong type or an out-of-range number (from the descriptor); the

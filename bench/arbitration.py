@@ -1,0 +1,220 @@
+"""
+Benchmark: gaze samples classified into screen regions per second.
+
+Three paths are measured against R = 3, 10 and 100 regions:
+
+* batch: :meth:`eye_bci_ros2.geometry.PolygonSet.contains` on a large array
+  of samples in chunks of :data:`CHUNK` (bounded memory: the (chunk, R * K)
+  edge-value matrix stays in cache), reduced to one region index per sample;
+* per message: one sample at a time through the call the arbiter node makes
+  per gaze message (:meth:`eye_bci_ros2.arbitration.RegionSet.classify_one`,
+  or :class:`~eye_bci_ros2.geometry.PolygonSet` on a (1, 2) array while that
+  module does not exist);
+* reference: the original way, a Python loop over samples and regions
+  (:func:`bench.reference_original.classify_original`).
+
+All three must give every sample the same region.  Regions are hexagons and
+quadrilaterals (what box silhouettes look like) of 60-200 px on a 1920x1080
+screen, one per cell of a grid so that they do not overlap; half the samples
+are fixations scattered around region centres, half anywhere on the screen.
+"""
+
+from typing import Callable, Dict, Optional, Sequence, Tuple
+
+import numpy as np
+
+from bench import reference_original
+from bench.timing import measure
+from eye_bci_ros2 import geometry
+
+try:
+    from eye_bci_ros2 import arbitration
+except ModuleNotFoundError as error:  # not written yet: fall back to the geometry API
+    if error.name != 'eye_bci_ros2.arbitration':
+        raise
+    arbitration = None
+
+#: Metrics shown in the printed table (the JSON has them all).
+TABLE_COLUMNS = ('samples_per_s', 'per_message_samples_per_s', 'reference_samples_per_s',
+                 'speedup', 'in_region_fraction', 'agrees')
+#: Screen size, px.
+SCREEN_SIZE = (1920, 1080)
+#: Region counts R of a run.
+REGION_COUNTS = (3, 10, 100)
+#: Samples per chunk of the batch path.
+CHUNK = 4096
+#: Samples of the batch path (full run, quick run).
+BATCH_SAMPLES = 1_000_000
+QUICK_BATCH_SAMPLES = 20_000
+#: Samples sent one at a time through the per-message path.
+MESSAGE_SAMPLES = 3000
+QUICK_MESSAGE_SAMPLES = 200
+#: Samples the Python reference classifies.
+REFERENCE_SAMPLES = 3000
+QUICK_REFERENCE_SAMPLES = 200
+
+
+def make_regions(count: int, seed: int = 0) -> np.ndarray:
+    """
+    Non-overlapping convex screen regions like projected cube markers.
+
+    :param count: number of regions R.
+    :param seed: random seed.
+    :returns: shape (R, 6, 2), screen px; even rows are hexagons, odd rows
+        quadrilaterals padded by repeating their last vertex (as
+        :func:`eye_bci_ros2.geometry.box_silhouettes` pads them).  Each fits a
+        cell of a grid over the screen and spans 60-200 px (less when the
+        cells are smaller than 200 px).
+    """
+    rng = np.random.default_rng(seed)
+    width, height = SCREEN_SIZE
+    columns = int(np.ceil(np.sqrt(count * width / height)))
+    rows = int(np.ceil(count / columns))
+    cell_w, cell_h = width / columns, height / rows
+    cells = rng.permutation(columns * rows)[:count]
+    centres = np.column_stack([(cells % columns + 0.5) * cell_w, (cells // columns + 0.5) * cell_h])
+    largest = min(200.0, 0.95 * min(cell_w, cell_h))
+    sizes = rng.uniform(min(60.0, largest), largest, count)
+    polygons = np.empty((count, 6, 2))
+    for kind, vertices in ((0, 6), (1, 4)):
+        chosen = np.arange(count) % 2 == kind
+        angles = np.linspace(0, 2 * np.pi, vertices, endpoint=False)[None, :] \
+            + rng.uniform(0, 2 * np.pi, (chosen.sum(), 1))
+        # Squash along a random axis: a marker seen obliquely; convexity survives.
+        squash = rng.uniform(0.6, 1.0, (chosen.sum(), 1))
+        outline = np.stack([np.cos(angles), squash * np.sin(angles)], axis=-1)
+        tilt = rng.uniform(0, np.pi, chosen.sum())
+        rotation = np.stack([np.stack([np.cos(tilt), -np.sin(tilt)], -1),
+                             np.stack([np.sin(tilt), np.cos(tilt)], -1)], -2)
+        outline = np.einsum('rij,rkj->rki', rotation, outline) * (sizes[chosen, None, None] / 2)
+        outline = np.concatenate([outline, np.repeat(outline[:, -1:], 6 - vertices, axis=1)], 1)
+        polygons[chosen] = centres[chosen, None, :] + outline
+    return polygons
+
+
+def make_gaze(count: int, polygons: np.ndarray, seed: int = 1) -> np.ndarray:
+    """
+    Gaze samples: half fixations near region centres (sigma 30 px), half uniform.
+
+    :returns: shape (count, 2), screen px, clipped to the screen.
+    """
+    rng = np.random.default_rng(seed)
+    centres = polygons.mean(axis=1)
+    fixations = count // 2
+    near = centres[rng.integers(0, len(centres), fixations)] \
+        + rng.normal(0.0, 30.0, (fixations, 2))
+    anywhere = rng.uniform((0, 0), SCREEN_SIZE, (count - fixations, 2))
+    points = np.concatenate([near, anywhere])[rng.permutation(count)]
+    return np.clip(points, 0, np.asarray(SCREEN_SIZE) - 1)
+
+
+def classify_batch(polygon_set: geometry.PolygonSet, points: np.ndarray,
+                   chunk: int = CHUNK) -> np.ndarray:
+    """
+    Region index of every sample, chunk by chunk.
+
+    :param polygon_set: the prepared regions.
+    :param points: shape (N, 2), screen px.
+    :param chunk: samples per :meth:`~eye_bci_ros2.geometry.PolygonSet.contains` call.
+    :returns: shape (N,) int, the first region containing the sample, -1 for none.
+    """
+    labels = np.empty(len(points), dtype=np.intp)
+    for start in range(0, len(points), chunk):
+        inside = polygon_set.contains(points[start:start + chunk])
+        labels[start:start + chunk] = np.where(inside.any(axis=1), inside.argmax(axis=1), -1)
+    return labels
+
+
+def per_message_classifier(polygons: np.ndarray) -> Tuple[str, Callable[[float, float], int]]:
+    """
+    The per-message classification the arbiter node uses, as ``f(x, y) -> index``.
+
+    :returns: ``(api_name, f)``; ``f`` gives the region index or -1.
+    """
+    if arbitration is not None and hasattr(arbitration, 'RegionSet'):
+        region_set = arbitration.RegionSet([str(i) for i in range(len(polygons))], polygons)
+        if hasattr(region_set, 'classify_one'):
+            return 'arbitration.RegionSet.classify_one', region_set.classify_one
+
+        def classify(x: float, y: float) -> int:
+            return int(region_set.classify(np.array([[x, y]]))[0])
+        return 'arbitration.RegionSet.classify', classify
+    polygon_set = geometry.PolygonSet(polygons)
+
+    def classify_polygon_set(x: float, y: float) -> int:
+        inside = polygon_set.contains(np.array([[x, y]]))[0]
+        return int(inside.argmax()) if inside.any() else -1
+    return 'geometry.PolygonSet.contains', classify_polygon_set
+
+
+def _measure_regions(count: int, samples: int, messages: int, reference_samples: int,
+                     chunk: int, quick: bool, seed: int) -> Dict:
+    """Throughput of the three paths against ``count`` regions."""
+    polygons = make_regions(count, seed)
+    points = make_gaze(samples, polygons, seed + 1)
+    polygon_set = geometry.PolygonSet(polygons)
+    repeat = 3 if quick else 7
+    batch = measure(lambda: classify_batch(polygon_set, points, chunk), repeat=repeat,
+                    number=1, warmup=1)
+
+    api, classify_one = per_message_classifier(polygons)
+    message_points = points[:messages].tolist()
+
+    def per_message() -> list:
+        return [classify_one(x, y) for x, y in message_points]
+    message = measure(per_message, repeat=repeat, number=1, warmup=1)
+
+    reference_points = points[:reference_samples].tolist()
+    reference_polygons = polygons.tolist()
+    reference = measure(
+        lambda: reference_original.classify_original(reference_points, reference_polygons),
+        repeat=1 if quick else 3, number=1, warmup=0)
+
+    # Every path must give every sample the same region.
+    labels = classify_batch(polygon_set, points, chunk)
+    check = min(messages, reference_samples)
+    reference_labels = reference_original.classify_original(reference_points[:check],
+                                                            reference_polygons)
+    agrees = bool(np.array_equal(labels[:check], reference_labels)
+                  and np.array_equal(labels[:check], per_message()[:check]))
+    return {
+        'samples_per_s': samples / batch.median_s,
+        'samples_per_s_best': samples / batch.min_s,
+        'per_message_samples_per_s': messages / message.median_s,
+        'reference_samples_per_s': reference_samples / reference.median_s,
+        'speedup': (samples / batch.median_s) / (reference_samples / reference.median_s),
+        'batch_samples': samples,
+        'chunk': chunk,
+        'per_message_api': api,
+        'in_region_fraction': float(np.mean(labels >= 0)),
+        'agrees': agrees,
+    }
+
+
+def run(quick: bool = False, region_counts: Optional[Sequence[int]] = None,
+        samples: Optional[int] = None, chunk: int = CHUNK, seed: int = 0) -> Dict[str, Dict]:
+    """
+    Run the arbitration benchmark.
+
+    :param quick: few samples and repeats (seconds, for smoke tests).
+    :param region_counts: region counts R; default :data:`REGION_COUNTS`.
+    :param samples: samples of the batch path; default :data:`BATCH_SAMPLES`
+        (:data:`QUICK_BATCH_SAMPLES` if quick).
+    :param chunk: samples per chunk of the batch path.
+    :param seed: random seed of regions and gaze.
+    :returns: ``{str(R): {'samples_per_s', 'samples_per_s_best',
+        'per_message_samples_per_s', 'reference_samples_per_s', 'speedup',
+        'batch_samples', 'chunk', 'per_message_api', 'in_region_fraction',
+        'agrees'}}``; rates are samples per second from median times.
+    """
+    if region_counts is None:
+        region_counts = REGION_COUNTS
+    if samples is None:
+        samples = QUICK_BATCH_SAMPLES if quick else BATCH_SAMPLES
+    if samples < 1 or chunk < 1:
+        raise ValueError(f'samples and chunk must be >= 1, got {samples} and {chunk}')
+    messages = min(samples, QUICK_MESSAGE_SAMPLES if quick else MESSAGE_SAMPLES)
+    reference_samples = min(samples, QUICK_REFERENCE_SAMPLES if quick else REFERENCE_SAMPLES)
+    return {str(count): _measure_regions(int(count), samples, messages, reference_samples,
+                                         chunk, quick, seed)
+            for count in region_counts}

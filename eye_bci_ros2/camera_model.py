@@ -1,0 +1,376 @@
+"""
+The RViz camera as a pinhole model: pure numpy, no rclpy.
+
+Shaped like image_geometry's ``PinholeCameraModel``, for the camera that RViz
+renders the scene with.  Conventions (DESIGN.md):
+
+* world: the RViz fixed frame, m.
+* optical camera frame (REP-103): z forward, x right, y down, m.
+* Ogre camera frame (what RViz's view controllers move): looks along -Z, +Y
+  up, +X right, so ``R_optical = R_ogre @ diag(1, -1, -1)``.
+* image: top-left of the render panel, u right, v down, px.
+* screen: image + (X0, Y0) = ``screen_offset``, px.
+* Quaternions are ordered x, y, z, w.
+"""
+
+from typing import Sequence, Tuple
+
+import numpy as np
+
+from eye_bci_ros2 import geometry
+
+#: Render panel used when nothing else is known: a 1280x720 RViz render panel
+#: (RViz's side panels take the rest of a 1920x1080 screen).
+DEFAULT_IMAGE_SIZE = (1280, 720)
+
+#: RViz2 (Ogre 1.12) renders with this vertical field of view, degrees.
+RVIZ_FOV_Y_DEG = 45.0
+
+#: Tolerance on the last row [0, 0, 1, 0] of a user-supplied intrinsic.
+_LAST_ROW_TOLERANCE = 1e-2
+
+
+def rviz_intrinsic(width: int, height: int, fov_y_deg: float = RVIZ_FOV_Y_DEG) -> np.ndarray:
+    """
+    Analytic intrinsic of an RViz render panel.
+
+    Square pixels, no skew, principal point at the panel centre:
+    ``fx = fy = (H / 2) / tan(fov_y / 2)``, ``cx = W / 2``, ``cy = H / 2``.
+
+    :param width: render panel width W, px, > 0.
+    :param height: render panel height H, px, > 0.
+    :param fov_y_deg: vertical field of view, degrees, in (0, 180).
+    :returns: shape (3, 4).
+    :raises ValueError: non-positive size or a field of view out of range.
+    """
+    if not (np.isfinite(width) and np.isfinite(height)) or width <= 0 or height <= 0:
+        raise ValueError(f'image size must be positive, got {width} x {height} px')
+    if not np.isfinite(fov_y_deg) or not 0.0 < fov_y_deg < 180.0:
+        raise ValueError(f'vertical field of view must be in (0, 180) degrees, got {fov_y_deg}')
+    focal = (height / 2.0) / np.tan(np.radians(fov_y_deg) / 2.0)
+    return np.array([[focal, 0.0, width / 2.0, 0.0],
+                     [0.0, focal, height / 2.0, 0.0],
+                     [0.0, 0.0, 1.0, 0.0]])
+
+
+def parse_intrinsic(values) -> np.ndarray:
+    """
+    Check and reshape a user-supplied intrinsic matrix.
+
+    :param values: 12 numbers, row-major 3x4, or an array of shape (3, 4):
+        ``[[fx, s, cx, tx], [0, fy, cy, ty], [0, 0, 1, 0]]``.
+    :returns: shape (3, 4).
+    :raises ValueError: not exactly 12 finite numbers, a focal term <= 0, or a
+        last row that is not [0, 0, 1, 0] (within 1e-2).
+    """
+    array = np.asarray(values, dtype=float)
+    if array.size != 12:
+        raise ValueError(f'intrinsic matrix needs exactly 12 numbers (row-major 3x4), '
+                         f'got {array.size}')
+    if not np.all(np.isfinite(array)):
+        raise ValueError('intrinsic matrix contains NaN or infinite values')
+    matrix = array.reshape(3, 4)
+    if matrix[0, 0] <= 0 or matrix[1, 1] <= 0:
+        raise ValueError(f'intrinsic focal terms must be positive, got fx={matrix[0, 0]}, '
+                         f'fy={matrix[1, 1]}')
+    if np.max(np.abs(matrix[2] - [0.0, 0.0, 1.0, 0.0])) > _LAST_ROW_TOLERANCE:
+        raise ValueError(f'intrinsic last row must be [0, 0, 1, 0], got {matrix[2].tolist()}')
+    return matrix
+
+
+def optical_pose_from_ogre(position, quaternion_xyzw) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Convert an RViz (Ogre) camera pose to the optical camera pose.
+
+    The Ogre camera looks along its -Z with +Y up; the optical frame looks
+    along +z with y down, x unchanged: ``R_optical = R_ogre @ diag(1, -1, -1)``,
+    a half turn about the camera's own x axis.
+
+    :param position: camera centre in the world frame, shape (3,), m.
+    :param quaternion_xyzw: Ogre camera orientation in the world frame, order
+        x, y, z, w; normalised here, must not be zero.
+    :returns: ``(position (3,), quaternion_xyzw (4,))`` of the optical frame,
+        quaternion unit with w >= 0.
+    :raises ValueError: NaN/infinite values or a zero quaternion.
+    """
+    position = _finite('camera position', position, 3)
+    x, y, z, w = _unit_quaternion(quaternion_xyzw)
+    # q_ogre * (1, 0, 0, 0): the half turn about x, in closed form.
+    return position, _canonical(np.array([w, z, -y, -x]))
+
+
+def ogre_pose_from_optical(position, quaternion_xyzw) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Convert an optical camera pose to the RViz (Ogre) camera pose.
+
+    The inverse of :func:`optical_pose_from_ogre` (the same half turn).
+
+    :param position: camera centre in the world frame, shape (3,), m.
+    :param quaternion_xyzw: optical frame orientation, order x, y, z, w.
+    :returns: ``(position (3,), quaternion_xyzw (4,))`` of the Ogre camera.
+    """
+    return optical_pose_from_ogre(position, quaternion_xyzw)
+
+
+def look_at_pose(eye, focus, up) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Optical camera pose of an RViz view given by eye, focus and up.
+
+    :param eye: camera position, world frame, shape (3,), m.
+    :param focus: point looked at, world frame, shape (3,), m.
+    :param up: world direction that appears up in the image, shape (3,).
+    :returns: ``(position (3,), quaternion_xyzw (4,))``, optical convention.
+    :raises ValueError: eye == focus, up parallel to the view, zero up or NaN.
+    """
+    external = geometry.look_at(eye, focus, up)
+    return np.asarray(eye, dtype=float).reshape(3), geometry.matrix_to_quaternion(
+        external[:3, :3].T)
+
+
+def clip_polygons(polygons, width: float, height: float) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Clip convex polygons to the image rectangle [0, W] x [0, H].
+
+    Sutherland-Hodgman against the four edges, vectorised over polygons.
+
+    :param polygons: shape (M, K, 2), px, convex, padding by repeated
+        vertices allowed; NaN rows are empty.
+    :param width: W, px.
+    :param height: H, px.
+    :returns: ``(clipped, nonempty)``: clipped shape (M, K', 2), K' <= K + 4,
+        winding kept, short outlines padded by repeating their last vertex, NaN
+        rows where nothing (or only a line or point) is left; nonempty (M,) bool.
+    """
+    polygons = np.asarray(polygons, dtype=float)
+    if polygons.ndim != 3 or polygons.shape[2] != 2:
+        raise ValueError(f'polygons must have shape (M, K, 2), got {polygons.shape}')
+    # Half-planes n . p + c >= 0: u >= 0, u <= W, v >= 0, v <= H.
+    planes = ((1.0, 0.0, 0.0), (-1.0, 0.0, float(width)),
+              (0.0, 1.0, 0.0), (0.0, -1.0, float(height)))
+    clipped = polygons
+    for a, b, c in planes:
+        clipped = _clip_half_plane(clipped, a, b, c)
+    area = geometry.polygon_signed_area(np.nan_to_num(clipped))
+    nonempty = np.all(np.isfinite(clipped), axis=(1, 2)) & (np.abs(area) > 1e-12)
+    clipped[~nonempty] = np.nan
+    return clipped, nonempty
+
+
+def _clip_half_plane(polygons: np.ndarray, a: float, b: float, c: float) -> np.ndarray:
+    """Clip (M, K, 2) convex polygons to ``a u + b v + c >= 0``; see clip_polygons."""
+    count, vertices = polygons.shape[:2]
+    nxt = np.roll(polygons, -1, axis=1)
+    with np.errstate(invalid='ignore', divide='ignore'):
+        d = polygons[..., 0] * a + polygons[..., 1] * b + c
+        d_next = np.roll(d, -1, axis=1)
+        inside = d >= 0
+        inside_next = d_next >= 0
+        crossing = (inside != inside_next) & np.isfinite(d) & np.isfinite(d_next)
+        t = d / (d - d_next)
+        cut = polygons + t[..., None] * (nxt - polygons)
+    # Each edge emits its start vertex if inside, then its crossing point.
+    candidates = np.stack([polygons, cut], axis=2).reshape(count, 2 * vertices, 2)
+    keep = np.stack([inside, crossing], axis=2).reshape(count, 2 * vertices)
+    order = np.argsort(~keep, axis=1, kind='stable')
+    kept = keep.sum(axis=1)
+    width = max(int(kept.max(initial=0)), 1)
+    compact = np.take_along_axis(candidates, order[:, :width, None], axis=1)
+    # Pad short outlines with their last kept vertex; nothing kept -> NaN.
+    column = np.arange(width)[None, :]
+    last = np.maximum(kept - 1, 0)[:, None]
+    compact = np.take_along_axis(compact, np.minimum(column, last)[..., None], axis=1)
+    compact[kept == 0] = np.nan
+    return compact
+
+
+def _finite(name: str, value, size: int) -> np.ndarray:
+    """Return ``value`` as a flat float array of ``size`` finite numbers, else ValueError."""
+    array = np.array(value, dtype=float).reshape(-1)
+    if array.size != size:
+        raise ValueError(f'{name} needs {size} numbers, got {array.size}')
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f'{name} contains NaN or infinite values')
+    return array
+
+
+def _unit_quaternion(quaternion_xyzw) -> np.ndarray:
+    """Return the normalised quaternion (4,), raising ValueError on zero or NaN."""
+    q = _finite('quaternion', quaternion_xyzw, 4)
+    norm = np.linalg.norm(q)
+    if norm < 1e-9:
+        raise ValueError('quaternion has zero length')
+    return q / norm
+
+
+def _canonical(quaternion_xyzw: np.ndarray) -> np.ndarray:
+    """Pick the sign with w >= 0 so equal rotations compare equal."""
+    return quaternion_xyzw if quaternion_xyzw[3] >= 0 else -quaternion_xyzw
+
+
+class RvizCamera:
+    """
+    A pinhole model of the camera RViz renders with, and where its panel sits.
+
+    Immutable: the ``with_*`` methods return a new camera.
+
+    :ivar intrinsic: shape (3, 4), px.
+    :ivar image_size: (W, H) of the render panel, px.
+    :ivar screen_offset: (X0, Y0), shape (2,), px: the render panel's top-left
+        on the screen.
+    :ivar external: shape (4, 4), world -> optical camera.
+    """
+
+    def __init__(self, intrinsic, image_size: Sequence[int] = DEFAULT_IMAGE_SIZE,
+                 screen_offset: Sequence[float] = (0.0, 0.0), external=None):
+        """
+        Build a camera.
+
+        :param intrinsic: shape (3, 4) or 12 numbers row-major, see
+            :func:`parse_intrinsic`.
+        :param image_size: render panel (W, H), px, both > 0.
+        :param screen_offset: (X0, Y0), px.
+        :param external: shape (4, 4), world -> camera; identity when None
+            (camera at the world origin looking along world +z).
+        :raises ValueError: on any invalid part.
+        """
+        self.intrinsic = parse_intrinsic(intrinsic)
+        width, height = (float(v) for v in np.asarray(image_size, dtype=float).reshape(2))
+        if not (np.isfinite(width) and np.isfinite(height)) or width <= 0 or height <= 0:
+            raise ValueError(f'image size must be positive, got {width:g} x {height:g} px')
+        self.image_size = (width, height)
+        self.screen_offset = _finite('screen offset', screen_offset, 2)
+        self.external = np.eye(4) if external is None else _check_external(external)
+
+    @classmethod
+    def from_look_at(cls, eye, focus, up, image_size: Sequence[int] = DEFAULT_IMAGE_SIZE,
+                     fov_y_deg: float = RVIZ_FOV_Y_DEG, intrinsic=None,
+                     screen_offset: Sequence[float] = (0.0, 0.0)) -> 'RvizCamera':
+        """
+        Build a camera from an RViz view (eye, focus, up; world frame, m).
+
+        :param intrinsic: calibrated (3, 4); when None the analytic RViz
+            intrinsic of ``image_size`` and ``fov_y_deg`` is used.
+        """
+        if intrinsic is None:
+            intrinsic = rviz_intrinsic(image_size[0], image_size[1], fov_y_deg)
+        return cls(intrinsic, image_size, screen_offset, geometry.look_at(eye, focus, up))
+
+    @classmethod
+    def from_pose(cls, position, quaternion_xyzw,
+                  image_size: Sequence[int] = DEFAULT_IMAGE_SIZE,
+                  fov_y_deg: float = RVIZ_FOV_Y_DEG, intrinsic=None,
+                  screen_offset: Sequence[float] = (0.0, 0.0)) -> 'RvizCamera':
+        """
+        Build a camera from its optical pose in the world frame.
+
+        :param position: shape (3,), m.
+        :param quaternion_xyzw: optical frame orientation, order x, y, z, w.
+        """
+        if intrinsic is None:
+            intrinsic = rviz_intrinsic(image_size[0], image_size[1], fov_y_deg)
+        return cls(intrinsic, image_size, screen_offset,
+                   geometry.external_from_pose(position, quaternion_xyzw))
+
+    def replace(self, intrinsic=None, image_size=None, screen_offset=None,
+                external=None) -> 'RvizCamera':
+        """Return a copy with the given parts changed (None keeps a part)."""
+        return RvizCamera(
+            self.intrinsic if intrinsic is None else intrinsic,
+            self.image_size if image_size is None else image_size,
+            self.screen_offset if screen_offset is None else screen_offset,
+            self.external if external is None else external)
+
+    def with_pose(self, position, quaternion_xyzw) -> 'RvizCamera':
+        """Return a copy moved to an optical pose (world frame, x, y, z, w)."""
+        return self.replace(external=geometry.external_from_pose(position, quaternion_xyzw))
+
+    def with_look_at(self, eye, focus, up) -> 'RvizCamera':
+        """Return a copy looking from ``eye`` at ``focus`` with ``up`` (world frame)."""
+        return self.replace(external=geometry.look_at(eye, focus, up))
+
+    @property
+    def eye(self) -> np.ndarray:
+        """Camera centre in the world frame, shape (3,), m."""
+        return -self.external[:3, :3].T @ self.external[:3, 3]
+
+    @property
+    def projection(self) -> np.ndarray:
+        """Return the 3x4 world -> image matrix ``intrinsic @ external`` (the report's C)."""
+        return self.intrinsic @ self.external
+
+    def project(self, points) -> Tuple[np.ndarray, np.ndarray]:
+        """
+        Project world points into the image.
+
+        :param points: shape (N, 3), world frame, m.
+        :returns: ``(uv, depth)``: uv shape (N, 2) image px (NaN behind the
+            camera), depth shape (N,) m along the optical axis.
+        """
+        return geometry.project_points(points, self.intrinsic, self.external)
+
+    def to_screen(self, uv) -> np.ndarray:
+        """Image px (..., 2) -> screen px (..., 2): add (X0, Y0)."""
+        return np.asarray(uv, dtype=float) + self.screen_offset
+
+    def to_image(self, screen_xy) -> np.ndarray:
+        """Screen px (..., 2) -> image px (..., 2): subtract (X0, Y0)."""
+        return np.asarray(screen_xy, dtype=float) - self.screen_offset
+
+    def in_image(self, uv) -> np.ndarray:
+        """Which image points (N, 2) lie on the render panel, shape (N,) bool."""
+        uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+        width, height = self.image_size
+        with np.errstate(invalid='ignore'):
+            return ((uv[:, 0] >= 0) & (uv[:, 0] <= width)
+                    & (uv[:, 1] >= 0) & (uv[:, 1] <= height))
+
+    def box_regions(self, positions, quaternions_xyzw, scales,
+                    clip: bool = True) -> Tuple[np.ndarray, np.ndarray]:
+        """
+        Screen regions of M box markers.
+
+        Each region is the convex hull of the box's projected corners (its
+        exact silhouette), cut to the render panel when ``clip``, then moved
+        by (X0, Y0) into screen px.  A box with any corner behind the camera,
+        a box that contains the camera, and (when clipping) a box wholly off
+        the panel has no region: it is never drawn inverted or off-panel.
+
+        :param positions: shape (M, 3), world frame, m.
+        :param quaternions_xyzw: shape (M, 4), order x, y, z, w, not zero.
+        :param scales: shape (M, 3), full side lengths, m, > 0.
+        :param clip: cut regions to the render panel [0, W] x [0, H].
+        :returns: ``(polygons, visible)``: polygons shape (M, K, 2) screen px,
+            counter-clockwise as the person sees it, padded by repeating the
+            last vertex (K = 6, or at least 10 when clipping); visible shape (M,) bool;
+            rows of invisible boxes are NaN.
+        """
+        polygons, visible = geometry.box_silhouettes(
+            positions, quaternions_xyzw, scales, self.intrinsic, self.external)
+        if clip:
+            polygons, on_panel = clip_polygons(polygons, *self.image_size)
+            visible = visible & on_panel
+            polygons = _pad_vertices(polygons, 10)
+        return self.to_screen(polygons), visible
+
+    def __repr__(self) -> str:
+        """Summarise the camera for logs."""
+        return (f'RvizCamera(image_size={self.image_size}, '
+                f'screen_offset={self.screen_offset.tolist()}, eye={self.eye.round(3).tolist()})')
+
+
+def _pad_vertices(polygons: np.ndarray, count: int) -> np.ndarray:
+    """Pad (M, K, 2) outlines to (M, max(K, count), 2) by repeating the last vertex."""
+    missing = count - polygons.shape[1]
+    if missing <= 0:
+        return polygons
+    return np.concatenate([polygons, np.repeat(polygons[:, -1:], missing, axis=1)], axis=1)
+
+
+def _check_external(external) -> np.ndarray:
+    """Validate a 4x4 rigid world -> camera transform and return it as floats."""
+    external = _finite('external', external, 16).reshape(4, 4)
+    rotation = external[:3, :3]
+    if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or \
+            np.linalg.det(rotation) <= 0 or not np.allclose(external[3], [0, 0, 0, 1]):
+        raise ValueError('external must be a rigid 4x4 transform (rotation and translation)')
+    return external.copy()

@@ -1,0 +1,562 @@
+"""Node ``lsl_gaze_bridge``: eye-tracker gaze from an LSL stream to ``gaze`` on ROS 2.
+
+Finds the LSL stream of an eye-tracker application (profile + stream type /
+name / source_id), pulls its samples in chunks, converts them to points on
+the ``screen`` (px, top-left origin; :mod:`eye_bci_ros2.gaze_profiles`) and
+publishes each as a geometry_msgs/PointStamped whose stamp is the sample's
+acquisition time on the ROS clock.
+
+Nothing here blocks the executor for long: the stream is found by a
+``pylsl.ContinuousResolver`` that a timer polls, chunks are pulled with a
+zero timeout, and the clock offset to the sender is estimated by liblsl in
+the background.  The only waits are fetching the full stream description
+once per connection (at most 0.2 s, usually a few ms on a LAN).
+
+Time stamps: ``t_ros = t_lsl + time_correction + (ros_now - local_clock())``
+where ``t_lsl`` is the sender's timestamp (its LSL clock), the time
+correction (refreshed every ``time_correction_period_s``) maps it to this
+machine's LSL clock, and the last term, measured when the chunk is pulled,
+maps this machine's LSL clock to the ROS clock.  Samples are held back until
+the first time-correction estimate (about 0.7 s after connecting); if none
+comes within 5 s (UDP time service unreachable) the bridge warns and stamps
+with arrival time until one does.
+
+Lost streams: inlets are created with ``recover=False``, so an outlet that
+goes away raises ``LostError`` at once; the bridge then resolves again and
+re-reads the channel labels, because a restarted application may advertise
+a different layout.  A stream that is still advertised but sends nothing for
+``stale_timeout_s`` is reported, replaced when a newer matching stream
+exists, and dropped when it is no longer advertised.
+"""
+
+from dataclasses import dataclass
+import time
+from typing import Any, Dict, List, Optional
+
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Point, PointStamped
+import numpy as np
+import pylsl
+from pylsl.util import LostError, TimeoutError as LslTimeoutError
+from rclpy.node import Node
+from std_msgs.msg import Header
+
+from eye_bci_ros2.gaze_profiles import (
+    ANY, build_config, convert, DEFAULT_PROFILE, DROP_REASONS, GazeConfig, GazeMapping,
+    NO_CONFIDENCE, ORIGINS, PROFILE_NAMES, resolve_mapping, stream_matches, UNITS,
+    xpath_predicate)
+from eye_bci_ros2.nodes.conversions import SCREEN_FRAME
+from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.nodes.qos import GAZE_QOS
+from eye_bci_ros2.nodes.runner import spin_node
+
+#: Inlet buffer: seconds at the nominal rate (x100 samples for irregular streams).
+INLET_BUFFER_S = 10
+#: Longest wait for a stream's full description when connecting, s.
+INFO_TIMEOUT_S = 0.2
+#: Without a time-correction estimate after this long, stamp by arrival, s.
+CLOCK_SYNC_TIMEOUT_S = 5.0
+#: A resolver forgets a stream this long after it stopped answering, s.
+RESOLVER_FORGET_S = 2.0
+#: Most chunks pulled per poll, so a huge backlog cannot hog the executor.
+MAX_PULLS_PER_POLL = 8
+#: Repeating warnings at most this often, s.
+WARN_THROTTLE_S = 5.0
+#: "Still looking" at most this often, s.
+LOOKING_LOG_PERIOD_S = 10.0
+#: Stamps must fit builtin_interfaces/Time (int32 seconds).
+_MAX_STAMP_S = 2.0 ** 31 - 1
+#: Counters kept and logged by the bridge.
+COUNTERS = ('received', 'published') + DROP_REASONS + ('layout', 'bad_stamp')
+
+
+def _one_of_or_empty(allowed):
+    """Build a check: '' (profile default) or one of ``allowed``."""
+    def check(value):
+        if value in ('',) + tuple(allowed):
+            return None
+        return f"'{value}' is not one of: '' (profile default), {', '.join(allowed)}"
+    return check
+
+
+def _channel_text(value):
+    """Reject channel lists with empty entries early (build_config says why)."""
+    if value and any(not token.strip() for token in str(value).split(',')):
+        return f"'{value}' has an empty entry; separate labels or indices by single commas"
+    return None
+
+
+PARAMETERS = (
+    ParamSpec('profile', DEFAULT_PROFILE,
+              'eye-tracker application whose stream layout to expect; it sets the '
+              'defaults of every parameter left empty/0/negative', choices=PROFILE_NAMES),
+    ParamSpec('stream_type', '',
+              f"LSL stream type to accept; '' = profile default, '{ANY}' = any"),
+    ParamSpec('stream_name', '',
+              f"LSL stream name to accept; '' = profile default, '{ANY}' = any"),
+    ParamSpec('source_id', '', f"LSL source_id to accept; '' or '{ANY}' = any"),
+    ParamSpec('x_channel', '',
+              'channel of gaze x: label or 0-based index; several separated by commas '
+              "(one per eye) are averaged over the valid eyes; '' = profile default",
+              check=_channel_text),
+    ParamSpec('y_channel', '',
+              'channel of gaze y, as x_channel (same number of entries); '
+              "'' = profile default", check=_channel_text),
+    ParamSpec('units', '', 'units of x/y: pixels of the source screen or normalized '
+              "(0..1); '' = profile default", check=_one_of_or_empty(UNITS)),
+    ParamSpec('origin', '', 'corner of the source screen at x = y = 0; '
+              "'' = profile default", check=_one_of_or_empty(ORIGINS)),
+    ParamSpec('source_width', 0, 'width of the sender screen, px (pixels units); '
+              '0 = profile default, else the screen width', value_range=(0, 16384)),
+    ParamSpec('source_height', 0, 'height of the sender screen, px (pixels units); '
+              '0 = profile default, else the screen height', value_range=(0, 16384)),
+    ParamSpec('screen_width', 1920, 'width of the screen RViz is shown on, px',
+              value_range=(1, 16384)),
+    ParamSpec('screen_height', 1080, 'height of the screen RViz is shown on, px',
+              value_range=(1, 16384)),
+    ParamSpec('confidence_channel', '',
+              f"label or index of a 0..1 confidence channel; '' = profile default, "
+              f"'{NO_CONFIDENCE}' = no confidence check", check=_channel_text),
+    ParamSpec('min_confidence', -1.0,
+              'drop samples whose confidence is below this; negative = profile default '
+              '(0.6 for pupil_capture)', value_range=(-1.0, 1.0)),
+    ParamSpec('offscreen_margin_px', 100.0,
+              'drop samples more than this far outside the screen, px',
+              value_range=(0.0, 10000.0)),
+    ParamSpec('stale_timeout_s', 2.0,
+              'warn when the stream sends nothing for this long, s', value_range=(0.05, 3600.0)),
+    ParamSpec('poll_period_s', 0.01, 'period of pulling samples from LSL, s',
+              value_range=(0.001, 1.0)),
+    ParamSpec('max_chunk', 1024, 'most samples pulled at once', value_range=(1, 65536)),
+    ParamSpec('resolve_period_s', 0.5,
+              'period of looking for the stream and checking its health, s',
+              value_range=(0.05, 10.0)),
+    ParamSpec('time_correction_period_s', 5.0,
+              'period of refreshing the LSL clock offset to the sender, s',
+              value_range=(0.1, 600.0)),
+    ParamSpec('stats_period_s', 10.0,
+              'period of logging sample counters when they change, s (0 = never)',
+              value_range=(0.0, 3600.0)),
+)
+
+
+def _check_all(values: Dict[str, Any]) -> Optional[str]:
+    """Reject parameter combinations build_config cannot use."""
+    try:
+        build_config(values)
+    except ValueError as exc:
+        return str(exc)
+    return None
+
+
+def _channel_labels(info: pylsl.StreamInfo) -> List[str]:
+    """Labels from desc/channels/channel/label, '' where a channel has none."""
+    labels = []
+    channel = info.desc().child('channels').child('channel')
+    while not channel.empty():
+        labels.append(channel.child_value('label').strip())
+        channel = channel.next_sibling('channel')
+    return labels
+
+
+def _describe(info: pylsl.StreamInfo) -> str:
+    """One line naming a stream for log messages."""
+    rate = info.nominal_srate()
+    rate_text = f'{rate:g} Hz' if rate > 0 else 'irregular rate'
+    return (f"'{info.name()}' (type '{info.type()}', source_id '{info.source_id()}', "
+            f'{info.channel_count()} ch, {rate_text}, host {info.hostname()})')
+
+
+@dataclass
+class _Connection:
+    """One open inlet and what the bridge knows about its stream."""
+
+    inlet: pylsl.StreamInlet
+    uid: str
+    created_at: float
+    description: str
+    labels: List[str]
+    buffer: np.ndarray
+    connected_at: float
+    mapping: Optional[GazeMapping] = None
+    mapping_error: str = ''
+    time_correction: Optional[float] = None
+    time_correction_at: float = 0.0
+    arrival_stamps: bool = False
+    last_sample_at: Optional[float] = None
+    stale: bool = False
+
+
+class LslGazeBridge(Node):
+    """Publish gaze points from an eye tracker's LSL stream on ``gaze``."""
+
+    def __init__(self, **kwargs):
+        """Declare parameters, start looking for the stream; ``kwargs`` go to Node."""
+        super().__init__('lsl_gaze_bridge', **kwargs)
+        self._params = declare_parameters(self, PARAMETERS, self._on_parameters, _check_all)
+        self._config: GazeConfig = build_config(self._params)
+        self._publisher = self.create_publisher(PointStamped, 'gaze', GAZE_QOS)
+        self._counters = dict.fromkeys(COUNTERS, 0)
+        self._logged_counters = dict(self._counters)
+        self._connection: Optional[_Connection] = None
+        self._resolver: Optional[pylsl.ContinuousResolver] = None
+        self._ignored_uids = set()
+        self._last_looking_log = -LOOKING_LOG_PERIOD_S
+        self._poll_timer = None
+        self._resolve_timer = None
+        self._stats_timer = None
+        self._start_resolver()
+        self._make_timers(('poll_period_s', 'resolve_period_s', 'stats_period_s'))
+        self.get_logger().info(
+            f"profile '{self._config.profile}': looking for {self._config.describe_selection()}")
+
+    # -- public state, for tests and tools ------------------------------------------
+
+    @property
+    def config(self) -> GazeConfig:
+        """Effective settings (profile defaults with parameters applied)."""
+        return self._config
+
+    @property
+    def counters(self) -> Dict[str, int]:
+        """Samples received, published and dropped per reason since start."""
+        return dict(self._counters)
+
+    @property
+    def stream(self) -> Optional[str]:
+        """Description of the stream in use, or None while looking."""
+        return self._connection.description if self._connection else None
+
+    @property
+    def stream_uid(self) -> Optional[str]:
+        """LSL uid of the outlet in use, or None while looking."""
+        return self._connection.uid if self._connection else None
+
+    @property
+    def stale(self) -> bool:
+        """Whether the stream in use has sent nothing for ``stale_timeout_s``."""
+        return bool(self._connection and self._connection.stale)
+
+    def destroy_node(self):
+        """Close the inlet and the resolver, then destroy the node."""
+        self._disconnect()
+        self._resolver = None
+        return super().destroy_node()
+
+    # -- parameters -----------------------------------------------------------------
+
+    def _on_parameters(self, changed: Dict[str, Any]) -> None:
+        """Apply accepted parameter changes at once."""
+        self._params.update(changed)
+        old, self._config = self._config, build_config(self._params)
+        if (old.selection, old.profile) != (self._config.selection, self._config.profile):
+            self.get_logger().info(
+                f'stream selection changed: now looking for {self._config.describe_selection()} '
+                f"(profile '{self._config.profile}')")
+            self._disconnect()
+            self._ignored_uids.clear()
+            self._start_resolver()
+        elif self._connection is not None:
+            if 'max_chunk' in changed:
+                self._connection.buffer = self._make_buffer(self._connection.inlet)
+            self._bind(self._connection)
+        self._make_timers(changed)
+
+    def _make_timers(self, changed) -> None:
+        """(Re)create the timers whose period parameter is in ``changed``."""
+        if 'poll_period_s' in changed:
+            if self._poll_timer is not None:
+                self.destroy_timer(self._poll_timer)
+            self._poll_timer = self.create_timer(self._params['poll_period_s'], self._poll)
+        if 'resolve_period_s' in changed:
+            if self._resolve_timer is not None:
+                self.destroy_timer(self._resolve_timer)
+            self._resolve_timer = self.create_timer(
+                self._params['resolve_period_s'], self._maintain)
+        if 'stats_period_s' in changed:
+            if self._stats_timer is not None:
+                self.destroy_timer(self._stats_timer)
+                self._stats_timer = None
+            if self._params['stats_period_s'] > 0:
+                self._stats_timer = self.create_timer(
+                    self._params['stats_period_s'], self._log_counters)
+
+    # -- finding and opening the stream ----------------------------------------------
+
+    def _start_resolver(self) -> None:
+        """Resolve continuously (in liblsl's background thread) for the selection."""
+        predicate = xpath_predicate(self._config)
+        try:
+            if predicate:
+                self._resolver = pylsl.ContinuousResolver(
+                    pred=predicate, forget_after=RESOLVER_FORGET_S)
+            else:
+                self._resolver = pylsl.ContinuousResolver(forget_after=RESOLVER_FORGET_S)
+        except Exception as exc:  # noqa: B902 - liblsl errors must not kill the node
+            self._resolver = None
+            self.get_logger().error(f'cannot start the LSL resolver: {exc}')
+
+    def _candidates(self) -> List[pylsl.StreamInfo]:
+        """List the matching streams currently advertised (any uid), oldest first."""
+        if self._resolver is None:
+            self._start_resolver()
+            if self._resolver is None:
+                return []
+        found = [info for info in self._resolver.results() if stream_matches(
+            self._config, info.type(), info.name(), info.source_id())]
+        return sorted(found, key=lambda info: info.created_at())
+
+    def _maintain(self) -> None:
+        """Connect when idle; refresh the clock offset; handle a quiet stream."""
+        try:
+            now = time.monotonic()
+            connection = self._connection
+            if connection is None:
+                self._connect_newest(now)
+                return
+            if connection.time_correction is None or now - connection.time_correction_at >= \
+                    self._params['time_correction_period_s']:
+                self._refresh_time_correction(connection, now)
+            quiet_since = connection.last_sample_at or connection.connected_at
+            if now - quiet_since < self._params['stale_timeout_s']:
+                return
+            if not connection.stale:
+                connection.stale = True
+                self.get_logger().warning(
+                    f'no gaze samples from {connection.description} for '
+                    f'{now - quiet_since:.1f} s; waiting for it to resume')
+            self._replace_stale(connection, now)
+        except Exception as exc:  # noqa: B902 - a node never dies on a stream
+            self.get_logger().warning(f'LSL maintenance failed: {exc}',
+                                      throttle_duration_sec=WARN_THROTTLE_S)
+
+    def _replace_stale(self, connection: _Connection, now: float) -> None:
+        """Drop a stale stream that vanished, or switch to a newer matching one."""
+        candidates = self._candidates()
+        if not any(info.uid() == connection.uid for info in candidates):
+            self.get_logger().warning(
+                f'{connection.description} is no longer advertised; looking for another')
+            self._ignored_uids.add(connection.uid)
+            self._disconnect()
+            self._connect_newest(now)
+            return
+        newer = [info for info in candidates if info.created_at() > connection.created_at
+                 and info.uid() not in self._ignored_uids]
+        if newer:
+            self.get_logger().warning(
+                f'{connection.description} is quiet and a newer matching stream exists: '
+                f'switching to {_describe(newer[-1])}')
+            self._disconnect()
+            self._open(newer[-1], now)
+
+    def _connect_newest(self, now: float) -> None:
+        """Open the newest matching stream, if any."""
+        candidates = [info for info in self._candidates()
+                      if info.uid() not in self._ignored_uids]
+        if not candidates:
+            if now - self._last_looking_log >= LOOKING_LOG_PERIOD_S:
+                self._last_looking_log = now
+                self.get_logger().info(
+                    f'looking for an LSL gaze stream: {self._config.describe_selection()}')
+            return
+        newest = candidates[-1]
+        if len(candidates) > 1:
+            others = '; '.join(_describe(info) for info in candidates[:-1])
+            self.get_logger().warning(
+                f'{len(candidates)} LSL streams match {self._config.describe_selection()}: '
+                f'using the newest, {_describe(newest)} (also found: {others}); set '
+                f'source_id to choose')
+        self._open(newest, now)
+
+    def _open(self, info: pylsl.StreamInfo, now: float) -> None:
+        """Create an inlet for ``info``, read its labels, start clock sync."""
+        if info.channel_format() == pylsl.cf_string:
+            self.get_logger().warning(f'ignoring {_describe(info)}: it carries strings, '
+                                      f'not numbers')
+            self._ignored_uids.add(info.uid())
+            return
+        inlet = pylsl.StreamInlet(info, max_buflen=INLET_BUFFER_S, recover=False)
+        try:
+            full = inlet.info(timeout=INFO_TIMEOUT_S)
+        except LslTimeoutError:
+            self.get_logger().warning(f'no description from {_describe(info)} yet; retrying',
+                                      throttle_duration_sec=WARN_THROTTLE_S)
+            return
+        except LostError:
+            self._ignored_uids.add(info.uid())
+            return
+        for call in (inlet.open_stream, inlet.time_correction):
+            try:
+                call(timeout=0.0)  # start in liblsl's background threads, do not wait
+            except LslTimeoutError:
+                pass
+        connection = _Connection(
+            inlet=inlet, uid=full.uid(), created_at=full.created_at(),
+            description=_describe(full), labels=_channel_labels(full),
+            buffer=self._make_buffer(inlet), connected_at=now)
+        self._connection = connection
+        labels = ', '.join(label or '?' for label in connection.labels) or 'no labels'
+        self.get_logger().info(f'connected to LSL stream {connection.description}; '
+                               f'channels: {labels}')
+        self._bind(connection)
+
+    def _make_buffer(self, inlet: pylsl.StreamInlet) -> np.ndarray:
+        """Preallocated pull buffer, (max_chunk, channels) in the stream's dtype."""
+        return np.empty((self._params['max_chunk'], inlet.channel_count), dtype=inlet.np_dtype)
+
+    def _bind(self, connection: _Connection) -> None:
+        """Map the configuration onto the stream's channels, or say why it cannot."""
+        try:
+            connection.mapping = resolve_mapping(
+                self._config, connection.labels, connection.inlet.channel_count)
+            connection.mapping_error = ''
+        except ValueError as exc:
+            connection.mapping = None
+            connection.mapping_error = str(exc)
+            self.get_logger().warning(
+                f'stream {connection.description} does not fit profile '
+                f"'{self._config.profile}': {exc}; its samples are dropped until the "
+                f'parameters match it')
+
+    def _disconnect(self) -> None:
+        """Close the current inlet, if any."""
+        connection, self._connection = self._connection, None
+        if connection is not None:
+            try:
+                connection.inlet.close_stream()
+            except Exception:  # noqa: B902 - closing a dead inlet may fail; nothing to do
+                pass
+
+    def _refresh_time_correction(self, connection: _Connection, now: float) -> bool:
+        """Take liblsl's latest clock-offset estimate without waiting; True if known."""
+        try:
+            connection.time_correction = connection.inlet.time_correction(timeout=0.0)
+        except LslTimeoutError:
+            return connection.time_correction is not None
+        connection.time_correction_at = now
+        if connection.arrival_stamps:
+            connection.arrival_stamps = False
+            self.get_logger().info(f'clock offset to {connection.description} known again: '
+                                   f'stamping samples with their acquisition time')
+        return True
+
+    # -- pulling and publishing ------------------------------------------------------
+
+    def _poll(self) -> None:
+        """Pull what the inlet holds, convert and publish it."""
+        connection = self._connection
+        if connection is None:
+            return
+        now = time.monotonic()
+        if connection.time_correction is None and not connection.arrival_stamps:
+            if not self._refresh_time_correction(connection, now):
+                if now - connection.connected_at < CLOCK_SYNC_TIMEOUT_S:
+                    return  # keep samples in the inlet until they can be stamped
+                connection.arrival_stamps = True
+                self.get_logger().warning(
+                    f'no clock offset from {connection.description} after '
+                    f'{CLOCK_SYNC_TIMEOUT_S:g} s (LSL time service unreachable?): stamping '
+                    f'samples with their arrival time')
+        try:
+            for _ in range(MAX_PULLS_PER_POLL):
+                samples, timestamps = connection.inlet.pull_chunk(
+                    timeout=0.0, max_samples=len(connection.buffer),
+                    dest_obj=connection.buffer, as_numpy=True)
+                count = len(timestamps)
+                if count == 0:
+                    break
+                self._publish_chunk(connection, samples, timestamps, now)
+                if count < len(connection.buffer):
+                    break
+        except LostError:
+            self.get_logger().warning(f'lost LSL stream {connection.description}; '
+                                      f'looking for it again')
+            self._ignored_uids.add(connection.uid)
+            self._disconnect()
+        except Exception as exc:  # noqa: B902 - a node never dies on a sample
+            self.get_logger().warning(f'failed to read {connection.description}: {exc}',
+                                      throttle_duration_sec=WARN_THROTTLE_S)
+
+    def _publish_chunk(self, connection: _Connection, samples: np.ndarray,
+                       timestamps: np.ndarray, now: float) -> None:
+        """Stamp, convert and publish one chunk; count what is dropped."""
+        count = len(timestamps)
+        self._counters['received'] += count
+        connection.last_sample_at = now
+        if connection.stale:
+            connection.stale = False
+            self.get_logger().info(f'gaze samples from {connection.description} resumed')
+        if connection.mapping is None:
+            self._counters['layout'] += count
+            self.get_logger().warning(
+                f'dropping gaze samples: {connection.mapping_error}',
+                throttle_duration_sec=WARN_THROTTLE_S)
+            return
+
+        # Map LSL time to the ROS clock at the moment of the pull (see module doc).
+        ros_now_ns = self.get_clock().now().nanoseconds
+        lsl_now = pylsl.local_clock()
+        if connection.arrival_stamps:
+            delta_s = np.zeros(count)
+        else:
+            delta_s = np.asarray(timestamps, dtype=np.float64) \
+                + connection.time_correction - lsl_now
+        with np.errstate(invalid='ignore'):
+            stamp_s = ros_now_ns * 1e-9 + delta_s
+            good_stamp = np.isfinite(stamp_s) & (stamp_s >= 0.0) & (stamp_s < _MAX_STAMP_S)
+        if not good_stamp.all():
+            self._counters['bad_stamp'] += int(np.count_nonzero(~good_stamp))
+            self.get_logger().warning(
+                f'dropping gaze samples with unusable LSL timestamps from '
+                f'{connection.description}', throttle_duration_sec=WARN_THROTTLE_S)
+            samples, delta_s = samples[good_stamp], delta_s[good_stamp]
+
+        batch = convert(samples, connection.mapping)
+        dropped = sum(batch.dropped.values())
+        if dropped:
+            for reason, number in batch.dropped.items():
+                self._counters[reason] += number
+            reasons = ', '.join(f'{number} {reason}'
+                                for reason, number in batch.dropped.items() if number)
+            self.get_logger().warning(
+                f'dropped invalid gaze samples ({reasons} in the last chunk; totals: '
+                f'{self._drop_totals()})', throttle_duration_sec=WARN_THROTTLE_S)
+        if not len(batch.xy):
+            return
+        stamps_ns = ros_now_ns + np.rint(delta_s[batch.keep] * 1e9).astype(np.int64)
+        seconds, nanoseconds = np.divmod(stamps_ns, 1_000_000_000)
+        for (x, y), sec, nanosec in zip(batch.xy.tolist(), seconds.tolist(),
+                                        nanoseconds.tolist()):
+            self._publisher.publish(PointStamped(
+                header=Header(stamp=Time(sec=sec, nanosec=nanosec), frame_id=SCREEN_FRAME),
+                point=Point(x=x, y=y, z=0.0)))
+        self._counters['published'] += len(batch.xy)
+
+    # -- reporting --------------------------------------------------------------------
+
+    def _drop_totals(self) -> str:
+        """Dropped-sample totals per reason, e.g. '3 nonfinite, 1 offscreen'."""
+        totals = [f'{self._counters[key]} {key}' for key in COUNTERS[2:] if self._counters[key]]
+        return ', '.join(totals) or 'none'
+
+    def _log_counters(self) -> None:
+        """Log the counters when they changed since the last report."""
+        if self._counters == self._logged_counters:
+            return
+        received = self._counters['received'] - self._logged_counters['received']
+        published = self._counters['published'] - self._logged_counters['published']
+        self._logged_counters = dict(self._counters)
+        source = self.stream or 'no stream'
+        self.get_logger().info(
+            f'gaze: {received} received, {published} published in the last '
+            f"{self._params['stats_period_s']:g} s from {source}; dropped since start: "
+            f'{self._drop_totals()}')
+
+
+def main(args=None):
+    """Run the bridge until Ctrl-C."""
+    spin_node(lambda: LslGazeBridge(), args)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,344 @@
+"""
+marker_projector: where each choice marker appears on the screen.
+
+Subscribes ``choices`` (visualization_msgs/MarkerArray, latched, as RViz
+reads it) and ``camera/pose`` (geometry_msgs/PoseStamped, optical convention,
+latched) and publishes ``choices/regions`` (visualization_msgs/MarkerArray,
+latched): the complete current set, one closed LINE_STRIP per visible marker,
+points in screen px, same ns/id/text as the marker (see
+:mod:`eye_bci_ros2.nodes.conversions`).
+
+Markers are kept by (ns, id) with RViz's semantics: ADD/MODIFY adds or
+replaces, DELETE removes one, DELETEALL clears everything received before it
+(also earlier in the same array).  A CUBE's region is the silhouette of its
+corners; any other type is treated as the box its scale spans around its pose.
+Only markers in ``world_frame`` are projected (there is no tf2 here).  A marker
+partly behind the camera, one containing the camera, and one wholly outside
+the render panel get no region.  Regions are recomputed and republished
+whenever the markers, the camera or a parameter change; nothing is published
+before the first camera pose.
+"""
+
+import time
+from typing import Any, Dict, List, Optional, Tuple
+
+from geometry_msgs.msg import PoseStamped
+import numpy as np
+from rclpy.node import Node
+from visualization_msgs.msg import Marker, MarkerArray
+
+from eye_bci_ros2.camera_model import parse_intrinsic, rviz_intrinsic, RvizCamera
+from eye_bci_ros2.geometry import external_from_pose
+from eye_bci_ros2.nodes.conversions import pose_to_arrays, regions_to_marker_array
+from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.nodes.qos import LATCHED_QOS
+from eye_bci_ros2.nodes.runner import spin_node
+
+#: Largest render panel side accepted, px.
+MAX_IMAGE_SIDE = 16384
+
+#: How often the same warning about bad input may be logged, s.
+WARN_PERIOD_S = 5.0
+
+#: Problems listed in one warning about a MarkerArray.
+MAX_LISTED = 5
+
+Key = Tuple[str, int]
+
+
+class MarkerTable:
+    """
+    Markers by (ns, id) as numpy rows, updated in place.
+
+    Rows ``[0, len(table))`` of :attr:`positions` (M, 3) m, :attr:`quaternions`
+    (M, 4) x, y, z, w unit, :attr:`scales` (M, 3) m and :attr:`frames` (M,)
+    are live; :attr:`sources` holds each row's marker message (ns, id, text,
+    colour).  Adding is amortised O(1), deleting O(1) (the last row moves into
+    the hole), so a camera move re-projects the table as it stands.
+    """
+
+    def __init__(self, capacity: int = 16):
+        """Create an empty table with room for ``capacity`` markers."""
+        self._count = 0
+        self._rows: Dict[Key, int] = {}
+        self.sources: List[Marker] = []
+        capacity = max(int(capacity), 1)
+        self.positions = np.zeros((capacity, 3))
+        self.quaternions = np.zeros((capacity, 4))
+        self.scales = np.zeros((capacity, 3))
+        self.frames = np.zeros(capacity, dtype=object)
+
+    def _grow(self) -> None:
+        """Double the capacity, keeping the live rows."""
+        for name in ('positions', 'quaternions', 'scales', 'frames'):
+            array = getattr(self, name)
+            grown = np.zeros((2 * len(array),) + array.shape[1:], dtype=array.dtype)
+            grown[:self._count] = array[:self._count]
+            setattr(self, name, grown)
+
+    def __len__(self) -> int:
+        """Return the number of markers held."""
+        return self._count
+
+    def __contains__(self, key: Key) -> bool:
+        """Tell whether a marker (ns, id) is held."""
+        return key in self._rows
+
+    def upsert(self, key: Key, frame: str, position: np.ndarray, quaternion_xyzw: np.ndarray,
+               scale: np.ndarray, source: Marker) -> None:
+        """Add marker ``key`` or replace it (RViz ADD/MODIFY)."""
+        row = self._rows.get(key)
+        if row is None:
+            if self._count == len(self.positions):
+                self._grow()
+            row = self._count
+            self._count += 1
+            self._rows[key] = row
+            self.sources.append(source)
+        else:
+            self.sources[row] = source
+        self.positions[row] = position
+        self.quaternions[row] = quaternion_xyzw
+        self.scales[row] = scale
+        self.frames[row] = frame
+
+    def delete(self, key: Key) -> bool:
+        """Remove marker ``key`` (RViz DELETE); return whether it was there."""
+        row = self._rows.pop(key, None)
+        if row is None:
+            return False
+        last = self._count - 1
+        if row != last:
+            for array in (self.positions, self.quaternions, self.scales, self.frames):
+                array[row] = array[last]
+            self.sources[row] = self.sources[last]
+            moved = self.sources[row]
+            self._rows[(moved.ns, moved.id)] = row
+        self.sources.pop()
+        self._count = last
+        return True
+
+    def clear(self) -> None:
+        """Remove every marker (RViz DELETEALL)."""
+        self._rows.clear()
+        self.sources.clear()
+        self._count = 0
+
+
+def marker_box(marker: Marker) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Optional[str]]:
+    """
+    Box of a marker message: position (3,), unit quaternion x, y, z, w (4,), scale (3,).
+
+    :returns: the arrays and a note for the log (or None): an all-zero
+        quaternion is read as the identity, as RViz draws it.
+    :raises ValueError: NaN/infinite pose or scale, or a scale <= 0.
+    """
+    position, quaternion = pose_to_arrays(marker.pose)
+    scale = np.array([marker.scale.x, marker.scale.y, marker.scale.z])
+    if not (np.all(np.isfinite(position)) and np.all(np.isfinite(quaternion))):
+        raise ValueError('pose contains NaN or infinite values')
+    if not np.all(np.isfinite(scale)) or np.any(scale <= 0):
+        raise ValueError(f'scale must be positive on every axis, got {scale.tolist()}')
+    note = None
+    norm = np.linalg.norm(quaternion)
+    if norm == 0.0:
+        quaternion, norm = np.array([0.0, 0.0, 0.0, 1.0]), 1.0
+        note = 'orientation is all zero: using the identity, as RViz does'
+    elif norm < 1e-9:
+        raise ValueError('orientation quaternion has (almost) zero length')
+    return position, quaternion / norm, scale, note
+
+
+def _intrinsic_values(value: Any) -> Optional[str]:
+    if not value:
+        return None
+    try:
+        parse_intrinsic(value)
+    except ValueError as error:
+        return f'{error} (empty = analytic RViz intrinsic from the image size and fov_y_deg)'
+    return None
+
+
+def _frame_name(value: Any) -> Optional[str]:
+    if not value:
+        return 'must not be empty'
+    if value.startswith('/'):
+        return f"'{value}' must not start with '/'"
+    return None
+
+
+PARAMETERS: List[ParamSpec] = [
+    ParamSpec('world_frame', 'map',
+              'RViz fixed frame: only markers (and camera poses) in this frame are projected.',
+              check=_frame_name),
+    ParamSpec('image_width', 1280, 'Width W of the RViz render panel, px.',
+              value_range=(1, MAX_IMAGE_SIDE)),
+    ParamSpec('image_height', 720, 'Height H of the RViz render panel, px.',
+              value_range=(1, MAX_IMAGE_SIDE)),
+    ParamSpec('fov_y_deg', 45.0,
+              'Vertical field of view of the RViz camera, degrees (RViz2: 45); used '
+              'when intrinsic_matrix is empty.',
+              value_range=(1.0, 179.0)),
+    ParamSpec('intrinsic_matrix', [],
+              'Calibrated 3x4 intrinsic, 12 numbers row-major [fx, s, cx, tx, 0, fy, cy, '
+              'ty, 0, 0, 1, 0]; empty = analytic RViz intrinsic (image size, fov_y_deg).',
+              check=_intrinsic_values, array_type='double_array'),
+    ParamSpec('screen_offset_x', 0,
+              "X0: screen x of the render panel's left edge, px (screen = image + X0).",
+              value_range=(-MAX_IMAGE_SIDE, MAX_IMAGE_SIDE)),
+    ParamSpec('screen_offset_y', 0,
+              "Y0: screen y of the render panel's top edge, px (screen = image + Y0).",
+              value_range=(-MAX_IMAGE_SIDE, MAX_IMAGE_SIDE)),
+    ParamSpec('clip_to_image', True,
+              'Cut regions to the render panel (a marker wholly off the panel gets no '
+              'region); false = whole silhouettes even where RViz does not draw them.'),
+]
+
+
+def camera_from_parameters(values: Dict[str, Any], external=None) -> RvizCamera:
+    """
+    Build the camera that the projector's parameters describe.
+
+    :param values: ``{name: value}`` of :data:`PARAMETERS`.
+    :param external: world -> camera (4, 4), or None for the identity.
+    :raises ValueError: the parameters describe no valid camera.
+    """
+    size = (values['image_width'], values['image_height'])
+    if values['intrinsic_matrix']:
+        intrinsic = parse_intrinsic(values['intrinsic_matrix'])
+    else:
+        intrinsic = rviz_intrinsic(size[0], size[1], values['fov_y_deg'])
+    offset = (values['screen_offset_x'], values['screen_offset_y'])
+    return RvizCamera(intrinsic, size, offset, external)
+
+
+def _camera_problem(values: Dict[str, Any]) -> Optional[str]:
+    try:
+        camera_from_parameters(values)
+    except ValueError as error:
+        return str(error)
+    return None
+
+
+class MarkerProjector(Node):
+    """Project the ``choices`` markers into screen regions for the current camera."""
+
+    def __init__(self, **kwargs):
+        """Declare parameters, subscribe to markers and camera, publish regions."""
+        super().__init__('marker_projector', **kwargs)
+        self._params = declare_parameters(self, PARAMETERS, self._on_parameters,
+                                          check_all=_camera_problem)
+        self._camera = camera_from_parameters(self._params)
+        self._camera_frame: Optional[str] = None  # None until a camera pose arrives
+        self._table = MarkerTable()
+        self._warned: Dict[str, float] = {}
+        self._publisher = self.create_publisher(MarkerArray, 'choices/regions', LATCHED_QOS)
+        self.create_subscription(MarkerArray, 'choices', self._on_markers, LATCHED_QOS)
+        self.create_subscription(PoseStamped, 'camera/pose', self._on_camera, LATCHED_QOS)
+        self.get_logger().info(f'projecting markers in \'{self._params["world_frame"]}\' with '
+                               f'{self._camera!r}; waiting for camera/pose')
+
+    @property
+    def camera(self) -> RvizCamera:
+        """Return the camera regions are computed with (pose from the last camera/pose)."""
+        return self._camera
+
+    def _on_parameters(self, changed: Dict[str, Any]) -> None:
+        self._params.update(changed)
+        self._camera = camera_from_parameters(self._params, self._camera.external)
+        if 'world_frame' in changed and self._camera_frame is not None and \
+                self._camera_frame != self._params['world_frame']:
+            self.get_logger().warning(
+                f"world_frame is now '{self._params['world_frame']}' but the camera pose is "
+                f"in '{self._camera_frame}': no regions until a camera pose in "
+                f"'{self._params['world_frame']}' arrives")
+            self._camera_frame = None
+            self._publisher.publish(MarkerArray())
+            return
+        self._publish()
+
+    def _on_camera(self, message: PoseStamped) -> None:
+        frame = message.header.frame_id or self._params['world_frame']
+        if frame != self._params['world_frame']:
+            self._warn(f"ignoring camera/pose in frame '{frame}': expected "
+                       f"'{self._params['world_frame']}' (no tf2 here)")
+            return
+        try:
+            external = external_from_pose(*pose_to_arrays(message.pose))
+        except ValueError as error:
+            self._warn(f'ignoring camera/pose: {error}; keeping the last good camera')
+            return
+        self._camera = self._camera.replace(external=external)
+        self._camera_frame = frame
+        self._publish()
+
+    def _on_markers(self, message: MarkerArray) -> None:
+        problems = [problem for problem in map(self._apply, message.markers) if problem]
+        if problems:
+            shown = '; '.join(problems[:MAX_LISTED])
+            more = len(problems) - MAX_LISTED
+            self._warn(f'choices: {shown}' + (f'; and {more} more' if more > 0 else ''))
+        self._publish()
+
+    def _apply(self, marker: Marker) -> Optional[str]:
+        """Apply one marker command to the table; return a problem to report, if any."""
+        key = (marker.ns, marker.id)
+        label = f'{marker.ns}/{marker.id}'
+        if marker.action == Marker.DELETEALL:
+            self._table.clear()
+        elif marker.action == Marker.DELETE:
+            self._table.delete(key)
+        elif marker.action == Marker.ADD:
+            try:
+                position, quaternion, scale, note = marker_box(marker)
+            except ValueError as error:
+                return f'skipped marker {label}: {error}'
+            frame = marker.header.frame_id or self._params['world_frame']
+            self._table.upsert(key, frame, position, quaternion, scale, marker)
+            if frame != self._params['world_frame']:
+                return (f"marker {label} is in frame '{frame}', not "
+                        f"'{self._params['world_frame']}': not projected (no tf2 here)")
+            if note:
+                return f'marker {label}: {note}'
+        else:
+            return f'skipped marker {label}: unknown action {marker.action}'
+        return None
+
+    def _warn(self, text: str) -> None:
+        """Log a warning, the same text at most once per WARN_PERIOD_S."""
+        now = time.monotonic()
+        if now - self._warned.get(text, -np.inf) < WARN_PERIOD_S:
+            return
+        if len(self._warned) > 100:
+            self._warned = {key: at for key, at in self._warned.items()
+                            if now - at < WARN_PERIOD_S}
+        self._warned[text] = now
+        self.get_logger().warning(text)
+
+    def _publish(self) -> None:
+        if self._camera_frame is None:
+            self.get_logger().info('no camera/pose yet: regions wait for it', once=True)
+            return
+        count = len(self._table)
+        polygons = np.zeros((0, 3, 2))
+        rows = np.zeros(0, dtype=np.intp)
+        if count:
+            table = self._table
+            polygons, visible = self._camera.box_regions(
+                table.positions[:count], table.quaternions[:count], table.scales[:count],
+                clip=self._params['clip_to_image'])
+            visible &= table.frames[:count] == self._params['world_frame']
+            rows = np.flatnonzero(visible)
+        message = regions_to_marker_array(
+            polygons[rows], [self._table.sources[row] for row in rows],
+            self.get_clock().now().to_msg())
+        self._publisher.publish(message)
+
+
+def main(args=None):
+    """Run the marker_projector node."""
+    spin_node(lambda: MarkerProjector(), args)
+
+
+if __name__ == '__main__':
+    main()
