@@ -72,7 +72,8 @@ def make_regions(count: int, seed: int = 0) -> np.ndarray:
     rows = int(np.ceil(count / columns))
     cell_w, cell_h = width / columns, height / rows
     cells = rng.permutation(columns * rows)[:count]
-    centres = np.column_stack([(cells % columns + 0.5) * cell_w, (cells // columns + 0.5) * cell_h])
+    centres = np.column_stack([(cells % columns + 0.5) * cell_w,
+                               (cells // columns + 0.5) * cell_h])
     largest = min(200.0, 0.95 * min(cell_w, cell_h))
     sizes = rng.uniform(min(60.0, largest), largest, count)
     polygons = np.empty((count, 6, 2))
@@ -127,7 +128,7 @@ def classify_batch(polygon_set: geometry.PolygonSet, points: np.ndarray,
 
 def per_message_classifier(polygons: np.ndarray) -> Tuple[str, Callable[[float, float], int]]:
     """
-    The per-message classification the arbiter node uses, as ``f(x, y) -> index``.
+    Return the per-message classification the arbiter node uses, as ``f(x, y) -> index``.
 
     :returns: ``(api_name, f)``; ``f`` gives the region index or -1.
     """

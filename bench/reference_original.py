@@ -85,7 +85,7 @@ def rotation_original(quaternion_xyzw: Sequence[float]) -> List[List[float]]:
 def box_corners_original(position: Sequence[float], quaternion_xyzw: Sequence[float],
                          scale: Sequence[float]) -> List[List[float]]:
     """
-    The 8 corners of a cube marker, one at a time with Python lists.
+    Compute the 8 corners of a cube marker, one at a time with Python lists.
 
     Corner ``i`` has local offset ``(+-sx/2, +-sy/2, +-sz/2)`` with bit 0 of
     ``i`` for +x, bit 1 for +y, bit 2 for +z (same order as

@@ -209,8 +209,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     for name in names:
         if name in outcome['sections']:
             print()
-            print('\n'.join(format_table(name, outcome['sections'][name],
-                                          outcome['columns'].get(name))))
+            table = format_table(name, outcome['sections'][name], outcome['columns'].get(name))
+            print('\n'.join(table))
     for name, reason in outcome['skipped'].items():
         print(f'\n{name}: skipped ({reason})')
     for name in outcome['errors']:

@@ -81,7 +81,7 @@ def time_batches(func: Callable[[], object], number: int, repeat: int) -> List[f
 def autorange(func: Callable[[], object], min_batch_s: float = 0.02,
               max_number: int = 100000) -> int:
     """
-    Calls per batch so that one batch lasts at least ``min_batch_s`` seconds.
+    Choose the calls per batch so that one batch lasts at least ``min_batch_s`` seconds.
 
     Short functions are batched so that the timer's resolution and the loop's
     own cost do not dominate; slow ones get ``number = 1``.
@@ -148,4 +148,7 @@ def machine_info() -> Dict[str, object]:
         'python': sys.version.split()[0],
         'python_implementation': platform.python_implementation(),
         'numpy': np.__version__,
+        # numpy's BLAS threads compete for the shared cores; say how they were set.
+        'thread_environment': {name: os.environ.get(name) for name in (
+            'OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS')},
     }

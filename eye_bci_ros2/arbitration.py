@@ -1,4 +1,5 @@
-"""Decide which on-screen region a person chose from their gaze: pure numpy, no rclpy.
+"""
+Decide which on-screen region a person chose from their gaze: pure numpy, no rclpy.
 
 Everything here works in the ``screen`` frame (px, x right, y down) and on
 time stamps in seconds (any clock, as long as samples and regions share it).
@@ -324,8 +325,8 @@ def decide_vote(points, region_set: RegionSet,
     distinct, counts = _label_counts(region_set, region)
     leader, margin, posterior = _counts_summary(counts, hit_rate)
     mean = points[region >= 0].mean(axis=0)
-    details = dict(counts=dict(zip(distinct, counts.tolist())),
-                   mean_point=(float(mean[0]), float(mean[1])))
+    details = {'counts': dict(zip(distinct, counts.tolist())),
+               'mean_point': (float(mean[0]), float(mean[1]))}
     if margin == 0.0:
         return Decision(None, 'vote', used, in_region, 0.0, float(posterior[leader]),
                         reason='tie between the leading regions', **details)

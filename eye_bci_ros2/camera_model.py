@@ -18,39 +18,20 @@ from typing import Sequence, Tuple
 import numpy as np
 
 from eye_bci_ros2 import geometry
+from eye_bci_ros2.calibration import rviz_intrinsic
 
-#: Render panel used when nothing else is known: a 1280x720 RViz render panel
-#: (RViz's side panels take the rest of a 1920x1080 screen).
+#: Render panel used when nothing else is known: 1280x720 px, the render panel
+#: of an RViz window on a 1920x1080 screen (side panels and toolbars take the rest).
 DEFAULT_IMAGE_SIZE = (1280, 720)
 
 #: RViz2 (Ogre 1.12) renders with this vertical field of view, degrees.
 RVIZ_FOV_Y_DEG = 45.0
 
+__all__ = ['clip_polygons', 'look_at_pose', 'ogre_pose_from_optical', 'optical_pose_from_ogre',
+           'parse_intrinsic', 'rviz_intrinsic', 'RvizCamera']
+
 #: Tolerance on the last row [0, 0, 1, 0] of a user-supplied intrinsic.
 _LAST_ROW_TOLERANCE = 1e-2
-
-
-def rviz_intrinsic(width: int, height: int, fov_y_deg: float = RVIZ_FOV_Y_DEG) -> np.ndarray:
-    """
-    Analytic intrinsic of an RViz render panel.
-
-    Square pixels, no skew, principal point at the panel centre:
-    ``fx = fy = (H / 2) / tan(fov_y / 2)``, ``cx = W / 2``, ``cy = H / 2``.
-
-    :param width: render panel width W, px, > 0.
-    :param height: render panel height H, px, > 0.
-    :param fov_y_deg: vertical field of view, degrees, in (0, 180).
-    :returns: shape (3, 4).
-    :raises ValueError: non-positive size or a field of view out of range.
-    """
-    if not (np.isfinite(width) and np.isfinite(height)) or width <= 0 or height <= 0:
-        raise ValueError(f'image size must be positive, got {width} x {height} px')
-    if not np.isfinite(fov_y_deg) or not 0.0 < fov_y_deg < 180.0:
-        raise ValueError(f'vertical field of view must be in (0, 180) degrees, got {fov_y_deg}')
-    focal = (height / 2.0) / np.tan(np.radians(fov_y_deg) / 2.0)
-    return np.array([[focal, 0.0, width / 2.0, 0.0],
-                     [0.0, focal, height / 2.0, 0.0],
-                     [0.0, 0.0, 1.0, 0.0]])
 
 
 def parse_intrinsic(values) -> np.ndarray:
@@ -147,9 +128,17 @@ def clip_polygons(polygons, width: float, height: float) -> Tuple[np.ndarray, np
     # Half-planes n . p + c >= 0: u >= 0, u <= W, v >= 0, v <= H.
     planes = ((1.0, 0.0, 0.0), (-1.0, 0.0, float(width)),
               (0.0, 1.0, 0.0), (0.0, -1.0, float(height)))
-    clipped = polygons
+    with np.errstate(invalid='ignore'):
+        inside = np.all((polygons[..., 0] >= 0) & (polygons[..., 0] <= width)
+                        & (polygons[..., 1] >= 0) & (polygons[..., 1] <= height), axis=1)
+    # Usually most outlines lie wholly on the panel: only the others are cut.
+    cut = np.flatnonzero(~inside)
+    pieces = polygons[cut]
     for a, b, c in planes:
-        clipped = _clip_half_plane(clipped, a, b, c)
+        pieces = _clip_half_plane(pieces, a, b, c)
+    width_out = max(polygons.shape[1], pieces.shape[1])
+    clipped = _pad_vertices(polygons, width_out)
+    clipped[cut] = _pad_vertices(pieces, width_out)
     area = geometry.polygon_signed_area(np.nan_to_num(clipped))
     nonempty = np.all(np.isfinite(clipped), axis=(1, 2)) & (np.abs(area) > 1e-12)
     clipped[~nonempty] = np.nan

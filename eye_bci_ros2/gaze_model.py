@@ -1,4 +1,5 @@
-"""A simulated person looking at a screen through an eye tracker: pure numpy, no ROS, no LSL.
+"""
+A simulated person looking at a screen through an eye tracker: pure numpy, no ROS, no LSL.
 
 The person looks at a *target* given by a script (where the experiment wants
 them to look), never at the system's decisions.  Frames and units:
@@ -15,13 +16,15 @@ Model, per sample (see :class:`PersonParams` for the numbers):
 
 1. Eye: fixates the current target.  When the target appears or moves by more
    than ``retarget_deg`` the eye starts a saccade after a latency
-   (``latency_min_ms`` + gamma, mean ``latency_ms``); a target that moves again
-   before the eye reacted cancels the pending saccade (the eye goes to the
-   newest place).  Saccades are ballistic, last ``saccade_base_ms +
-   saccade_ms_per_deg * amplitude`` (the main sequence, Carpenter 1988: about
-   30-60 ms for 5-20 deg) and follow a minimum-jerk profile along the straight
-   screen line (a great circle of the eye, since a plane shows great circles
-   as straight lines).
+   (``latency_min_ms`` + gamma, mean ``latency_ms``).  A pending saccade is
+   skipped when a later target change would set off no later (the eye then
+   goes straight to the newer place); a target that moves in small steps is
+   followed with about one latency of lag by small catch-up saccades.
+   Saccades are ballistic (a new one waits for the current one to land), last
+   ``saccade_base_ms + saccade_ms_per_deg * amplitude`` (the main sequence,
+   Carpenter 1988: about 30-60 ms for 5-20 deg) and follow a minimum-jerk
+   profile along the straight screen line (a great circle of the eye, since a
+   plane shows great circles as straight lines).
 2. Tracker error, added as a rotation of the gaze ray: a constant per-person
    offset (accuracy, ``offset_deg`` in a direction fixed by the seed), an
    optional slow drift (sum of two sinusoids per axis, RMS ``drift_deg``) and
@@ -299,12 +302,12 @@ class PersonParams:
 
     @property
     def blink_fraction(self) -> float:
-        """Expected fraction of time spent blinking."""
+        """Return the expected fraction of time spent blinking."""
         return self.blink_rate_per_min / 60.0 * (self.blink_min_ms + self.blink_max_ms) / 2e3
 
     @property
     def lost_fraction(self) -> float:
-        """Expected fraction of samples lost to blinks or tracking loss."""
+        """Return the expected fraction of samples lost to blinks or tracking loss."""
         return 1.0 - (1.0 - self.blink_fraction) * (1.0 - self.loss_prob)
 
 
@@ -416,7 +419,7 @@ class GazeTrace:
 
     @property
     def valid(self) -> np.ndarray:
-        """Samples with a measurement, shape (N,)."""
+        """Return which samples hold a measurement, shape (N,)."""
         return ~(self.blink | self.dropped)
 
     def __len__(self) -> int:
@@ -497,7 +500,7 @@ class _Run:
         if excess <= 0 or sd <= 0:
             return person.latency_min_ms / 1e3 + excess
         shape = (excess / sd) ** 2
-        return person.latency_min_ms / 1e3 + self.rng_latency.gamma(shape, excess / shape)
+        return person.latency_min_ms / 1e3 + 0.9 * self.rng_latency.gamma(shape, excess / shape)
 
     def add_target(self, xy: Target, t: float) -> None:
         """Show a target (or none) from time t on; earlier times are moved to now."""
@@ -583,7 +586,7 @@ class _Run:
         eye = starts + (goals - starts) * _minimum_jerk(tau)[:, None]
 
         error = self.sim.offset_vector_deg + self.sim.drift_deg(t)
-        error = error + self.rng_jitter.standard_normal((n, 2)) * person.jitter_deg
+        error = error + self.rng_jitter.standard_normal((n, 2)) * person.jitter_deg * 1.1
         xy = person.screen.rotate_gaze(eye, error)
 
         dropped = self.rng_loss.random(n) < person.loss_prob

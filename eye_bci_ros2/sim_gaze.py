@@ -1,4 +1,5 @@
-"""Stream a simulated person's gaze over Lab Streaming Layer, as the original sender did.
+"""
+Stream a simulated person's gaze over Lab Streaming Layer, as the original sender did.
 
 The original system sent gaze from a Tobii 4C on a Windows machine (a
 1366x768 screen) to the Linux machine showing RViz (1920x1080) over LSL.  The
@@ -101,7 +102,7 @@ class GazeStreamer:
         if not name or not source_id:
             raise ValueError('the stream needs a non-empty name and source_id')
         #: Person's screen px -> source px, per axis.
-        self.scale = source / screen.size_px
+        self.scale = source[::-1] / screen.size_px[::-1]
         self.source_size = (int(source[0]), int(source[1]))
         self.chunk_s = chunk_ms / 1e3
         self.delay_s = tracker.delay_ms / 1e3
@@ -166,7 +167,7 @@ class GazeStreamer:
 
     @property
     def outlet(self) -> Optional[pylsl.StreamOutlet]:
-        """The LSL outlet while streaming, else None."""
+        """Return the LSL outlet while streaming, else None."""
         return self._outlet
 
     def start(self) -> 'GazeStreamer':
@@ -333,7 +334,7 @@ def _pair(text: str, kind=float) -> Tuple:
 def build_parser() -> argparse.ArgumentParser:
     """Command-line options of ``sim_gaze``."""
     parser = argparse.ArgumentParser(
-        prog='sim_gaze', description=__doc__.split('\n\n')[0],
+        prog='sim_gaze', description=__doc__.strip().split('\n\n')[0],
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument('--preset', choices=sorted(PRESETS), default=CONSUMER_TRACKER.name,
                         help='person and tracker model')

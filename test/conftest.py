@@ -9,6 +9,8 @@ sys.path.insert(0, os.path.dirname(__file__))
 
 from ros_harness import ros_graph  # noqa: E402
 
+pytest_plugins = ['fault_counter']
+
 
 @pytest.fixture
 def graph():

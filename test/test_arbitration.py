@@ -1,5 +1,6 @@
 """Decision rules of eye_bci_ros2.arbitration on crafted gaze samples (no ROS)."""
 
+from dataclasses import replace
 import math
 
 import numpy as np
@@ -197,7 +198,9 @@ def test_early_decision_is_the_same_in_chunks_and_per_sample(rng):
             decision = evidence.add(points[chunk], times[chunk], regions, confidence=0.99)
             if decision is not None:
                 break
-        assert decision == expected
+        # Same choice at the same sample; sums may differ in the last bits.
+        assert replace(decision, mean_point=None) == replace(expected, mean_point=None)
+        assert np.allclose(decision.mean_point, expected.mean_point)
 
 
 def test_saccade_across_a_region_does_not_choose_it(rng):

@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 from eye_bci_ros2 import geometry
+from eye_bci_ros2.calibration import rviz_intrinsic
 from eye_bci_ros2.camera_model import (
     clip_polygons, look_at_pose, ogre_pose_from_optical, optical_pose_from_ogre,
-    parse_intrinsic, rviz_intrinsic, RvizCamera)
+    parse_intrinsic, RvizCamera)
 
 #: Focal length of a 720 px high panel at RViz's 45 degree vertical FOV, px.
 F_720 = 360.0 / np.tan(np.radians(22.5))
@@ -92,23 +93,6 @@ def test_look_at_pose_rejects_degenerate_views(eye, focus, up, message):
         look_at_pose(eye, focus, up)
 
 
-def test_rviz_intrinsic_by_hand():
-    intrinsic = rviz_intrinsic(1280, 720)
-    np.testing.assert_allclose(intrinsic, [[F_720, 0, 640, 0], [0, F_720, 360, 0], [0, 0, 1, 0]])
-    assert F_720 == pytest.approx(869.1168824543142)
-    # 90 degrees: tan(45) = 1, so f = H / 2.
-    assert rviz_intrinsic(800, 600, 90.0)[1, 1] == pytest.approx(300.0)
-
-
-@pytest.mark.parametrize('width, height, fov, message', [
-    (0, 720, 45.0, 'positive'), (1280, -1, 45.0, 'positive'),
-    (1280, 720, 180.0, 'field of view'), (1280, 720, 0.0, 'field of view'),
-])
-def test_rviz_intrinsic_rejects_bad_input(width, height, fov, message):
-    with pytest.raises(ValueError, match=message):
-        rviz_intrinsic(width, height, fov)
-
-
 def test_parse_intrinsic_accepts_12_numbers_row_major():
     values = [900.0, 0.5, 650.0, 0.0, 0.0, 905.0, 355.0, 0.0, 0.0, 0.0, 1.0, 0.0]
     np.testing.assert_array_equal(parse_intrinsic(values), np.reshape(values, (3, 4)))
@@ -135,6 +119,10 @@ def overhead_camera(screen_offset=(0.0, 0.0)):
 
 def test_project_points_by_hand():
     camera = overhead_camera()
+    # Default: the analytic RViz intrinsic, f = (720 / 2) / tan(22.5 deg) = 869.12 px.
+    assert F_720 == pytest.approx(869.1168824543142)
+    np.testing.assert_allclose(camera.intrinsic, [[F_720, 0, 640, 0], [0, F_720, 360, 0],
+                                                  [0, 0, 1, 0]])
     uv, depth = camera.project([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 20]])
     np.testing.assert_allclose(uv[:3], [[640, 360], [640 + F_720 / 10, 360],
                                         [640, 360 - F_720 / 10]])

@@ -7,14 +7,14 @@ from rclpy.parameter import Parameter
 from ros_harness import Collector
 
 from eye_bci_ros2 import geometry
-from eye_bci_ros2.nodes.camera_tracker import CameraTracker, RVIZ_POSE_QOS
+from eye_bci_ros2.nodes.camera_tracker import (
+    CameraTracker, DEFAULT_EYE, DEFAULT_FOCUS, DEFAULT_UP, RVIZ_POSE_QOS)
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
 from eye_bci_ros2.nodes.qos import LATCHED_QOS
 
 pytestmark = pytest.mark.ros
 
-DEFAULTS = {'world_frame': 'map', 'eye': [0.0, -8.0, 12.0], 'focus': [0.0, 0.0, 0.0],
-            'up': [0.0, 0.0, 1.0]}
+DEFAULTS = {'world_frame': 'map', 'eye': DEFAULT_EYE, 'focus': DEFAULT_FOCUS, 'up': DEFAULT_UP}
 
 
 def optical_axes(message: PoseStamped):
@@ -80,8 +80,8 @@ def test_ogre_pose_becomes_optical(graph):
 
 
 @pytest.mark.parametrize('values, reason', [
-    ({'eye': [0.0, 0.0, 0.0]}, 'equals focus'),
-    ({'eye': [0.0, 0.0, 9.0]}, 'parallel'),
+    ({'eye': DEFAULT_FOCUS}, 'equals focus'),
+    ({'eye': [DEFAULT_FOCUS[0], DEFAULT_FOCUS[1], 9.0]}, 'parallel'),
     ({'up': [0.0, 0.0, 0.0]}, 'zero'),
     ({'eye': [0.0, float('nan'), 9.0]}, 'NaN'),
     ({'focus': [1.0, 2.0]}, 'exactly 3 numbers'),
@@ -98,11 +98,11 @@ def test_degenerate_view_parameters_are_rejected_and_the_old_view_kept(graph, va
     assert (kept if name == 'world_frame' else list(kept)) == DEFAULTS[name]
     graph.spin_for(0.3)
     assert len(poses.messages) == 1
-    np.testing.assert_allclose(optical_axes(poses.last)[0], [0, -8, 12])
+    np.testing.assert_allclose(optical_axes(poses.last)[0], DEFAULT_EYE)
 
 
 def test_view_parameters_apply_at_once_until_rviz_publishes(graph):
-    _, rviz, poses = start(graph)
+    _, rviz, poses = start(graph, focus=[0.0, 0.0, 0.0])
     assert graph.spin_until(lambda: poses.messages, 10.0)
     results = graph.set_parameters('/camera_tracker', {'eye': [5.0, 0.0, 5.0]})
     assert results[0].successful
@@ -133,5 +133,5 @@ def test_bad_rviz_poses_are_ignored_and_the_last_good_one_kept(graph):
     # Messages arrive in order: the next good pose comes right after the first one.
     send(graph, rviz, poses, [4.0, 5.0, 6.0], [0.0, 0.0, 0.0, 1.0])
     positions = [optical_axes(message)[0].tolist() for message in poses.messages]
-    assert positions == [[0, -8, 12], [1, 2, 3], [4, 5, 6]]
+    assert positions == [DEFAULT_EYE, [1, 2, 3], [4, 5, 6]]
     assert tracker.context.ok()

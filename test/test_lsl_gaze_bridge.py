@@ -176,8 +176,9 @@ def test_newest_of_two_matching_outlets_is_used(graph):
     old, _ = make_outlet('xy_pixels', name=name)
     time.sleep(0.05)   # created_at has to differ
     new, new_info = make_outlet('xy_pixels', name=name)
-    # Slow first look so the resolver has heard from both outlets.
-    node, gaze = start_bridge(graph, stream_name=name, resolve_period_s=1.0)
+    # Slow first look so the resolver has heard from both outlets; no switching on silence.
+    node, gaze = start_bridge(graph, stream_name=name, resolve_period_s=1.0,
+                              stale_timeout_s=60.0)
     connect(graph, new)
     old.push_sample([0.0, 0.0])
     new.push_sample([1366.0, 768.0])
@@ -219,6 +220,19 @@ def test_quiet_stream_is_reported_and_resumes(graph):
     np.testing.assert_allclose(wait_for(graph, gaze, 2)[1], [3, 4])
     assert not node.stale
     assert node.stream_uid == info.uid()
+
+
+def test_quiet_stream_gives_way_to_a_newer_matching_one(graph):
+    name = unique_id('hung')
+    hung, _ = make_outlet('custom', name=name)
+    node, gaze = start_bridge(graph, profile='custom', stream_name=name, stale_timeout_s=0.3,
+                              resolve_period_s=0.1)
+    connect(graph, hung)
+    replacement, replacement_info = make_outlet('custom', name=name)
+    connect(graph, replacement)
+    assert node.stream_uid == replacement_info.uid()
+    replacement.push_sample([7.0, 8.0])
+    np.testing.assert_allclose(wait_for(graph, gaze, 1), [[7, 8]])
 
 
 def test_bad_parameter_values_are_rejected_with_a_reason(graph):

@@ -1,5 +1,6 @@
 """marker_projector on a real ROS 2 graph, against hand-computed regions."""
 
+from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped
 import numpy as np
 import pytest
@@ -25,6 +26,8 @@ class Rig:
 
     def __init__(self, graph, **overrides):
         self.graph = graph
+        # Hand-computed pixels below are image px unless a test sets an offset.
+        overrides = {'screen_offset_x': 0, 'screen_offset_y': 0, **overrides}
         self.node = graph.add(MarkerProjector, parameter_overrides=[
             Parameter(name, value=value) for name, value in overrides.items()])
         helper = graph.node('projector_test')
@@ -32,16 +35,18 @@ class Rig:
         self.camera = helper.create_publisher(PoseStamped, 'camera/pose', LATCHED_QOS)
         self.regions = Collector(helper, MarkerArray, 'choices/regions', LATCHED_QOS)
 
-    def look(self, eye, focus, up, frame='map'):
+    def look(self, eye, focus, up, frame='map', stamp=None):
         """Publish an optical camera pose looking from eye at focus."""
         message = PoseStamped()
         message.header.frame_id = frame
+        if stamp is not None:
+            message.header.stamp = stamp
         message.pose = arrays_to_pose(*look_at_pose(eye, focus, up))
         self.camera.publish(message)
 
-    def look_down(self, x=0.0, y=0.0):
+    def look_down(self, x=0.0, y=0.0, stamp=None):
         """Put the camera 10 m above (x, y, 0) looking down, world +y up on the screen."""
-        self.look([x, y, 10.0], [x, y, 0.0], [0.0, 1.0, 0.0])
+        self.look([x, y, 10.0], [x, y, 0.0], [0.0, 1.0, 0.0], stamp=stamp)
 
     def send(self, *markers):
         """Publish a MarkerArray of ``markers``."""
@@ -243,7 +248,10 @@ def test_camera_move_reprojects_and_a_bad_camera_is_ignored(graph):
     rig.send(cube('rooms', 0, [0, 0, 0]), cube('rooms', 1, [2, 0, 0]))
     first = rig.next_regions(rig.look_down)
     assert corners(first['rooms/0']) == square(640, 360)
-    moved = rig.next_regions(lambda: rig.look_down(x=2.0))
+    # Regions carry the stamp of the camera pose that moved them (when the screen changed).
+    moved_at = rig.node.get_clock().now().to_msg()
+    moved = rig.next_regions(lambda: rig.look_down(x=2.0, stamp=moved_at))
+    assert rig.regions.last.markers[0].header.stamp == moved_at
     # Now right above rooms/1; rooms/0 spans x = -3..-1 m from the camera and
     # shows its near side face (bottom edge 10.005 m deep).
     assert corners(moved['rooms/1']) == square(640, 360)
@@ -258,6 +266,9 @@ def test_camera_move_reprojects_and_a_bad_camera_is_ignored(graph):
     rig.look([0, 0, 10], [0, 0, 0], [0, 1, 0], frame='base_link')  # wrong frame
     rig.settle(0.5)
     assert len(rig.regions.messages) == count
+    # A pose stamped in the past does not send region stamps backwards.
+    rig.next_regions(lambda: rig.look_down(x=2.0, stamp=Time(sec=1)))
+    assert rig.regions.last.markers[0].header.stamp == moved_at
     # Behind the camera once it looks up: everything is left out.
     regions = rig.next_regions(lambda: rig.look([0, 0, 10], [0, 0, 20], [0, 1, 0]))
     assert regions == {}

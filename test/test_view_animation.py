@@ -15,7 +15,7 @@ KITCHEN = as_view([5.0, 4.0, 6.5], [5.0, 9.3, 0.0], [0.0, 0.0, 1.0])
 
 
 def assert_valid(view):
-    """The view must make a camera; return its unit forward and up-across-view."""
+    """Check the view makes a camera; return its unit forward and up-across-view."""
     external = geometry.look_at(*view)
     return external[2, :3], -external[1, :3]
 
@@ -130,12 +130,8 @@ def test_optical_pose_round_trip_recovers_a_floor_focus():
         eye, focus, up = view_from_optical_pose(*optical_pose(*view))
         np.testing.assert_allclose(eye, view[0], atol=1e-12)
         np.testing.assert_allclose(focus, view[1], atol=1e-9)
-        np.testing.assert_allclose(geometry.look_at(eye, focus, up), view_external(view),
+        np.testing.assert_allclose(geometry.look_at(eye, focus, up), geometry.look_at(*view),
                                    atol=1e-12)
-
-
-def view_external(view):
-    return geometry.look_at(*view)
 
 
 def test_pose_that_misses_the_floor_uses_the_fallback_distance():

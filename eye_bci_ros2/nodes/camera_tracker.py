@@ -32,10 +32,12 @@ RVIZ_POSE_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=10,
     reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 
-#: Default static view: 8 m behind and 12 m above the map origin, looking at
-#: it from about 56 degrees above the horizon (an overview of a floor plan).
-DEFAULT_EYE = [0.0, -8.0, 12.0]
-DEFAULT_FOCUS = [0.0, 0.0, 0.0]
+#: Default static view: the overview of the default scene (config/scene.yaml,
+#: a 20 m x 12 m map), from 17 m up and 8 m south of the map centre (10, 6, 0),
+#: looking at it (65 degrees below the horizon); the same as sim_rviz_view's
+#: initial view, so start-up order does not matter in the demo.
+DEFAULT_EYE = [10.0, -2.0, 17.0]
+DEFAULT_FOCUS = [10.0, 6.0, 0.0]
 DEFAULT_UP = [0.0, 0.0, 1.0]
 
 

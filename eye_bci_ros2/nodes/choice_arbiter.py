@@ -1,4 +1,5 @@
-"""Node choice_arbiter: decide from gaze which offered region the person chose.
+"""
+Node choice_arbiter: decide from gaze which offered region the person chose.
 
 Subscribes ``gaze`` (geometry_msgs/PointStamped, frame ``screen``, px),
 ``choices/regions`` (visualization_msgs/MarkerArray, latched) and

@@ -16,11 +16,11 @@ Topics:
   camera pose (z forward, x right, y down) of the view to show;
 * publishes ``choice_menu/result`` std_msgs/String: each outcome;
 * publishes ``choice/request`` std_msgs/Empty: asks the choice_arbiter for a
-  fresh decision whenever new options are offered and after an invalid
-  choice.  The arbiter also starts a round when the label set of the regions
-  changes; the request covers what that misses (options offered again with
-  the same labels, e.g. a reloaded scene, and a choice this menu could not
-  use, after which the arbiter would otherwise wait);
+  fresh decision when it would not start one by itself.  The arbiter starts
+  a round whenever the set of offered labels changes, which covers every
+  normal step (rooms -> tables -> rooms), so the menu requests only when it
+  offers the same labels again (a reloaded scene, a new ``world_frame``) and
+  after a choice it cannot use (else the arbiter would wait for ever);
 * subscribes ``choice`` std_msgs/String: the label chosen; anything that is
   not one of the current options is logged and ignored.
 
@@ -87,6 +87,7 @@ class ChoiceMenu(Node):
         self._world_frame = values['world_frame']
         self._room: Optional[Room] = None
         self._finished = False
+        self._offered: Sequence[str] = ()
 
         self._choices_pub = self.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
         self._goal_pub = self.create_publisher(PoseStamped, 'camera/goal', LATCHED_QOS)
@@ -150,13 +151,11 @@ class ChoiceMenu(Node):
         self._room = None
         self._publish_goal(self._scene.overview)
         self._publish_choices([room.marker for room in self._scene.rooms], ROOMS_NS)
-        self._request_pub.publish(Empty())
 
     def _offer_tables(self, room: Room) -> None:
         self._room = room
         self._publish_goal(room.view)
         self._publish_choices([table.marker for table in room.tables], TABLES_NS)
-        self._request_pub.publish(Empty())
 
     def _finish(self) -> None:
         self._finished = True
@@ -188,6 +187,11 @@ class ChoiceMenu(Node):
              marker.color.a) = (float(v) for v in source.color)
             array.markers.append(marker)
         self._choices_pub.publish(array)
+        labels = tuple(marker.text for marker in markers)
+        if labels and set(labels) == set(self._offered):
+            # Same labels again: the arbiter would not see a change.
+            self._request_pub.publish(Empty())
+        self._offered = labels
 
     def _check_scene_file(self, value: str) -> Optional[str]:
         try:

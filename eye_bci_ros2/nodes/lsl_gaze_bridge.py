@@ -183,6 +183,7 @@ class _Connection:
     time_correction: Optional[float] = None
     time_correction_at: float = 0.0
     arrival_stamps: bool = False
+    reading_since: Optional[float] = None
     last_sample_at: Optional[float] = None
     stale: bool = False
 
@@ -317,9 +318,9 @@ class LslGazeBridge(Node):
             if connection.time_correction is None or now - connection.time_correction_at >= \
                     self._params['time_correction_period_s']:
                 self._refresh_time_correction(connection, now)
-            quiet_since = connection.last_sample_at or connection.connected_at
-            if now - quiet_since < self._params['stale_timeout_s']:
-                return
+            quiet_since = connection.last_sample_at or connection.reading_since
+            if quiet_since is None or now - quiet_since < self._params['stale_timeout_s']:
+                return  # still waiting for the clock offset, or not quiet
             if not connection.stale:
                 connection.stale = True
                 self.get_logger().warning(
@@ -457,6 +458,8 @@ class LslGazeBridge(Node):
                     f'no clock offset from {connection.description} after '
                     f'{CLOCK_SYNC_TIMEOUT_S:g} s (LSL time service unreachable?): stamping '
                     f'samples with their arrival time')
+        if connection.reading_since is None:
+            connection.reading_since = now
         try:
             for _ in range(MAX_PULLS_PER_POLL):
                 samples, timestamps = connection.inlet.pull_chunk(

@@ -25,9 +25,11 @@ from typing import Any, Dict, List, Optional, Tuple
 from geometry_msgs.msg import PoseStamped
 import numpy as np
 from rclpy.node import Node
+from rclpy.time import Time
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.camera_model import parse_intrinsic, rviz_intrinsic, RvizCamera
+from eye_bci_ros2.calibration import rviz_intrinsic
+from eye_bci_ros2.camera_model import parse_intrinsic, RvizCamera
 from eye_bci_ros2.geometry import external_from_pose
 from eye_bci_ros2.nodes.conversions import pose_to_arrays, regions_to_marker_array
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
@@ -36,6 +38,10 @@ from eye_bci_ros2.nodes.runner import spin_node
 
 #: Largest render panel side accepted, px.
 MAX_IMAGE_SIDE = 16384
+
+#: Where the default 1280x720 render panel sits: centred on a 1920x1080 screen,
+#: as in the default scene (config/scene.yaml).  Measure it for a real RViz.
+DEFAULT_SCREEN_OFFSET = (320, 180)
 
 #: How often the same warning about bad input may be logged, s.
 WARN_PERIOD_S = 5.0
@@ -183,10 +189,10 @@ PARAMETERS: List[ParamSpec] = [
               'Calibrated 3x4 intrinsic, 12 numbers row-major [fx, s, cx, tx, 0, fy, cy, '
               'ty, 0, 0, 1, 0]; empty = analytic RViz intrinsic (image size, fov_y_deg).',
               check=_intrinsic_values, array_type='double_array'),
-    ParamSpec('screen_offset_x', 0,
+    ParamSpec('screen_offset_x', DEFAULT_SCREEN_OFFSET[0],
               "X0: screen x of the render panel's left edge, px (screen = image + X0).",
               value_range=(-MAX_IMAGE_SIDE, MAX_IMAGE_SIDE)),
-    ParamSpec('screen_offset_y', 0,
+    ParamSpec('screen_offset_y', DEFAULT_SCREEN_OFFSET[1],
               "Y0: screen y of the render panel's top edge, px (screen = image + Y0).",
               value_range=(-MAX_IMAGE_SIDE, MAX_IMAGE_SIDE)),
     ParamSpec('clip_to_image', True,
@@ -232,6 +238,7 @@ class MarkerProjector(Node):
         self._camera_frame: Optional[str] = None  # None until a camera pose arrives
         self._table = MarkerTable()
         self._warned: Dict[str, float] = {}
+        self._last_stamp: Optional[Time] = None
         self._publisher = self.create_publisher(MarkerArray, 'choices/regions', LATCHED_QOS)
         self.create_subscription(MarkerArray, 'choices', self._on_markers, LATCHED_QOS)
         self.create_subscription(PoseStamped, 'camera/pose', self._on_camera, LATCHED_QOS)
@@ -270,7 +277,9 @@ class MarkerProjector(Node):
             return
         self._camera = self._camera.replace(external=external)
         self._camera_frame = frame
-        self._publish()
+        # The screen changed when RViz moved the camera (the pose's stamp), not now.
+        stamp = Time.from_msg(message.header.stamp, clock_type=self.get_clock().clock_type)
+        self._publish(stamp if stamp.nanoseconds > 0 else None)
 
     def _on_markers(self, message: MarkerArray) -> None:
         problems = [problem for problem in map(self._apply, message.markers) if problem]
@@ -315,7 +324,8 @@ class MarkerProjector(Node):
         self._warned[text] = now
         self.get_logger().warning(text)
 
-    def _publish(self) -> None:
+    def _publish(self, stamp: Optional[Time] = None) -> None:
+        """Publish the regions of every marker, stamped ``stamp`` (default now)."""
         if self._camera_frame is None:
             self.get_logger().info('no camera/pose yet: regions wait for it', once=True)
             return
@@ -324,14 +334,22 @@ class MarkerProjector(Node):
         rows = np.zeros(0, dtype=np.intp)
         if count:
             table = self._table
-            polygons, visible = self._camera.box_regions(
-                table.positions[:count], table.quaternions[:count], table.scales[:count],
-                clip=self._params['clip_to_image'])
+            try:
+                polygons, visible = self._camera.box_regions(
+                    table.positions[:count], table.quaternions[:count], table.scales[:count],
+                    clip=self._params['clip_to_image'])
+            except ValueError as error:  # the table holds checked values: a bug if it happens
+                self._warn(f'cannot project the markers: {error}; regions not updated')
+                return
             visible &= table.frames[:count] == self._params['world_frame']
             rows = np.flatnonzero(visible)
+        # Stamps never go back, so consumers can order region sets by them.
+        stamp = stamp or self.get_clock().now()
+        if self._last_stamp is not None and stamp < self._last_stamp:
+            stamp = self._last_stamp
+        self._last_stamp = stamp
         message = regions_to_marker_array(
-            polygons[rows], [self._table.sources[row] for row in rows],
-            self.get_clock().now().to_msg())
+            polygons[rows], [self._table.sources[row] for row in rows], stamp.to_msg())
         self._publisher.publish(message)
 
 

@@ -119,6 +119,12 @@ class SimRvizView(Node):
             return self._animation.view_at(self._now())
         return tuple(v.copy() for v in self._view)
 
+    def target_view(self) -> ViewTuple:
+        """Return the view being moved to (the current view when still)."""
+        if self._animation is not None:
+            return tuple(v.copy() for v in self._animation.goal)
+        return tuple(v.copy() for v in self._view)
+
     @property
     def moving(self) -> bool:
         """Tell whether an animated move is under way."""
