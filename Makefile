@@ -6,6 +6,8 @@ STAMP := $(VENV)/.installed
 # Each test picks its own ROS domain; keep discovery on this machine.
 export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 export PYTHONDONTWRITEBYTECODE := 1
+# numpy's BLAS threads fight the nodes and each other on small machines (see bench/).
+export OPENBLAS_NUM_THREADS ?= 1
 
 .PHONY: demo test bench soak accuracy lint build clean
 

@@ -1,19 +1,22 @@
 """
 Benchmark: gaze samples classified into screen regions per second.
 
-Three paths are measured against R = 3, 10 and 100 regions:
+These paths are measured against R = 3, 10 and 100 regions:
 
 * batch: :meth:`eye_bci_ros2.geometry.PolygonSet.contains` on a large array
   of samples in chunks of :data:`CHUNK` (bounded memory: the (chunk, R * K)
   edge-value matrix stays in cache), reduced to one region index per sample;
-* per message: one sample at a time through the call the arbiter node makes
-  per gaze message (:meth:`eye_bci_ros2.arbitration.RegionSet.classify_one`,
+* per message: one sample at a time through the per-sample classification
+  of the arbiter's core (:meth:`eye_bci_ros2.arbitration.RegionSet.classify_one`,
   or :class:`~eye_bci_ros2.geometry.PolygonSet` on a (1, 2) array while that
-  module does not exist);
+  module does not exist); and, as ``per_message_tracker_samples_per_s``, one
+  sample per :meth:`eye_bci_ros2.arbitration.ChoiceTracker.add_sample` call,
+  the choice_arbiter node's work per gaze message without ROS (classification
+  plus the round's bookkeeping);
 * reference: the original way, a Python loop over samples and regions
   (:func:`bench.reference_original.classify_original`).
 
-All three must give every sample the same region.  Regions are hexagons and
+All of them must give every sample the same region.  Regions are hexagons and
 quadrilaterals (what box silhouettes look like) of 60-200 px on a 1920x1080
 screen, one per cell of a grid so that they do not overlap; half the samples
 are fixations scattered around region centres, half anywhere on the screen.
@@ -35,8 +38,9 @@ except ModuleNotFoundError as error:  # not written yet: fall back to the geomet
     arbitration = None
 
 #: Metrics shown in the printed table (the JSON has them all).
-TABLE_COLUMNS = ('samples_per_s', 'per_message_samples_per_s', 'reference_samples_per_s',
-                 'speedup', 'in_region_fraction', 'agrees')
+TABLE_COLUMNS = ('samples_per_s', 'per_message_samples_per_s',
+                 'per_message_tracker_samples_per_s', 'reference_samples_per_s', 'speedup',
+                 'in_region_fraction', 'agrees')
 #: Screen size, px.
 SCREEN_SIZE = (1920, 1080)
 #: Region counts R of a run.
@@ -148,13 +152,39 @@ def per_message_classifier(polygons: np.ndarray) -> Tuple[str, Callable[[float, 
     return 'geometry.PolygonSet.contains', classify_polygon_set
 
 
+def per_message_tracker(polygons: np.ndarray) -> Optional[Callable[[list], object]]:
+    """
+    Return ``f(points)`` feeding samples one by one to the arbiter's core, or None without it.
+
+    ``f`` opens a round on ``polygons`` in a fresh
+    :class:`eye_bci_ros2.arbitration.ChoiceTracker` (window long enough for
+    every sample, no early decision), passes each sample to
+    :meth:`~eye_bci_ros2.arbitration.ChoiceTracker.add_sample` as the
+    choice_arbiter node does per gaze message (stamps 1 ms apart), then closes
+    the round and returns its decision.
+    """
+    if arbitration is None or not hasattr(arbitration, 'ChoiceTracker'):
+        return None
+    region_set = arbitration.RegionSet([str(i) for i in range(len(polygons))], polygons, 0.0)
+
+    def feed(points: list) -> object:
+        window_s = len(points) * 1e-3 + 1.0
+        tracker = arbitration.ChoiceTracker(arbitration.ArbiterSettings(window_s=window_s))
+        tracker.add_regions(region_set, now=0.0)  # new labels: a round starts at stamp 0
+        for index, (x, y) in enumerate(points):
+            stamp = index * 1e-3
+            tracker.add_sample(stamp, x, y, stamp)
+        return tracker.tick(now=2 * window_s + tracker.settings.stall_timeout_s)
+    return feed
+
+
 def _measure_regions(count: int, samples: int, messages: int, reference_samples: int,
                      chunk: int, quick: bool, seed: int) -> Dict:
     """Throughput of the three paths against ``count`` regions."""
     polygons = make_regions(count, seed)
     points = make_gaze(samples, polygons, seed + 1)
     polygon_set = geometry.PolygonSet(polygons)
-    repeat = 3 if quick else 7
+    repeat = 3 if quick else 5
     batch = measure(lambda: classify_batch(polygon_set, points, chunk), repeat=repeat,
                     number=1, warmup=1)
 
@@ -164,6 +194,10 @@ def _measure_regions(count: int, samples: int, messages: int, reference_samples:
     def per_message() -> list:
         return [classify_one(x, y) for x, y in message_points]
     message = measure(per_message, repeat=repeat, number=1, warmup=1)
+    feed = per_message_tracker(polygons)
+    tracker = None
+    if feed is not None:
+        tracker = measure(lambda: feed(message_points), repeat=repeat, number=1, warmup=1)
 
     reference_points = points[:reference_samples].tolist()
     reference_polygons = polygons.tolist()
@@ -178,7 +212,14 @@ def _measure_regions(count: int, samples: int, messages: int, reference_samples:
                                                             reference_polygons)
     agrees = bool(np.array_equal(labels[:check], reference_labels)
                   and np.array_equal(labels[:check], per_message()[:check]))
-    return {
+    if feed is not None:
+        # The round must have counted exactly the in-region samples the batch found.
+        round_counts = feed(message_points).counts
+        found = labels[:messages]
+        expected = {str(region): int(np.count_nonzero(found == region))
+                    for region in np.unique(found[found >= 0])}
+        agrees = agrees and {k: v for k, v in round_counts.items() if v} == expected
+    result = {
         'samples_per_s': samples / batch.median_s,
         'samples_per_s_best': samples / batch.min_s,
         'per_message_samples_per_s': messages / message.median_s,
@@ -190,6 +231,9 @@ def _measure_regions(count: int, samples: int, messages: int, reference_samples:
         'in_region_fraction': float(np.mean(labels >= 0)),
         'agrees': agrees,
     }
+    if tracker is not None:
+        result['per_message_tracker_samples_per_s'] = messages / tracker.median_s
+    return result
 
 
 def run(quick: bool = False, region_counts: Optional[Sequence[int]] = None,
@@ -206,7 +250,8 @@ def run(quick: bool = False, region_counts: Optional[Sequence[int]] = None,
     :returns: ``{str(R): {'samples_per_s', 'samples_per_s_best',
         'per_message_samples_per_s', 'reference_samples_per_s', 'speedup',
         'batch_samples', 'chunk', 'per_message_api', 'in_region_fraction',
-        'agrees'}}``; rates are samples per second from median times.
+        'agrees'[, 'per_message_tracker_samples_per_s']}}``; rates are samples
+        per second from median times; ``speedup`` is batch over reference.
     """
     if region_counts is None:
         region_counts = REGION_COUNTS

@@ -138,6 +138,17 @@ def run_protocol(trials: int = 200, seed: int = 0, noise_px: float = 1.0, count:
     return results
 
 
+#: Metrics shown by ``make bench`` (bench/run_all.py).
+TABLE_COLUMNS = ('median_px', 'p90_px', 'median_vs_reading_px', 'failures')
+
+
+def run(quick: bool = False) -> Dict[str, Dict[str, float]]:
+    """Run the protocol for ``make bench``: rows ``case/method`` (20 trials when quick)."""
+    results = run_protocol(trials=20 if quick else 200)
+    return {f'{case}/{method}': stats
+            for case, methods in results.items() for method, stats in methods.items()}
+
+
 def _pixels(projection: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Exact pixels (N, 2) of points (N, 3) under a 3x4 projection."""
     homogeneous = points @ projection[:, :3].T + projection[:, 3]

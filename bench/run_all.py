@@ -37,6 +37,7 @@ REGISTRY: Dict[str, str] = {
     'arbitration': 'bench.arbitration',
     'latency': 'bench.latency',
     'decision': 'bench.decision',
+    'calibration': 'bench.calibration_protocol',
 }
 
 #: Default output: bench_results.json at the repository root.

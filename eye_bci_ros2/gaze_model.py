@@ -500,7 +500,7 @@ class _Run:
         if excess <= 0 or sd <= 0:
             return person.latency_min_ms / 1e3 + excess
         shape = (excess / sd) ** 2
-        return person.latency_min_ms / 1e3 + 0.9 * self.rng_latency.gamma(shape, excess / shape)
+        return person.latency_min_ms / 1e3 + self.rng_latency.gamma(shape, excess / shape)
 
     def add_target(self, xy: Target, t: float) -> None:
         """Show a target (or none) from time t on; earlier times are moved to now."""
@@ -586,7 +586,7 @@ class _Run:
         eye = starts + (goals - starts) * _minimum_jerk(tau)[:, None]
 
         error = self.sim.offset_vector_deg + self.sim.drift_deg(t)
-        error = error + self.rng_jitter.standard_normal((n, 2)) * person.jitter_deg * 1.1
+        error = error + self.rng_jitter.standard_normal((n, 2)) * person.jitter_deg
         xy = person.screen.rotate_gaze(eye, error)
 
         dropped = self.rng_loss.random(n) < person.loss_prob

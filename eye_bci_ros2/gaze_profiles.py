@@ -1,4 +1,5 @@
-"""Map eye-tracker LSL samples to gaze points on the screen: pure numpy, no rclpy, no pylsl.
+"""
+Map eye-tracker LSL samples to gaze points on the screen: pure numpy, no rclpy, no pylsl.
 
 Every supported tracker application is a :class:`Profile`: how it names and
 types its LSL stream, which channels hold the gaze point, their units and

@@ -352,8 +352,17 @@ class PolygonSet:
     Convex polygons prepared for fast point tests (edge half-planes as a matrix).
 
     Each edge k of polygon r is the half-plane ``a x + b y + c >= 0``; testing
-    N points is one (N, 3) x (3, R*K) product, then a minimum over K.
+    N points is one (N, 3) x (3, K*R) product, then a minimum over K.  The
+    columns are edge-major (all polygons' edge 0, then edge 1, ...) so the
+    minimum is K - 1 element-wise passes over contiguous (N, R) slices, which
+    is ~10x faster than numpy's reduction over a short trailing axis; large N
+    is processed in blocks whose (block, K*R) products stay in cache.
     """
+
+    #: Bytes of the (block, K*R) edge-value matrix of one block of points.
+    BLOCK_BYTES = 1 << 20
+    #: Up to this many points one vectorised pass is cheapest (per-message path).
+    SMALL_BATCH = 32
 
     def __init__(self, polygons):
         """Prepare ``polygons`` (R, K, 2), convex, any winding, NaN = empty."""
@@ -373,8 +382,11 @@ class PolygonSet:
         a = edge[..., 1]
         b = -edge[..., 0]
         c = -(a * start[..., 0] + b * start[..., 1])
-        self._coefficients = np.stack([a, b, c]).reshape(3, -1)
+        # Edge-major columns: column k * R + r is edge k of polygon r.
+        self._coefficients = np.ascontiguousarray(
+            np.stack([a, b, c]).transpose(0, 2, 1).reshape(3, -1))
         self._valid = valid
+        self._block = max(256, self.BLOCK_BYTES // (8 * max(1, self.count * self.vertex_count)))
 
     def contains(self, points, tolerance: float = 1e-9) -> np.ndarray:
         """
@@ -387,12 +399,25 @@ class PolygonSet:
         if points.ndim not in (1, 2) or points.shape[-1] != 2:
             raise ValueError(f'points must have shape (N, 2), got {points.shape}')
         points = points.reshape(-1, 2)
-        homogeneous = np.empty((len(points), 3))
-        homogeneous[:, :2] = points
-        homogeneous[:, 2] = 1.0
-        values = homogeneous @ self._coefficients
-        worst = values.reshape(len(points), self.count, self.vertex_count).min(axis=2)
-        return (worst >= -tolerance) & self._valid[None, :]
+        count, regions, edges = len(points), self.count, self.vertex_count
+        if count <= self.SMALL_BATCH:
+            homogeneous = np.empty((count, 3))
+            homogeneous[:, :2] = points
+            homogeneous[:, 2] = 1.0
+            worst = (homogeneous @ self._coefficients).reshape(count, edges, regions).min(axis=1)
+            return (worst >= -tolerance) & self._valid[None, :]
+        inside = np.empty((count, regions), dtype=bool)
+        homogeneous = np.ones((min(count, self._block), 3))
+        for start in range(0, count, self._block):
+            size = min(self._block, count - start)
+            homogeneous[:size, :2] = points[start:start + size]
+            values = (homogeneous[:size] @ self._coefficients).reshape(size, edges, regions)
+            worst = values[:, 0].copy()
+            for edge in range(1, edges):
+                np.minimum(worst, values[:, edge], out=worst)
+            np.greater_equal(worst, -tolerance, out=inside[start:start + size])
+        inside &= self._valid[None, :]
+        return inside
 
 
 def back_project(pixels, intrinsic, external) -> Tuple[np.ndarray, np.ndarray]:

@@ -102,7 +102,7 @@ class GazeStreamer:
         if not name or not source_id:
             raise ValueError('the stream needs a non-empty name and source_id')
         #: Person's screen px -> source px, per axis.
-        self.scale = source[::-1] / screen.size_px[::-1]
+        self.scale = source / screen.size_px
         self.source_size = (int(source[0]), int(source[1]))
         self.chunk_s = chunk_ms / 1e3
         self.delay_s = tracker.delay_ms / 1e3

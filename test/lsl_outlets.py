@@ -1,4 +1,5 @@
-"""Real LSL outlets laid out like each eye-tracker application, for tests and simulations.
+"""
+Real LSL outlets laid out like each eye-tracker application, for tests and simulations.
 
 Each profile of :mod:`eye_bci_ros2.gaze_profiles` names an application; the
 outlets made here advertise the same stream type, channel count, channel

@@ -143,6 +143,9 @@ def test_vote_and_mean_differ_when_the_mean_falls_between(graph):
     rig.send(np.vstack([between, rig.looks(LEFT, 10)]), start)
     decision = rig.wait_decision()
     assert decision.label is None and 'no region' in decision.reason
+    # The samples were stamped up to 1.1 s ahead of the clock; let the ones past the
+    # window arrive before the next round, whose window they would otherwise close.
+    graph.spin_for(0.3)
     assert rig.labels == []
 
     result = graph.set_parameters('/choice_arbiter', {'method': 'vote'})
@@ -221,9 +224,27 @@ def test_new_choices_start_a_round_but_moved_ones_do_not(graph):
     assert rig.labels == ['room1', 'table2']
 
 
+def test_late_regions_reclassify_the_open_round(graph):
+    # Default reorder_s (0): A and B swap places 0.3 s into the round; the gaze
+    # samples after the swap arrive 0.2 s before the regions message that
+    # announces it, and the window ends after that message.
+    rig = Rig(graph)
+    start = rig.offer({'A': LEFT, 'B': RIGHT})
+    swap = start + 0.3
+    rig.send(rig.looks(RIGHT, 60), swap)
+    graph.spin_for(0.2)
+    rig.offer({'A': RIGHT, 'B': LEFT}, stamp=swap, new_round=False)
+    graph.spin_for(0.1)
+    rig.send(rig.looks(RIGHT, 20), swap + 0.6)
+    assert graph.spin_until(lambda: rig.choices.messages, 10.0)
+    assert rig.labels == ['A']
+    assert rig.arbiter.last_decision.counts == {'A': 70, 'B': 0}
+
+
 def test_samples_use_the_regions_shown_at_their_time(graph):
     # A and B swap places 0.3 s into the round, and the gaze samples after the
-    # swap arrive 0.2 s before the regions message that announces it.
+    # swap, including the one that ends the window, arrive 0.2 s before the
+    # regions message that announces it: the decision waits for it.
     rig = Rig(graph, reorder_s=0.6)  # longer than the 0.2 s the regions lag
     start = rig.offer({'A': LEFT, 'B': RIGHT})
     swap = start + 0.3

@@ -75,6 +75,9 @@ def start(graph, **overrides):
     menu = graph.add(ChoiceMenu, parameter_overrides=[
         Parameter(name, value=value) for name, value in overrides.items()])
     probe.wait_labels(ROOMS)
+    assert graph.spin_until(lambda: probe.publisher.get_subscription_count() > 0 and all(
+        menu.count_subscribers(topic) > 0 for topic in ('choice_menu/result', 'choice/request')),
+        10.0)
     return menu, probe
 
 

@@ -72,6 +72,7 @@ def test_pipeline_follows_the_menu_through_the_simulated_view(graph):
 
     # As if the arbiter had decided: the menu zooms into the kitchen, the
     # simulated RViz eases there, the projector follows the camera.
+    assert graph.spin_until(lambda: choose.get_subscription_count() > 0, 10.0)
     choose.publish(String(data='kitchen'))
     kitchen = SCENE.room('kitchen')
     tables = [table.marker for table in kitchen.tables]

@@ -1,18 +1,18 @@
 """Pure tests of the gaze profiles: configuration, channel mapping, conversion (no ROS, no LSL)."""
 
+from lsl_outlets import sample_for
 import numpy as np
 import pytest
 
 from eye_bci_ros2.gaze_profiles import (
     build_config, convert, PROFILE_NAMES, PROFILES, resolve_mapping, stream_matches,
     xpath_predicate)
-from lsl_outlets import sample_for
 
 NAN = float('nan')
 
 
 def mapping_for(profile, labels=None, channel_count=None, **params):
-    """Mapping of ``profile`` (plus parameters) onto a stream laid out as its app does."""
+    """Map ``profile`` (plus parameters) onto a stream laid out as its app lays it out."""
     config = build_config({'profile': profile, **params})
     spec = PROFILES[profile]
     if labels is None:

@@ -4,15 +4,15 @@ import gc
 import time
 
 from geometry_msgs.msg import PointStamped
+from lsl_outlets import bridge_parameters, make_outlet, sample_for, unique_id
 import numpy as np
 import pylsl
 import pytest
 from rclpy.parameter import Parameter
+from ros_harness import Collector
 
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.qos import GAZE_QOS
-from lsl_outlets import bridge_parameters, make_outlet, sample_for, unique_id
-from ros_harness import Collector
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 
@@ -36,7 +36,7 @@ def connect(graph, outlet):
 
 
 def ros_now_ns(graph):
-    """ROS time now on the graph's clock, ns."""
+    """Return ROS time now on the graph's clock, ns."""
     return graph.nodes[0].get_clock().now().nanoseconds
 
 
@@ -48,12 +48,12 @@ def wait_for(graph, collector, count):
 
 
 def points_of(messages):
-    """Points of PointStamped messages as an (N, 2) array."""
+    """Return the points of PointStamped messages as an (N, 2) array."""
     return np.array([[m.point.x, m.point.y] for m in messages]).reshape(-1, 2)
 
 
 def stamp_ns(message):
-    """A message's stamp, ns."""
+    """Return a message's stamp, ns."""
     return message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
 
 

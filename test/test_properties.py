@@ -206,28 +206,32 @@ def region_sets(draw):
 
 @st.composite
 def gaze_samples(draw, polygons, count=None):
-    """Gaze points (N, 2) on the 1/8 px grid: mostly in regions, some anywhere (or NaN)."""
+    """
+    Gaze points (N, 2) on the 1/8 px grid: mostly in regions, some anywhere, some NaN (blinks).
+
+    Drawn from a seeded generator: hypothesis picks the count and the seed,
+    which keeps hundreds of samples per example fast.
+    """
     if count is None:
-        count = draw(st.integers(1, 120))
-    points = []
-    for _ in range(count):
-        kind = draw(st.integers(0, 9))
-        if kind < 7:
-            polygon = polygons[draw(st.integers(0, len(polygons) - 1))]
-            low, high = polygon.min(axis=0), polygon.max(axis=0)
-            points.append([draw(eighths(low[0], high[0])), draw(eighths(low[1], high[1]))])
-        elif kind < 9:
-            points.append([draw(eighths(-100, SCREEN[0] + 100)),
-                           draw(eighths(-100, SCREEN[1] + 100))])
-        else:
-            points.append([math.nan, math.nan])   # a blink
-    return np.array(points)
+        count = draw(st.integers(1, 200))
+    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
+    chosen = polygons[rng.integers(0, len(polygons), count)]
+    low, high = chosen.min(axis=1), chosen.max(axis=1)
+    points = low + rng.random((count, 2)) * (high - low)
+    anywhere = rng.random(count) < 0.2
+    points[anywhere] = rng.uniform([-100, -100], [SCREEN[0] + 100, SCREEN[1] + 100],
+                                   (int(anywhere.sum()), 2))
+    points = np.round(points * 8) / 8
+    points[rng.random(count) < 0.05] = math.nan
+    return points
 
 
 def same_decision(first, second):
     """Assert two decisions agree on what a user sees: label, counts and mean point."""
     assert first.label == second.label, (first, second)
-    assert first.counts == second.counts
+    # Labels without samples may be listed with 0 or left out.
+    assert {k: n for k, n in first.counts.items() if n} == \
+        {k: n for k, n in second.counts.items() if n}
     assert first.in_region_samples == second.in_region_samples
     assert first.samples_used == second.samples_used
 
@@ -245,17 +249,19 @@ def edge_margin(region_set: RegionSet, point) -> float:
        offset=st.tuples(st.integers(-4000, 4000), st.integers(-4000, 4000)))
 def test_shifting_regions_and_gaze_together_keeps_every_decision(regions, data, offset):
     labels, polygons = regions
-    # A power-of-two count keeps the mean exact under the shift.
-    count = 2 ** data.draw(st.integers(0, 7))
-    points = data.draw(gaze_samples(polygons, count))
+    points = data.draw(gaze_samples(polygons))
     offset = np.array(offset, dtype=float)
     here = RegionSet(labels, polygons)
     there = RegionSet(labels, polygons + offset)
-    for rule in (decide_mean, decide_vote):
-        first, second = rule(points, here), rule(points + offset, there)
-        same_decision(first, second)
-        if first.mean_point is not None:
-            np.testing.assert_array_equal(np.add(first.mean_point, offset), second.mean_point)
+    # The vote only counts exact half-plane tests: always the same.
+    same_decision(decide_vote(points, here), decide_vote(points + offset, there))
+    first, second = decide_mean(points, here), decide_mean(points + offset, there)
+    if first.mean_point is not None:
+        np.testing.assert_allclose(np.add(first.mean_point, offset), second.mean_point,
+                                   rtol=0, atol=1e-9)
+    # The mean divides by the count: the same region unless it lies on an edge.
+    assume(edge_margin(here, first.mean_point) > 1e-6)
+    same_decision(first, second)
 
 
 @SETTINGS

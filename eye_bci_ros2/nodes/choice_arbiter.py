@@ -23,41 +23,43 @@ no sample fell in a region, or the mean fell in none).  With
 (see :mod:`eye_bci_ros2.arbitration`).  The next round starts on the next
 request or change of the offered labels.
 
+Latency.  Each gaze sample is classified in its own callback against the
+regions shown at its stamp (the newest set in the steady state, O(1) work),
+so the ``choice`` is published from the callback of the sample that
+completes the decision; a 50 Hz timer only closes rounds whose gaze stream
+went quiet and releases decisions held by ``reorder_s``.
+
 Ordering.  Gaze and regions come on separate topics, so a sample can arrive
-before the regions message stamped just before it.  Each sample is held
-``reorder_s`` after its arrival (less when a regions message stamped after it
-has already come) and then classified against the regions shown at its own
-stamp, from a short history of region sets.  Work per message is O(1);
-samples are classified in vectorised batches on a 50 Hz timer.
+before the regions message stamped just before it.  Such a message
+re-classifies the open round's samples stamped after it (rare, O(round)).
+With ``reorder_s`` 0 (default) a decision is final when made: a regions
+message that comes later with a stamp before the decision's last sample is
+logged as a warning and does not change it.  With ``reorder_s`` > 0 a
+decision whose last sample is newer than the newest regions waits until
+regions stamped after that sample arrive, or ``reorder_s``, whichever is
+first (see :class:`eye_bci_ros2.arbitration.ChoiceTracker`).
 """
 
-import bisect
-from collections import deque
-import math
-from typing import Deque, List, Optional, Tuple
+import time
+from typing import Dict, Optional
 
 from geometry_msgs.msg import PointStamped
-import numpy as np
 from rclpy.node import Node
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.arbitration import Decision, METHODS, RegionSet, RoundEvidence
+from eye_bci_ros2.arbitration import (ArbiterSettings, ChoiceTracker, Decision, METHODS,
+                                      RegionSet)
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions, SCREEN_FRAME
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.qos import EVENT_QOS, GAZE_QOS, LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
 
-#: Period of the timer that classifies buffered samples and closes rounds, s.
+#: Period of the timer that closes quiet rounds and releases held decisions, s.
 TICK_S = 0.02
-
-#: Buffered samples beyond this are classified at once (a stuck clock must not grow memory).
-MAX_BUFFER = 100000
 
 #: Throttle period of repeatable warnings, s.
 WARN_PERIOD_S = 5.0
-
-_EMPTY_REGIONS = RegionSet([], np.zeros((0, 3, 2)))
 
 
 def _positive(value) -> Optional[str]:
@@ -93,9 +95,11 @@ PARAMETERS = (
     ParamSpec('hit_rate', 0.9,
               'Evidence model: probability that an in-region sample is on the looked-at region',
               value_range=(0.5, 1.0), check=_open_unit_half),
-    ParamSpec('reorder_s', 0.05,
-              'How long a gaze sample waits after arrival for a regions message stamped '
-              'before it, s',
+    ParamSpec('reorder_s', 0.0,
+              'Longest time a decision waits for a regions message that may apply to its '
+              'last gaze samples (regions lagging gaze while the camera moves), s; 0 = '
+              'decide at once (lowest latency); the wait ends as soon as regions stamped '
+              'after those samples arrive',
               value_range=(0.0, 2.0)),
     ParamSpec('stall_timeout_s', 0.5,
               'When no gaze sample stamped after the window arrives, close the round this '
@@ -113,20 +117,11 @@ class ChoiceArbiter(Node):
     """Turn gaze samples and the offered regions into one ``choice`` per round."""
 
     def __init__(self, **kwargs):
-        """Declare parameters, topics and the classification timer."""
+        """Declare parameters, topics and the round timer."""
         super().__init__('choice_arbiter', **kwargs)
         self._config = declare_parameters(self, PARAMETERS, self._on_parameters)
-        # Region sets by stamp (ascending), pruned to what pending samples may need.
-        self._history: List[RegionSet] = []
-        self._history_stamps: List[float] = []
-        self._offered = frozenset()
-        # (arrival s, stamp s, x px, y px) in arrival order.
-        self._buffer: Deque[Tuple[float, float, float, float]] = deque()
-        self._round: Optional[RoundEvidence] = None
-        #: The outcome of the last finished round (for logs and tests).
-        self.last_decision: Optional[Decision] = None
-        #: Rounds started since the node started.
-        self.rounds_started = 0
+        self._warned: Dict[str, float] = {}
+        self._tracker = ChoiceTracker(ArbiterSettings(**self._config), self._publish, self._log)
         self._publisher = self.create_publisher(String, 'choice', EVENT_QOS)
         self.create_subscription(PointStamped, 'gaze', self._on_gaze, GAZE_QOS)
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
@@ -137,15 +132,28 @@ class ChoiceArbiter(Node):
             f"{self._config['window_s']} s, early decision "
             f"{'on' if self._config['early_decision'] else 'off'}")
 
+    # -- public state, for tests and tools ---------------------------------------------------
+
+    @property
+    def last_decision(self) -> Optional[Decision]:
+        """Return the outcome of the last finished round."""
+        return self._tracker.last_decision
+
+    @property
+    def rounds_started(self) -> int:
+        """Return the number of rounds started since the node started."""
+        return self._tracker.rounds_started
+
+    @property
+    def samples_received(self) -> int:
+        """Return the number of gaze samples taken since the node started."""
+        return self._tracker.samples_received
+
     # -- parameters -------------------------------------------------------------------------
 
     def _on_parameters(self, changed: dict) -> None:
         self._config.update(changed)
-        if self._round is not None:
-            # The open round follows the new evidence settings at once.
-            self._round.hit_rate = float(self._config['hit_rate'])
-            self._round.min_samples = int(self._config['min_samples'])
-            self._round.dwell_s = float(self._config['dwell_s'])
+        self._tracker.configure(**changed)
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -156,18 +164,14 @@ class ChoiceArbiter(Node):
         try:
             frame = msg.header.frame_id
             if frame not in ('', SCREEN_FRAME):
-                self.get_logger().warning(
-                    f"gaze in frame '{frame}' ignored: expected '{SCREEN_FRAME}' (px)",
-                    throttle_duration_sec=WARN_PERIOD_S)
+                self._log('warning', 'gaze_frame',
+                          f"gaze in frame '{frame}' ignored: expected '{SCREEN_FRAME}' (px)")
                 return
             now = self._now()
             stamp = _seconds(msg.header.stamp) or now
-            self._buffer.append((now, stamp, float(msg.point.x), float(msg.point.y)))
-            if len(self._buffer) > MAX_BUFFER:
-                self._settle(math.inf)
-        except Exception as error:
-            self.get_logger().warning(f'gaze sample ignored: {error}',
-                                      throttle_duration_sec=WARN_PERIOD_S)
+            self._tracker.add_sample(stamp, msg.point.x, msg.point.y, now)
+        except Exception as error:  # noqa: B902 - a node never dies on a message
+            self._log('warning', 'gaze_error', f'gaze sample ignored: {error}')
 
     def _on_regions(self, msg: MarkerArray) -> None:
         try:
@@ -176,148 +180,41 @@ class ChoiceArbiter(Node):
             stamp = _seconds(msg.markers[0].header.stamp) if msg.markers else 0.0
             region_set = RegionSet(labels, polygons, stamp or now)
         except (ValueError, IndexError, AttributeError) as error:
-            self.get_logger().warning(f'regions message ignored: {error}',
-                                      throttle_duration_sec=WARN_PERIOD_S)
+            self._log('warning', 'regions_bad', f'regions message ignored: {error}')
             return
         try:
-            self._add_regions(region_set, now)
-        except Exception as error:
-            self.get_logger().error(f'failed to apply regions: {error}')
+            self._tracker.add_regions(region_set, now)
+        except Exception as error:  # noqa: B902 - a node never dies on a message
+            self._log('warning', 'regions_error', f'failed to apply regions: {error}')
 
     def _on_request(self, msg: Empty) -> None:
         try:
-            now = self._now()
-            # Samples from before the request still belong to the open round.
-            self._settle(now, before=now)
-            if self._round is not None:
-                self.get_logger().info('choice request: the unfinished round is replaced')
-            self._start_round(now, 'request')
-        except Exception as error:
-            self.get_logger().error(f'failed to start a round: {error}')
+            self._tracker.request(self._now())
+        except Exception as error:  # noqa: B902 - a node never dies on a message
+            self._log('warning', 'request_error', f'failed to start a round: {error}')
 
     def _on_tick(self) -> None:
         try:
-            now = self._now()
-            self._settle(now)
-            if self._round is not None:
-                end = self._round.start + self._config['window_s']
-                if now >= end + self._config['stall_timeout_s']:
-                    self._settle(now, before=end)
-                    if self._round is not None:
-                        self._finish(self._round.decide(self._config['method']))
-        except Exception as error:
-            self.get_logger().error(f'failed to process gaze: {error}',
-                                    throttle_duration_sec=WARN_PERIOD_S)
+            self._tracker.tick(self._now())
+        except Exception as error:  # noqa: B902 - a node never dies on a timer
+            self._log('warning', 'tick_error', f'failed to close a round: {error}')
 
-    # -- regions history --------------------------------------------------------------------
+    # -- outputs ----------------------------------------------------------------------------
 
-    def _add_regions(self, region_set: RegionSet, now: float) -> None:
-        stamp = region_set.stamp
-        if self._history_stamps and stamp < self._history_stamps[-1]:
-            self.get_logger().warning(
-                'regions message older than the previous one: gaze samples already '
-                'classified keep their regions (raise reorder_s if this repeats)',
-                throttle_duration_sec=WARN_PERIOD_S)
-        changed = region_set.label_set != self._offered
-        if changed:
-            # Finish with the samples of the old question before asking the new one.
-            self._settle(now, before=stamp)
-        index = bisect.bisect_right(self._history_stamps, stamp)
-        self._history.insert(index, region_set)
-        self._history_stamps.insert(index, stamp)
-        if changed:
-            self._offered = region_set.label_set
-            if self._round is not None:
-                self.get_logger().info('offered choices changed: the unfinished round is '
-                                       'replaced without a choice')
-                self._round = None
-            if self._offered:
-                start = stamp
-                if stamp < now - self._config['window_s']:
-                    start = now
-                    self.get_logger().warning(
-                        f'regions stamp is {now - stamp:.2f} s old: the round starts at '
-                        'their arrival', throttle_duration_sec=WARN_PERIOD_S)
-                self._start_round(start, 'new choices')
-        self._prune_history(now)
-
-    def _prune_history(self, now: float) -> None:
-        # Future rounds start no earlier than now - window_s; keep the set shown then.
-        cutoff = now - self._config['window_s']
-        if self._round is not None:
-            cutoff = min(cutoff, self._round.start)
-        if self._buffer:
-            cutoff = min(cutoff, self._buffer[0][1])
-        keep_from = bisect.bisect_right(self._history_stamps, cutoff) - 1
-        if keep_from > 0:
-            del self._history[:keep_from]
-            del self._history_stamps[:keep_from]
-
-    # -- rounds -----------------------------------------------------------------------------
-
-    def _start_round(self, start: float, cause: str) -> None:
-        self._round = RoundEvidence(start, hit_rate=self._config['hit_rate'],
-                                    min_samples=self._config['min_samples'],
-                                    dwell_s=self._config['dwell_s'])
-        self.rounds_started += 1
-        self.get_logger().info(
-            f'round {self.rounds_started} ({cause}): offered {sorted(self._offered)}, '
-            f"window {self._config['window_s']} s")
-
-    def _settle(self, now: float, before: Optional[float] = None) -> None:
-        """
-        Classify the buffered samples whose regions are now known.
-
-        A sample is due when it has waited ``reorder_s`` since arrival, when a
-        regions message stamped at or after it has come, or when it is stamped
-        before ``before``.
-        """
-        buffer = self._buffer
-        if not buffer:
-            return
-        due_arrival = now - self._config['reorder_s']
-        known = self._history_stamps[-1] if self._history_stamps else -math.inf
-        if before is not None:
-            known = max(known, math.nextafter(before, -math.inf))
-        taken = []
-        while buffer and (buffer[0][0] <= due_arrival or buffer[0][1] <= known):
-            taken.append(buffer.popleft())
-        if taken and self._round is not None:
-            samples = np.array(taken)
-            self._process(samples[:, 1], samples[:, 2:4])
-
-    def _process(self, stamps: np.ndarray, points: np.ndarray) -> None:
-        """Add settled samples, stamps (N,) s and points (N, 2) px, to the open round."""
-        evidence = self._round
-        order = np.argsort(stamps, kind='stable')
-        stamps, points = stamps[order], points[order]
-        end = evidence.start + self._config['window_s']
-        first = np.searchsorted(stamps, evidence.start, side='left')
-        last = np.searchsorted(stamps, end, side='left')
-        window_done = last < len(stamps)
-        stamps, points = stamps[first:last], points[first:last]
-        if len(stamps):
-            # Group consecutive samples by the region set shown at their stamps.
-            shown = np.searchsorted(self._history_stamps, stamps, side='right') - 1
-            bounds = np.flatnonzero(np.diff(shown)) + 1
-            confidence = self._config['confidence'] if self._config['early_decision'] else None
-            for lo, hi in zip(np.r_[0, bounds], np.r_[bounds, len(stamps)]):
-                index = shown[lo]
-                regions = self._history[max(index, 0)] if self._history else _EMPTY_REGIONS
-                decision = evidence.add(points[lo:hi], stamps[lo:hi], regions, confidence)
-                if decision is not None:
-                    self._finish(decision)
-                    return
-        if window_done:
-            self._finish(evidence.decide(self._config['method']))
-
-    def _finish(self, decision: Decision) -> None:
-        self._round = None
-        self.last_decision = decision
+    def _publish(self, decision: Decision) -> None:
         if decision.label is not None:
             self._publisher.publish(String(data=decision.label))
-        counts = ', '.join(f'{label} {n}' for label, n in decision.counts.items())
-        self.get_logger().info(f'{decision.summary()} [{counts}]')
+
+    def _log(self, level: str, key: str, text: str) -> None:
+        """Log ``text``; warnings of one ``key`` at most once per WARN_PERIOD_S."""
+        if level != 'warning':
+            self.get_logger().info(text)
+            return
+        now = time.monotonic()
+        if now - self._warned.get(key, -WARN_PERIOD_S) < WARN_PERIOD_S:
+            return
+        self._warned[key] = now
+        self.get_logger().warning(text)
 
 
 def main(args=None):

@@ -1,4 +1,5 @@
-"""Node ``lsl_gaze_bridge``: eye-tracker gaze from an LSL stream to ``gaze`` on ROS 2.
+"""
+Node ``lsl_gaze_bridge``: eye-tracker gaze from an LSL stream to ``gaze`` on ROS 2.
 
 Finds the LSL stream of an eye-tracker application (profile + stream type /
 name / source_id), pulls its samples in chunks, converts them to points on
@@ -215,27 +216,27 @@ class LslGazeBridge(Node):
 
     @property
     def config(self) -> GazeConfig:
-        """Effective settings (profile defaults with parameters applied)."""
+        """Return the effective settings (profile defaults with parameters applied)."""
         return self._config
 
     @property
     def counters(self) -> Dict[str, int]:
-        """Samples received, published and dropped per reason since start."""
+        """Count samples received, published and dropped per reason since start."""
         return dict(self._counters)
 
     @property
     def stream(self) -> Optional[str]:
-        """Description of the stream in use, or None while looking."""
+        """Describe the stream in use; None while looking."""
         return self._connection.description if self._connection else None
 
     @property
     def stream_uid(self) -> Optional[str]:
-        """LSL uid of the outlet in use, or None while looking."""
+        """Return the LSL uid of the outlet in use; None while looking."""
         return self._connection.uid if self._connection else None
 
     @property
     def stale(self) -> bool:
-        """Whether the stream in use has sent nothing for ``stale_timeout_s``."""
+        """Tell whether the stream in use has sent nothing for ``stale_timeout_s``."""
         return bool(self._connection and self._connection.stale)
 
     def destroy_node(self):
@@ -269,6 +270,8 @@ class LslGazeBridge(Node):
             if self._poll_timer is not None:
                 self.destroy_timer(self._poll_timer)
             self._poll_timer = self.create_timer(self._params['poll_period_s'], self._poll)
+            if self._connection is None:
+                self._poll_timer.cancel()   # no wake-ups while there is nothing to read
         if 'resolve_period_s' in changed:
             if self._resolve_timer is not None:
                 self.destroy_timer(self._resolve_timer)
@@ -396,6 +399,7 @@ class LslGazeBridge(Node):
             description=_describe(full), labels=_channel_labels(full),
             buffer=self._make_buffer(inlet), connected_at=now)
         self._connection = connection
+        self._poll_timer.reset()
         labels = ', '.join(label or '?' for label in connection.labels) or 'no labels'
         self.get_logger().info(f'connected to LSL stream {connection.description}; '
                                f'channels: {labels}')
@@ -422,6 +426,8 @@ class LslGazeBridge(Node):
     def _disconnect(self) -> None:
         """Close the current inlet, if any."""
         connection, self._connection = self._connection, None
+        if self._poll_timer is not None:
+            self._poll_timer.cancel()
         if connection is not None:
             try:
                 connection.inlet.close_stream()

@@ -1,0 +1,539 @@
+"""
+Benchmark: how fast and how well a person's choice is decided from gaze.
+
+A simulated person (:data:`eye_bci_ros2.gaze_model.CONSUMER_TRACKER`: 90 Hz,
+0.5 deg offset in a direction drawn per person, 0.3 deg jitter per axis,
+blinks and 1 % lost samples) chooses one of 3, 4 or 9 square targets of
+60, 100, 150 or 200 px on a 1920x1080 screen (23.8 inch at 600 mm, 38 px per
+degree at the centre).  The decisions are made by
+:class:`eye_bci_ros2.arbitration.RoundEvidence`, the object the
+``choice_arbiter`` node uses, fed the valid samples in stamp order (lost
+samples are NaN and dropped, as the LSL bridge does): this is the node's
+decision logic on simulated time, without ROS.
+
+Layouts (targets centred on the screen, centre-to-centre pitch
+:data:`PITCH` = 1.5 S, so the gap between neighbours is S / 2): 3 targets in a
+row (like the rooms of the original report), 4 in a 2x2 grid, 9 in a 3x3
+grid.
+
+A trial: a new person (seed) per trial, so the accuracy is over a population
+of offsets.  The targets appear at t = 0 (the round start); the person aims
+at the centre of a target drawn uniformly.  Where the gaze is at t = 0 (the
+gaze rests where it was) depends on the scenario:
+
+* ``new_menu`` (the main table): a new menu appears, as in the original task
+  (rooms, then the tables of the zoomed room), so the gaze rests somewhere the
+  previous screen showed something: a point drawn uniformly on the screen,
+  outside every target grown by S / 2 on each side (off the menu).
+* ``other_target`` (stress test): the gaze rests on another target of the
+  same layout (the same menu asked again, or a new target appearing where the
+  person happens to look).  The person keeps looking there for one saccade
+  latency before moving.
+
+The eye starts its saccade after the model's latency (120 ms + gamma, mean
+200 ms) and lands on the target centre after a main-sequence duration.
+*Fixation onset* is the stamp of the first sample at which the true eye
+position (no tracker error) is within :data:`LANDED_DEG` of the target
+centre.
+
+Rules:
+
+* ``original``: mean of the in-region samples of a fixed 1 s window from the
+  round start (the original system); decision at the window end.
+* ``vote``: majority of the in-region samples of the same window.
+* ``best``: early decision (``early_decision`` true) with the configuration
+  (confidence, min_samples, dwell_s, hit_rate) picked by a grid search on a
+  separate set of tuning persons (seeds disjoint from the test seeds; the
+  test set is never used to choose); without an early decision the node
+  falls back to ``mean`` at the window end.
+
+Metrics per (rule, N targets, size S): ``accuracy`` (correct choices /
+trials), ``wrong`` and ``no_choice`` (fractions; both are not correct),
+``median_samples`` (valid samples stamped from fixation onset up to the
+decision), ``median_ms`` and ``mean_ms`` (decision stamp minus fixation
+onset; the window end for the window rules), and ``itr_bits_per_min`` by
+Wolpaw: ``B = log2 N + P log2 P + (1 - P) log2((1 - P) / (N - 1))`` bits per
+selection (0 when P <= 1 / N), ``ITR = 60 B / T`` with T = the mean decision
+time from fixation onset + :data:`GAZE_SHIFT_S` for the gaze shift.
+"""
+
+import argparse
+from dataclasses import asdict, dataclass
+import itertools
+import json
+import math
+import sys
+import time
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from eye_bci_ros2.arbitration import RegionSet, RoundEvidence
+from eye_bci_ros2.gaze_model import CONSUMER_TRACKER, GazeParams, GazeSimulator
+
+#: Metrics of the goal row shown by ``bench.run_all`` (the section is nested).
+TABLE_COLUMNS = ('accuracy', 'median_ms', 'itr_ratio', 'met')
+#: The simulated person and tracker.
+PARAMS: GazeParams = CONSUMER_TRACKER
+#: Numbers of targets and their layouts (columns, rows).
+LAYOUTS: Dict[int, Tuple[int, int]] = {3: (3, 1), 4: (2, 2), 9: (3, 3)}
+#: Target sizes S, px (square side).
+SIZES = (60, 100, 150, 200)
+#: Centre-to-centre distance of neighbouring targets, in target sizes.
+PITCH = 1.5
+#: Window of the window rules and of the node's fallback, s.
+WINDOW_S = 1.0
+#: Time counted for the gaze shift in the ITR, s (from the issue).
+GAZE_SHIFT_S = 0.5
+#: The true eye within this of the target centre has landed, degrees.
+LANDED_DEG = 0.1
+#: Test trials per cell (full, quick) and tuning trials per cell.
+TRIALS = 200
+QUICK_TRIALS = 20
+TUNING_TRIALS = 200
+QUICK_TUNING_TRIALS = 10
+#: First person seed of the test set and of the tuning set (disjoint ranges).
+TEST_SEED = 1_000_000
+TUNING_SEED = 2_000_000
+#: The goal of the issue, at 100 px targets.
+GOAL_SIZE = 100
+GOAL_ACCURACY = 0.99
+GOAL_MEDIAN_MS = 150.0
+GOAL_ITR_RATIO = 2.0
+#: Early-decision parameters searched on the tuning set.
+GRID = {
+    'confidence': (0.95, 0.99, 0.999),
+    'min_samples': (2, 3, 4, 6, 8),
+    'dwell_s': (0.0, 0.025, 0.05, 0.1),
+    'hit_rate': (0.9,),
+}
+#: Tuning ITRs this close (relative) to the best count as equal (tuning-set noise).
+ITR_TOLERANCE = 0.01
+#: Proposal of the stress test: no reaction to the menu is faster than this, s.
+REACTION_S = 0.1
+QUICK_GRID = {
+    'confidence': (0.99,),
+    'min_samples': (3, 6),
+    'dwell_s': (0.0, 0.05),
+    'hit_rate': (0.9,),
+}
+#: Start-of-trial scenarios (module doc).
+SCENARIOS = ('new_menu', 'other_target')
+_SCENARIO_CODE = {'new_menu': 0, 'other_target': 1}
+
+
+@dataclass(frozen=True)
+class EarlyConfig:
+    """
+    Parameters of the node's early decision (``choice_arbiter`` parameters).
+
+    :param confidence: posterior needed, in (0.5, 1).
+    :param min_samples: in-region samples needed and held by the leader.
+    :param dwell_s: span of the leader's uninterrupted run, s.
+    :param hit_rate: evidence model h, in (0.5, 1).
+    :param method: rule at the window end without an early decision.
+    :param window_s: the round's window, s.
+    """
+
+    confidence: float = 0.95
+    min_samples: int = 10
+    dwell_s: float = 0.2
+    hit_rate: float = 0.9
+    method: str = 'mean'
+    window_s: float = WINDOW_S
+
+
+@dataclass
+class Trial:
+    """
+    One simulated choice.
+
+    :param goal: index of the target the person chooses.
+    :param start: where the eye points at t = 0, screen px, shape (2,).
+    :param stamps: acquisition stamps of the valid samples in [0, WINDOW_S), s, shape (M,).
+    :param points: measured gaze of those samples, screen px, shape (M, 2).
+    :param onset: fixation onset, s (NaN when the eye did not land in the window).
+    """
+
+    goal: int
+    start: np.ndarray
+    stamps: np.ndarray
+    points: np.ndarray
+    onset: float
+
+
+def layout(count: int, size: float, params: GazeParams = PARAMS) -> np.ndarray:
+    """
+    Centres of ``count`` targets of ``size`` px, centred on the screen.
+
+    :returns: shape (count, 2), screen px, row by row.
+    :raises ValueError: ``count`` is not one of :data:`LAYOUTS`.
+    """
+    if count not in LAYOUTS:
+        raise ValueError(f'no layout for {count} targets; choose one of {sorted(LAYOUTS)}')
+    columns, rows = LAYOUTS[count]
+    pitch = PITCH * size
+    x = (np.arange(columns) - (columns - 1) / 2) * pitch
+    y = (np.arange(rows) - (rows - 1) / 2) * pitch
+    grid = np.stack(np.meshgrid(x, y), axis=-1).reshape(-1, 2)
+    return grid + params.person.screen.centre_px
+
+
+def squares(centres: np.ndarray, size: float) -> np.ndarray:
+    """Square polygons of side ``size`` around centres (R, 2): shape (R, 4, 2), px."""
+    corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float) * size / 2
+    return centres[:, None, :] + corners[None, :, :]
+
+
+def region_set(count: int, size: float) -> RegionSet:
+    """Offered regions of a layout, labelled '0'..'count - 1'."""
+    return RegionSet([str(i) for i in range(count)], squares(layout(count, size), size))
+
+
+def _start_point(rng: np.random.Generator, centres: np.ndarray, size: float, goal: int,
+                 scenario: str, screen_size: np.ndarray) -> np.ndarray:
+    """Where the gaze rests at the round start (module doc), px (2,)."""
+    if scenario == 'other_target':
+        others = np.delete(np.arange(len(centres)), goal)
+        return centres[rng.choice(others)].copy()
+    # Uniform on the screen, off every target grown by S / 2 (rejection sampling).
+    while True:
+        candidates = rng.uniform((0.0, 0.0), screen_size, size=(64, 2))
+        near = np.abs(candidates[:, None, :] - centres[None, :, :]) < size
+        free = ~np.any(np.all(near, axis=2), axis=1)
+        if free.any():
+            return candidates[np.argmax(free)]
+
+
+def simulate_trials(count: int, size: float, seeds: Sequence[int],
+                    scenario: str = 'new_menu', params: GazeParams = PARAMS) -> List[Trial]:
+    """
+    Simulate one trial per person seed for a layout.
+
+    :param count: number of targets (3, 4 or 9).
+    :param size: target side S, px.
+    :param seeds: person seeds; trial i uses a new :class:`GazeSimulator` with seeds[i].
+    :param scenario: 'new_menu' or 'other_target' (module doc).
+    :raises ValueError: unknown scenario or layout.
+    """
+    if scenario not in SCENARIOS:
+        raise ValueError(f"unknown scenario '{scenario}'; choose one of {', '.join(SCENARIOS)}")
+    centres = layout(count, size, params)
+    screen = params.person.screen
+    landed_px = float(screen.visual_angle_px(LANDED_DEG))
+    trials = []
+    for seed in seeds:
+        rng = np.random.default_rng([int(seed), count, int(size), _SCENARIO_CODE[scenario]])
+        goal = int(rng.integers(count))
+        start = _start_point(rng, centres, size, goal, scenario, screen.size_px)
+        simulator = GazeSimulator(params, seed=int(seed))
+        trace = simulator.simulate(WINDOW_S, [(0.0, centres[goal])], initial_xy=start)
+        landed = np.flatnonzero(np.hypot(*(trace.eye_xy - centres[goal]).T) <= landed_px)
+        onset = float(trace.t[landed[0]]) if landed.size else math.nan
+        valid = trace.valid
+        trials.append(Trial(goal, start, trace.t[valid], trace.xy[valid], onset))
+    return trials
+
+
+def decide_window(trial: Trial, regions: RegionSet, method: str) -> Tuple[Optional[str], float]:
+    """
+    Decide a trial with a window rule ('mean' = original, or 'vote'), as the node does.
+
+    :returns: (label or None, decision time s = the window end).
+    """
+    evidence = RoundEvidence(0.0)
+    evidence.add(trial.points, trial.stamps, regions)
+    return evidence.decide(method).label, WINDOW_S
+
+
+def decide_early(trial: Trial, regions: RegionSet, config: EarlyConfig,
+                 chunk: Optional[int] = None) -> Tuple[Optional[str], float]:
+    """
+    Decide a trial with the node's early decision.
+
+    :param chunk: feed the samples in chunks of this many (the node's timer
+        hands over ~2 samples per tick at 90 Hz); None = all at once, which
+        gives the same decision because :meth:`RoundEvidence.add` stops at the
+        first sample that passes.
+    :returns: (label or None, decision time s: the deciding sample's stamp,
+        or the window end when the fallback rule decided).
+    """
+    evidence = RoundEvidence(0.0, hit_rate=config.hit_rate, min_samples=config.min_samples,
+                             dwell_s=config.dwell_s)
+    in_window = trial.stamps < config.window_s
+    stamps, points = trial.stamps[in_window], trial.points[in_window]
+    step = len(stamps) if chunk is None else int(chunk)
+    decision = None
+    for lo in range(0, len(stamps), max(step, 1)):
+        decision = evidence.add(points[lo:lo + step], stamps[lo:lo + step], regions,
+                                config.confidence)
+        if decision is not None:
+            return decision.label, evidence.start + decision.time_to_decision
+    return evidence.decide(config.method).label, config.window_s
+
+
+def wolpaw_bits(accuracy: float, count: int) -> float:
+    """
+    Return Wolpaw's bits per selection among ``count`` targets at ``accuracy``.
+
+    ``log2 N + P log2 P + (1 - P) log2((1 - P) / (N - 1))``; exactly
+    ``log2 N`` at P = 1 and 0 at or below chance (P <= 1 / N), where the
+    formula no longer describes information.
+    """
+    if not 0.0 <= accuracy <= 1.0:
+        raise ValueError(f'accuracy must be in [0, 1], got {accuracy}')
+    if count < 2 or accuracy <= 1.0 / count:
+        return 0.0
+    bits = math.log2(count) + accuracy * math.log2(accuracy)
+    if accuracy < 1.0:
+        bits += (1.0 - accuracy) * math.log2((1.0 - accuracy) / (count - 1))
+    return bits
+
+
+def itr_bits_per_min(accuracy: float, count: int, seconds: float) -> float:
+    """Return Wolpaw's ITR, bits/min, for selections taking ``seconds`` each (> 0)."""
+    if not seconds > 0:
+        raise ValueError(f'time per selection must be > 0 s, got {seconds}')
+    return wolpaw_bits(accuracy, count) * 60.0 / seconds
+
+
+def summarise(trials: Sequence[Trial], outcomes: Sequence[Tuple[Optional[str], float]],
+              count: int) -> Dict[str, float]:
+    """
+    Metrics of one cell (module doc) from trials and their (label, decision time s).
+
+    Times are from fixation onset; trials whose eye never landed in the window
+    count in the accuracy but not in the times.
+    """
+    labels = [label for label, _ in outcomes]
+    decided_at = np.array([when for _, when in outcomes], dtype=float)
+    onsets = np.array([trial.onset for trial in trials])
+    correct = np.array([label == str(trial.goal) for label, trial in zip(labels, trials)])
+    none = np.array([label is None for label in labels])
+    after = np.array([np.count_nonzero((trial.stamps >= trial.onset) & (trial.stamps <= when))
+                      for trial, when in zip(trials, decided_at)])
+    landed = np.isfinite(onsets)
+    delay = decided_at[landed] - onsets[landed]
+    accuracy = float(correct.mean())
+    mean_s = float(delay.mean()) if delay.size else math.nan
+    itr = itr_bits_per_min(accuracy, count, mean_s + GAZE_SHIFT_S) if delay.size else math.nan
+    return {
+        'accuracy': accuracy,
+        'wrong': float((~correct & ~none).mean()),
+        'no_choice': float(none.mean()),
+        'median_samples': float(np.median(after[landed])) if landed.any() else math.nan,
+        'median_ms': float(np.median(delay) * 1e3) if delay.size else math.nan,
+        'mean_ms': mean_s * 1e3,
+        'itr_bits_per_min': itr,
+        'trials': len(trials),
+        'not_landed': int((~landed).sum()),
+    }
+
+
+def _cells(counts: Sequence[int], sizes: Sequence[int]) -> List[Tuple[int, int]]:
+    """(N targets, size) pairs in table order."""
+    return [(count, size) for count in counts for size in sizes]
+
+
+def _simulate(cells, first_seed: int, trials: int, scenario: str) -> Dict:
+    """Regions and trials per cell; the same persons in every cell (paired comparison)."""
+    seeds = range(first_seed, first_seed + trials)
+    return {cell: (region_set(*cell), simulate_trials(*cell, seeds, scenario))
+            for cell in cells}
+
+
+def evaluate(rule, data: Dict) -> Dict[str, Dict[str, Dict[str, float]]]:
+    """
+    Apply a rule to simulated cells.
+
+    :param rule: 'original', 'vote' or an :class:`EarlyConfig`.
+    :param data: ``{(N, S): (RegionSet, [Trial])}``.
+    :returns: ``{'N': {'S': metrics}}``.
+    """
+    table: Dict[str, Dict[str, Dict[str, float]]] = {}
+    for (count, size), (regions, trials) in data.items():
+        if isinstance(rule, EarlyConfig):
+            outcomes = [decide_early(trial, regions, rule) for trial in trials]
+        else:
+            method = {'original': 'mean', 'vote': 'vote'}[rule]
+            outcomes = [decide_window(trial, regions, method) for trial in trials]
+        table.setdefault(str(count), {})[str(size)] = summarise(trials, outcomes, count)
+    return table
+
+
+def _cells_of(table) -> List[Tuple[int, Dict[str, float]]]:
+    """(size, metrics) of every cell of a ``{'N': {'S': metrics}}`` table."""
+    return [(int(size), metrics) for row in table.values() for size, metrics in row.items()]
+
+
+def tune(data: Dict, grid: Dict[str, Sequence]) -> Tuple[EarlyConfig, Dict[str, object]]:
+    """
+    Pick the early-decision configuration on the tuning cells.
+
+    Among the configurations with accuracy >= :data:`GOAL_ACCURACY` in every
+    tuning cell of :data:`GOAL_SIZE` px and larger, take the one with the
+    highest mean ITR over all tuning cells (all sizes, so small targets
+    count); when none is that accurate, the highest mean ITR overall.
+
+    :returns: the configuration and a summary of the search.
+    """
+    names = ('confidence', 'min_samples', 'dwell_s', 'hit_rate')
+    scored = []
+    for values in itertools.product(*(grid[name] for name in names)):
+        config = EarlyConfig(**dict(zip(names, values)))
+        cells = _cells_of(evaluate(config, data))
+        feasible = all(m['accuracy'] >= GOAL_ACCURACY for size, m in cells if size >= GOAL_SIZE)
+        score = float(np.mean([m['itr_bits_per_min'] for _, m in cells]))
+        scored.append((feasible, score, config))
+    any_feasible = any(feasible for feasible, _, _ in scored)
+    candidates = [entry for entry in scored if entry[0] or not any_feasible]
+    feasible, score, best = max(candidates, key=lambda entry: entry[1])
+    return best, {'configurations': len(scored),
+                  'feasible': sum(1 for entry in scored if entry[0]),
+                  'selected_feasible': feasible,
+                  'tuning_mean_itr_bits_per_min': score}
+
+
+def goal_check(original, best, count_keys: Sequence[str]) -> Dict[str, object]:
+    """
+    Check the issue's goal at :data:`GOAL_SIZE` px over every number of targets.
+
+    :returns: worst accuracy, worst median ms and worst ITR ratio best/original,
+        the per-N values and ``met``.
+    """
+    size = str(GOAL_SIZE)
+    per_count = {}
+    for count in count_keys:
+        b, o = best[count][size], original[count][size]
+        ratio = b['itr_bits_per_min'] / o['itr_bits_per_min'] \
+            if o['itr_bits_per_min'] > 0 else math.inf
+        per_count[count] = {'accuracy': b['accuracy'], 'median_ms': b['median_ms'],
+                            'itr_ratio': ratio}
+    worst = {
+        'accuracy': min(v['accuracy'] for v in per_count.values()),
+        'median_ms': max(v['median_ms'] for v in per_count.values()),
+        'itr_ratio': min(v['itr_ratio'] for v in per_count.values()),
+    }
+    worst['met'] = bool(worst['accuracy'] >= GOAL_ACCURACY
+                        and worst['median_ms'] <= GOAL_MEDIAN_MS
+                        and worst['itr_ratio'] >= GOAL_ITR_RATIO)
+    worst['per_targets'] = per_count
+    return worst
+
+
+def run(quick: bool = False, trials: Optional[int] = None, tuning_trials: Optional[int] = None,
+        grid: Optional[Dict[str, Sequence]] = None, counts: Sequence[int] = (3, 4, 9),
+        sizes: Sequence[int] = SIZES, stress: bool = True) -> Dict:
+    """
+    Run the benchmark (module doc) and return its section of the results.
+
+    :param quick: few trials and a small grid (seconds; numbers are rough).
+    :param trials: test trials per cell (default :data:`TRIALS` / :data:`QUICK_TRIALS`).
+    :param tuning_trials: tuning trials per cell.
+    :param grid: early-decision values to search (default :data:`GRID` / :data:`QUICK_GRID`).
+    :param counts: numbers of targets; must include those of the goal check.
+    :param sizes: target sizes, px; must include :data:`GOAL_SIZE`.
+    :param stress: also run the ``other_target`` scenario.
+    :returns: ``{'original': {'N': {'S': metrics}}, 'vote': ..., 'best': {..., 'config':
+        {...}}, 'goal_100px': {...}, 'stress_other_target': {...}, 'setup': {...}}``.
+    """
+    if GOAL_SIZE not in sizes:
+        raise ValueError(f'sizes must include {GOAL_SIZE} px for the goal check')
+    trials = trials or (QUICK_TRIALS if quick else TRIALS)
+    tuning_trials = tuning_trials or (QUICK_TUNING_TRIALS if quick else TUNING_TRIALS)
+    grid = grid or (QUICK_GRID if quick else GRID)
+    if max(tuning_trials, trials) > TUNING_SEED - TEST_SEED:
+        raise ValueError('too many trials: the tuning and test seeds would overlap')
+    cells = _cells(counts, sizes)
+    started = time.perf_counter()
+    config, search = tune(_simulate(cells, TUNING_SEED, tuning_trials, 'new_menu'), grid)
+    test = _simulate(cells, TEST_SEED, trials, 'new_menu')
+    section: Dict = {'original': evaluate('original', test), 'vote': evaluate('vote', test)}
+    section['best'] = evaluate(config, test)
+    section['best']['config'] = asdict(config)
+    section['best']['search'] = search
+    section['goal_100px'] = goal_check(section['original'], section['best'],
+                                       [str(count) for count in counts])
+    if stress:
+        other = _simulate(cells, TEST_SEED, trials, 'other_target')
+        section['stress_other_target'] = {'original': evaluate('original', other),
+                                          'best': evaluate(config, other)}
+    section['setup'] = {
+        'decision_logic': 'eye_bci_ros2.arbitration.RoundEvidence (the choice_arbiter node '
+                          'logic) on simulated time, valid samples in stamp order',
+        'person': PARAMS.name, 'rate_hz': PARAMS.tracker.rate_hz,
+        'offset_deg': PARAMS.person.offset_deg, 'jitter_deg': PARAMS.person.jitter_deg,
+        'screen_px': [PARAMS.person.screen.width_px, PARAMS.person.screen.height_px],
+        'layouts': {str(n): f'{c}x{r}' for n, (c, r) in LAYOUTS.items() if n in counts},
+        'pitch': f'{PITCH} S (gap S/2)',
+        'start': 'new_menu: uniform on the screen off every target grown by S/2; '
+                 'stress: on another target of the layout',
+        'fixation_onset': f'first sample with the true eye within {LANDED_DEG} deg of the '
+                          'target centre',
+        'window_s': WINDOW_S, 'gaze_shift_s': GAZE_SHIFT_S,
+        'trials_per_cell': trials, 'tuning_trials_per_cell': tuning_trials,
+        'test_seeds': [TEST_SEED, TEST_SEED + trials - 1],
+        'tuning_seeds': [TUNING_SEED, TUNING_SEED + tuning_trials - 1],
+        'tuned_on_test_set': False,
+        'seconds': round(time.perf_counter() - started, 2),
+    }
+    return section
+
+
+def _row(rule: str, count: str, size: str, m: Dict[str, float]) -> str:
+    """One line of the printed table."""
+    return (f'{rule:>9} {count:>2} {size:>4} {100 * m["accuracy"]:7.1f} {100 * m["wrong"]:6.1f} '
+            f'{100 * m["no_choice"]:6.1f} {m["median_samples"]:7.1f} {m["median_ms"]:7.0f} '
+            f'{m["itr_bits_per_min"]:8.1f}')
+
+
+def format_lines(section: Dict) -> List[str]:
+    """Lines of the human table of a section returned by :func:`run`."""
+    header = (f'{"rule":>9} {"N":>2} {"S px":>4} {"acc %":>7} {"wrong%":>6} {"none%":>6} '
+              f'{"samples":>7} {"ms":>7} {"ITR b/m":>8}')
+    lines = ['decision time from fixation onset (median); ITR (Wolpaw) counts the mean time '
+             f'+ {GAZE_SHIFT_S} s gaze shift', header, '-' * len(header)]
+
+    def block(tables: Dict[str, Dict]) -> None:
+        counts = next(iter(tables.values()))
+        for count in counts:
+            if count in ('config', 'search'):
+                continue
+            for size in counts[count]:
+                for rule, table in tables.items():
+                    lines.append(_row(rule, count, size, table[count][size]))
+
+    block({rule: section[rule] for rule in ('original', 'vote', 'best')})
+    lines.append(f'best config (tuned on separate seeds): {json.dumps(section["best"]["config"])}')
+    goal = section['goal_100px']
+    lines.append(f'goal at {GOAL_SIZE} px (worst over N): accuracy {100 * goal["accuracy"]:.1f} % '
+                 f'(>= {100 * GOAL_ACCURACY:.0f}), median {goal["median_ms"]:.0f} ms '
+                 f'(<= {GOAL_MEDIAN_MS:.0f}), ITR x{goal["itr_ratio"]:.2f} '
+                 f'(>= {GOAL_ITR_RATIO:.0f}): {"MET" if goal["met"] else "NOT MET"}')
+    if 'stress_other_target' in section:
+        lines += ['', 'stress: the gaze rests on another target of the layout at the start',
+                  header, '-' * len(header)]
+        block(section['stress_other_target'])
+    return lines
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Run the benchmark and print its table (and JSON with --json)."""
+    parser = argparse.ArgumentParser(prog='python -m bench.decision', description=__doc__.split(
+        '\n\n')[0].strip())
+    parser.add_argument('--quick', action='store_true', help='few trials, small grid')
+    parser.add_argument('--json', metavar='PATH', help='also write the section as JSON')
+    args = parser.parse_args(argv)
+    section = run(quick=args.quick)
+    print('\n'.join(format_lines(section)))
+    print(f'({section["setup"]["seconds"]} s; decisions by the node logic RoundEvidence on '
+          'simulated time)')
+    if args.json:
+        with open(args.json, 'w', encoding='utf-8') as output:
+            json.dump(section, output, indent=2)
+            output.write('\n')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

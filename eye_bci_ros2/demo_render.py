@@ -1,0 +1,271 @@
+"""
+Pictures of the demo and the accuracy test (matplotlib, Agg back end, no display).
+
+Pure numpy + matplotlib: no rclpy, no pyplot (figures are drawn on the Agg
+canvas directly, so nothing needs a display).  Every picture of a selection is the
+person's screen itself: a PNG of ``screen_size`` pixels (1920x1080 by default)
+in which one image pixel is one screen pixel (frame ``screen``: origin
+top-left, x right, y down), so positions can be read off directly.
+"""
+
+from dataclasses import dataclass, field
+import math
+import os
+from typing import Dict, List, Optional, Sequence, Tuple
+
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.patches import Polygon, Rectangle
+import numpy as np
+
+#: Colours of the drawings (matplotlib colour specs).
+PANEL_COLOUR = '#30343c'
+SCREEN_COLOUR = '#e8e8e8'
+FLOOR_EDGE = '#8a8f99'
+IN_REGION_COLOUR = '#10c040'
+OUT_REGION_COLOUR = '#ff5050'
+CORRECT_COLOUR = '#20e060'
+WRONG_COLOUR = '#ff3030'
+TARGET_COLOUR = '#ffe000'
+MEAN_COLOUR = '#00c8ff'
+
+
+@dataclass
+class ScreenPicture:
+    """
+    What the screen showed during one selection, and where the gaze fell.
+
+    All coordinates are screen px (x right, y down).
+
+    :ivar title: first line of the caption.
+    :ivar details: further caption lines.
+    :ivar screen_size: (width, height) of the screen, px; the PNG has this size.
+    :ivar panel: RViz render panel (x0, y0, width, height), px.
+    :ivar floors: (name, polygon (K, 2)) floor areas for orientation, drawn
+        clipped to the panel.
+    :ivar regions: label -> polygon (K, 2): the regions the system offered
+        at the decision (the choices/regions outlines).
+    :ivar colours: label -> (r, g, b, a) in [0, 1], the markers' colours.
+    :ivar gaze: gaze samples of the selection, shape (N, 2).
+    :ivar gaze_in_region: shape (N,) bool, each sample inside some region
+        shown at its own time.
+    :ivar mean_point: the decision's mean of the in-region samples, or None.
+    :ivar chosen: label the system chose, or None.
+    :ivar intended: label the person meant.
+    :ivar target_path: where the intended marker's centre was over the
+        selection, shape (M, 2) (the last row is the target at the decision).
+    """
+
+    title: str
+    details: Sequence[str] = ()
+    screen_size: Tuple[int, int] = (1920, 1080)
+    panel: Tuple[float, float, float, float] = (320.0, 180.0, 1280.0, 720.0)
+    floors: Sequence[Tuple[str, np.ndarray]] = ()
+    regions: Dict[str, np.ndarray] = field(default_factory=dict)
+    colours: Dict[str, Tuple[float, float, float, float]] = field(default_factory=dict)
+    gaze: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    gaze_in_region: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    mean_point: Optional[Sequence[float]] = None
+    chosen: Optional[str] = None
+    intended: Optional[str] = None
+    target_path: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+
+
+def _screen_figure(size: Tuple[int, int], dpi: float = 100.0):
+    """Return (figure, axes) where one data unit is one output pixel, y down."""
+    width, height = int(size[0]), int(size[1])
+    if width <= 0 or height <= 0:
+        raise ValueError(f'screen size must be positive, got {width} x {height} px')
+    figure = Figure(figsize=(width / dpi, height / dpi), dpi=dpi)
+    FigureCanvasAgg(figure)
+    axes = figure.add_axes((0.0, 0.0, 1.0, 1.0))
+    axes.set_xlim(0, width)
+    axes.set_ylim(height, 0)
+    axes.set_axis_off()
+    return figure, axes
+
+
+def _outline(polygon) -> Optional[np.ndarray]:
+    """Return the finite, de-duplicated vertices of a polygon (K, 2), or None."""
+    polygon = np.asarray(polygon, dtype=float).reshape(-1, 2)
+    polygon = polygon[np.all(np.isfinite(polygon), axis=1)]
+    if len(polygon) > 1:
+        keep = np.ones(len(polygon), dtype=bool)
+        keep[1:] = np.any(np.diff(polygon, axis=0) != 0, axis=1)
+        polygon = polygon[keep]
+    return polygon if len(polygon) >= 3 else None
+
+
+def render_screen(picture: ScreenPicture, path: str) -> str:
+    """
+    Draw one selection as the person's screen and save it as a PNG.
+
+    :param picture: what to draw.
+    :param path: output file (directories are created).
+    :returns: ``path``.
+    """
+    figure, axes = _screen_figure(picture.screen_size)
+    width, height = picture.screen_size
+    axes.add_patch(Rectangle((0, 0), width, height, facecolor=SCREEN_COLOUR, zorder=0))
+    x0, y0, panel_w, panel_h = picture.panel
+    panel = Rectangle((x0, y0), panel_w, panel_h, facecolor=PANEL_COLOUR,
+                      edgecolor='black', linewidth=2, zorder=1)
+    axes.add_patch(panel)
+    axes.text(x0 + 8, y0 + panel_h - 10, f'RViz render panel {panel_w:.0f}x{panel_h:.0f} px '
+              f'at ({x0:.0f}, {y0:.0f})', color='#c0c4cc', fontsize=11, zorder=2)
+
+    for name, polygon in picture.floors:
+        outline = _outline(polygon)
+        if outline is None:
+            continue
+        floor = Polygon(outline, closed=True, facecolor='#3c414b', edgecolor=FLOOR_EDGE,
+                        linewidth=1, zorder=2)
+        axes.add_patch(floor)
+        floor.set_clip_path(panel)
+        centre = outline.mean(axis=0)
+        if x0 <= centre[0] <= x0 + panel_w and y0 <= centre[1] <= y0 + panel_h:
+            axes.text(*centre, name, color='#9aa0aa', fontsize=12, ha='center', va='center',
+                      style='italic', zorder=2, clip_on=True)
+
+    for label, polygon in picture.regions.items():
+        outline = _outline(polygon)
+        if outline is None:
+            continue
+        colour = picture.colours.get(label, (0.6, 0.6, 0.6, 0.8))
+        axes.add_patch(Polygon(outline, closed=True, facecolor=colour[:3], alpha=0.55,
+                               edgecolor='none', zorder=3))
+        chosen = label == picture.chosen
+        edge = 'white'
+        if chosen:
+            edge = CORRECT_COLOUR if picture.chosen == picture.intended else WRONG_COLOUR
+        axes.add_patch(Polygon(outline, closed=True, fill=False, edgecolor=edge,
+                               linewidth=5 if chosen else 1.5, zorder=4))
+        top = outline[np.argmin(outline[:, 1])]
+        caption = label + ('  [chosen]' if chosen else '')
+        axes.text(outline[:, 0].mean(), top[1] - 8, caption, color='white', fontsize=12,
+                  ha='center', va='bottom', weight='bold' if chosen else 'normal', zorder=6,
+                  bbox={'facecolor': 'black', 'alpha': 0.5, 'edgecolor': 'none', 'pad': 2})
+
+    gaze = np.asarray(picture.gaze, dtype=float).reshape(-1, 2)
+    inside = np.asarray(picture.gaze_in_region, dtype=bool).reshape(-1)
+    if len(inside) != len(gaze):
+        raise ValueError(f'{len(gaze)} gaze samples but {len(inside)} in-region flags')
+    if len(gaze):
+        axes.scatter(gaze[~inside, 0], gaze[~inside, 1], s=14, c=OUT_REGION_COLOUR,
+                     edgecolors='none', alpha=0.8, zorder=5,
+                     label=f'gaze outside every region ({int(np.sum(~inside))})')
+        axes.scatter(gaze[inside, 0], gaze[inside, 1], s=14, c=IN_REGION_COLOUR,
+                     edgecolors='none', alpha=0.8, zorder=5,
+                     label=f'gaze inside a region ({int(np.sum(inside))})')
+
+    path_xy = np.asarray(picture.target_path, dtype=float).reshape(-1, 2)
+    if len(path_xy):
+        if len(path_xy) > 1:
+            axes.plot(path_xy[:, 0], path_xy[:, 1], color=TARGET_COLOUR, linewidth=1.5,
+                      linestyle='--', zorder=6, label='intended target while the view moved')
+        axes.scatter(path_xy[-1:, 0], path_xy[-1:, 1], s=420, marker='*', c=TARGET_COLOUR,
+                     edgecolors='black', linewidths=1, zorder=7,
+                     label=f'intended target: {picture.intended}')
+    if picture.mean_point is not None:
+        axes.scatter([picture.mean_point[0]], [picture.mean_point[1]], s=260, marker='X',
+                     c=MEAN_COLOUR, edgecolors='black', linewidths=1, zorder=8,
+                     label='mean of the in-region gaze (decision)')
+
+    lines = [picture.title] + list(picture.details)
+    axes.text(20, 20, '\n'.join(lines), fontsize=15, va='top', ha='left', family='monospace',
+              zorder=9)
+    if axes.get_legend_handles_labels()[0]:
+        axes.legend(loc='lower left', bbox_to_anchor=(20 / width, 12 / height), fontsize=12,
+                    framealpha=0.9)
+    return _save(figure, path)
+
+
+def _save(figure: Figure, path: str) -> str:
+    """Write the figure as a PNG, creating the directory."""
+    directory = os.path.dirname(os.path.abspath(path))
+    os.makedirs(directory, exist_ok=True)
+    figure.savefig(path, dpi=figure.dpi, format='png')
+    return path
+
+
+def wilson_interval(correct, trials, z: float = 1.96) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Wilson score interval of a proportion (95 % by default).
+
+    :param correct: successes, scalar or shape (S,).
+    :param trials: trials, same shape, > 0.
+    :returns: (low, high), each the shape of ``correct``.
+    """
+    k = np.asarray(correct, dtype=float)
+    n = np.asarray(trials, dtype=float)
+    if np.any(n <= 0):
+        raise ValueError('every proportion needs at least one trial')
+    p = k / n
+    denominator = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denominator
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denominator
+    return np.clip(centre - half, 0, 1), np.clip(centre + half, 0, 1)
+
+
+def plot_accuracy_curve(path: str, sizes, curves: Dict[str, Tuple[np.ndarray, np.ndarray]],
+                        thresholds: Optional[Dict[str, float]] = None, title: str = '',
+                        note: str = '', reference_px: Optional[float] = 16.0) -> str:
+    """
+    Plot accuracy against on-screen marker size, one line per method.
+
+    :param path: output PNG.
+    :param sizes: marker sizes, px, shape (S,).
+    :param curves: method -> (correct (S,), trials (S,)); drawn with a 95 %
+        Wilson interval band.
+    :param thresholds: method -> smallest size found by the binary search, px
+        (vertical lines).
+    :param title: plot title.
+    :param note: small text under the title (the set-up).
+    :param reference_px: the original report's finding (about 16 px), drawn
+        as a grey line; None to omit.
+    :returns: ``path``.
+    """
+    sizes = np.asarray(sizes, dtype=float)
+    figure = Figure(figsize=(10, 6), dpi=110)
+    FigureCanvasAgg(figure)
+    axes = figure.add_subplot(1, 1, 1)
+    colours = {'mean': '#1f77b4', 'vote': '#d62728', 'early': '#2ca02c'}
+    for index, (method, (correct, trials)) in enumerate(curves.items()):
+        correct = np.asarray(correct, dtype=float)
+        trials = np.asarray(trials, dtype=float)
+        colour = colours.get(method, f'C{index + 3}')
+        low, high = wilson_interval(correct, trials)
+        axes.fill_between(sizes, 100 * low, 100 * high, color=colour, alpha=0.15, linewidth=0)
+        axes.plot(sizes, 100 * correct / trials, marker='o', markersize=4, color=colour,
+                  label=f'{method} (95 % interval shaded)')
+        if thresholds and method in thresholds and math.isfinite(thresholds[method]):
+            axes.axvline(thresholds[method], color=colour, linestyle='--', linewidth=1.2,
+                         label=f'{method}: binary search threshold {thresholds[method]:g} px')
+    if reference_px is not None:
+        axes.axvline(reference_px, color='grey', linestyle=':', linewidth=1.5,
+                     label=f'original report: about {reference_px:g} px')
+    axes.set_xscale('log')
+    axes.set_xlabel('marker size on the screen, px (side of a square of equal area)')
+    axes.set_ylabel('choices identified correctly, %')
+    axes.set_ylim(-2, 102)
+    axes.grid(True, which='both', alpha=0.3)
+    axes.legend(loc='lower right', fontsize=9)
+    axes.set_title(title or 'Accuracy against marker size (room scenario)', fontsize=12)
+    if note:
+        figure.text(0.5, 0.005, note, ha='center', va='bottom', fontsize=8, color='#404040')
+    figure.subplots_adjust(bottom=0.16)
+    return _save(figure, path)
+
+
+def png_size(path: str) -> Tuple[int, int]:
+    """Read (width, height) px from a PNG header, raising ValueError if not a PNG."""
+    with open(path, 'rb') as stream:
+        header = stream.read(24)
+    if len(header) < 24 or header[:8] != b'\x89PNG\r\n\x1a\n' or header[12:16] != b'IHDR':
+        raise ValueError(f'{path} is not a PNG file')
+    return int.from_bytes(header[16:20], 'big'), int.from_bytes(header[20:24], 'big')
+
+
+def summarise_counts(counts: Dict[str, int]) -> List[str]:
+    """Format per-label sample counts, largest first, as 'label n'."""
+    return [f'{label} {n}' for label, n in sorted(counts.items(), key=lambda kv: -kv[1])]

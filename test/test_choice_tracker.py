@@ -1,0 +1,193 @@
+"""ChoiceTracker: rounds on a live stream of gaze and regions, with explicit times (no ROS)."""
+
+import numpy as np
+import pytest
+
+from eye_bci_ros2.arbitration import ArbiterSettings, ChoiceTracker, RegionSet
+
+RATE_HZ = 100.0
+LEFT, RIGHT = (300.0, 500.0), (1500.0, 500.0)
+
+
+def squares(layout, stamp):
+    """Region set: ``layout`` maps label -> (x, y) centre of a 200 px square."""
+    polygons = [[[x - 100, y - 100], [x + 100, y - 100], [x + 100, y + 100], [x - 100, y + 100]]
+                for x, y in layout.values()]
+    return RegionSet(list(layout), polygons, stamp)
+
+
+class Recorder:
+    """A tracker plus what it decided and logged."""
+
+    def __init__(self, **settings):
+        self.decisions = []
+        self.logs = []
+        self.tracker = ChoiceTracker(ArbiterSettings(**settings), self.decisions.append,
+                                     lambda level, key, text: self.logs.append((level, key)))
+
+    @property
+    def labels(self):
+        """Return the labels of the decisions so far (None: no choice)."""
+        return [decision.label for decision in self.decisions]
+
+    def feed(self, points, start, now=None):
+        """
+        Give samples stamped at RATE_HZ from ``start`` (half a period off the grid).
+
+        :param now: arrival time of every sample (default: its stamp).
+        :returns: index of the sample whose call returned a decision, else None.
+        """
+        decided = None
+        for k, (x, y) in enumerate(points):
+            stamp = start + (k + 0.5) / RATE_HZ
+            arrival = stamp if now is None else now
+            if self.tracker.add_sample(stamp, x, y, arrival) is not None and decided is None:
+                decided = k
+        return decided
+
+
+def at(point, count):
+    """``count`` samples exactly on a screen point, shape (count, 2) px."""
+    return np.tile(point, (count, 1))
+
+
+def test_window_end_is_decided_by_the_first_sample_after_it():
+    rec = Recorder(window_s=0.5)
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    assert rec.tracker.rounds_started == 1
+    # 50 samples fill the 0.5 s window; the 51st is the first stamped after it.
+    decided = rec.feed(at(RIGHT, 60), 10.0)
+    assert decided == 50
+    assert rec.labels == ['B']
+    assert rec.decisions[0].samples_used == 50
+    assert not rec.tracker.round_open
+
+
+def test_early_decision_is_made_by_the_deciding_sample_without_a_tick():
+    rec = Recorder(early_decision=True, min_samples=3, dwell_s=0.0, confidence=0.9)
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    points = np.vstack([at((900.0, 900.0), 5), at(LEFT, 10)])  # off-region, then on A
+    decided = rec.feed(points, 10.0)
+    # Three samples on A are needed: the 3rd in-region sample (index 7) decides.
+    assert decided == 7
+    assert rec.labels == ['A']
+    assert rec.decisions[0].method == 'early'
+    assert rec.decisions[0].in_region_samples == 3
+
+
+def test_quiet_stream_closes_the_round_on_tick_after_the_stall_timeout():
+    rec = Recorder(window_s=0.5, stall_timeout_s=0.2)
+    rec.tracker.add_regions(squares({'A': LEFT}, 10.0), now=10.0)
+    rec.feed(at(LEFT, 20), 10.0)  # 0.2 s of gaze, then nothing
+    assert rec.tracker.tick(10.69) is None and rec.labels == []
+    assert rec.tracker.tick(10.71).label == 'A'
+    assert rec.decisions[0].samples_used == 20
+
+
+def test_regions_arriving_after_their_samples_reclassify_the_open_round():
+    # A and B swap 0.3 s into the round; the samples after the swap arrive
+    # before the regions message announcing it, and before the window ends.
+    rec = Recorder()
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    rec.feed(at(RIGHT, 60), 10.3, now=10.9)
+    rec.tracker.add_regions(squares({'A': RIGHT, 'B': LEFT}, 10.3), now=10.95)
+    assert rec.labels == []
+    decided = rec.feed(at(RIGHT, 20), 10.9, now=11.0)
+    assert decided == 10  # the first sample stamped after the 1 s window
+    assert rec.labels == ['A']
+    assert rec.decisions[0].counts == {'A': 70, 'B': 0}
+    assert rec.tracker.rounds_started == 1
+
+
+def test_without_reorder_a_decision_is_final_and_late_regions_are_reported():
+    rec = Recorder(window_s=0.5)
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    rec.feed(at(RIGHT, 60), 10.0, now=10.6)
+    assert rec.labels == ['B']
+    # The swap stamped inside the finished window comes too late to change it.
+    rec.tracker.add_regions(squares({'A': RIGHT, 'B': LEFT}, 10.3), now=10.65)
+    assert rec.labels == ['B']
+    assert ('warning', 'late_regions') in rec.logs
+
+
+def test_reorder_holds_a_decision_until_regions_newer_than_its_samples_arrive():
+    rec = Recorder(window_s=0.5, reorder_s=0.5, method='vote')
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    rec.feed(at(RIGHT, 60), 10.0, now=10.6)
+    assert rec.labels == [] and rec.tracker.round_open  # held: regions may be late
+    # A late swap stamped inside the window changes the held decision from B to A.
+    assert rec.tracker.add_regions(squares({'A': RIGHT, 'B': LEFT}, 10.1), now=10.65) is None
+    # Regions stamped after the last sample used make it final at once.
+    decision = rec.tracker.add_regions(squares({'A': RIGHT, 'B': LEFT}, 10.6), now=10.7)
+    assert decision is not None and rec.labels == ['A']
+    assert decision.counts == {'A': 40, 'B': 10}
+    assert ('warning', 'late_regions') not in rec.logs
+
+
+def test_reorder_wait_ends_at_its_deadline():
+    rec = Recorder(window_s=0.5, reorder_s=0.3)
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    rec.feed(at(LEFT, 60), 10.0, now=10.6)
+    assert rec.tracker.tick(10.89) is None
+    assert rec.tracker.tick(10.91).label == 'A'
+    assert rec.labels == ['A']
+
+
+def test_new_choices_take_the_samples_that_arrived_before_them():
+    rec = Recorder(window_s=0.5)
+    rec.tracker.add_regions(squares({'room1': LEFT, 'room2': RIGHT}, 10.0), now=10.0)
+    rec.feed(at(LEFT, 51), 10.0)
+    assert rec.labels == ['room1']
+    # The table menu is shown at 11.0, but its regions arrive 0.2 s later,
+    # after the gaze samples stamped from 11.0 on.
+    rec.feed(at(RIGHT, 20), 11.0, now=11.2)
+    rec.tracker.add_regions(squares({'table1': LEFT, 'table2': RIGHT}, 11.0), now=11.2)
+    assert rec.tracker.rounds_started == 2
+    rec.feed(at(RIGHT, 40), 11.2)
+    assert rec.labels == ['room1', 'table2']
+    assert rec.decisions[1].samples_used == 50
+
+
+def test_out_of_order_samples_decide_as_in_order_ones():
+    rng = np.random.default_rng(5)
+    points = np.vstack([rng.normal(LEFT, 20, (30, 2)), rng.normal(RIGHT, 20, (20, 2))])
+    outcomes = []
+    for order in (np.arange(50), rng.permutation(50)):
+        rec = Recorder(window_s=0.5, method='vote')
+        rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+        for k in order:
+            rec.tracker.add_sample(10.0 + (k + 0.5) / RATE_HZ, *points[k], now=10.5)
+        rec.tracker.add_sample(10.6, 0.0, 0.0, now=10.6)
+        outcomes.append((rec.labels, rec.decisions[0].counts, rec.decisions[0].samples_used))
+    assert outcomes[0] == outcomes[1] == (['A'], {'A': 30, 'B': 20}, 50)
+
+
+def test_new_choices_replace_an_unfinished_round_without_a_choice():
+    rec = Recorder()
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    rec.feed(at(LEFT, 30), 10.0)
+    rec.tracker.add_regions(squares({'C': LEFT}, 10.4), now=10.4)
+    assert rec.labels == [] and rec.tracker.rounds_started == 2
+    rec.feed(at(LEFT, 101), 10.4)
+    assert rec.labels == ['C']
+
+
+def test_request_starts_a_round_and_settings_change_the_open_round():
+    rec = Recorder(early_decision=True, min_samples=50, dwell_s=0.0)
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    rec.feed(at(LEFT, 5), 10.0)
+    rec.tracker.configure(min_samples=8)
+    assert rec.feed(at(LEFT, 5), 10.05) == 2  # the 8th sample on A
+    rec.tracker.request(now=11.0)
+    assert rec.tracker.rounds_started == 2 and rec.tracker.round_open
+    assert rec.feed(at(RIGHT, 10), 11.0) == 7
+    assert rec.labels == ['A', 'B']
+
+
+def test_bad_settings_raise():
+    with pytest.raises(ValueError, match='method'):
+        ArbiterSettings(method='median')
+    with pytest.raises(ValueError, match='window_s'):
+        ArbiterSettings(window_s=0.0)
+    with pytest.raises(ValueError, match='reorder_s'):
+        ChoiceTracker().configure(reorder_s=-1.0)
