@@ -825,6 +825,8 @@ class ChoiceTracker:
             round the new choices end), else None.
         """
         stamp = region_set.stamp
+        # Checked first: only choices made before this message arrived can have missed it.
+        late_by = self._final_stamp - stamp
         stamps = self._history_stamps
         if stamps and stamp < stamps[-1]:
             self._on_log('warning', 'regions_order',
@@ -853,16 +855,23 @@ class ChoiceTracker:
             if round_.pending is not None and round_.evidence.last_stamp < stamp:
                 # Stamped after every sample the held decision used: it is final.
                 decision = self._finish(round_.pending)
-            elif round_.log.max_stamp >= stamp:
+            elif round_.log.max_stamp >= stamp and not self._repeats(index):
                 decision = self._reclassify(round_, now)
-        if stamp <= self._final_stamp:
+        if late_by >= 0:
             self._on_log('warning', 'late_regions',
                          f'a regions message arrived after the choice its stamp applies to '
-                         f'(stamped {self._final_stamp - stamp:.3f} s before the last sample '
-                         'used): that choice stands; set reorder_s to let choices wait for '
-                         'late regions')
+                         f'(stamped {late_by:.3f} s before the last sample used): that '
+                         'choice stands; set reorder_s to let choices wait for late regions')
         self._prune_history(now)
         return decision
+
+    def _repeats(self, index: int) -> bool:
+        """Tell whether history set ``index`` equals the one before it (same classification)."""
+        if index == 0:
+            return False
+        new, old = self._history[index], self._history[index - 1]
+        return new.labels == old.labels and np.array_equal(new.polygons, old.polygons,
+                                                           equal_nan=True)
 
     def request(self, now: float) -> Optional[Decision]:
         """
@@ -1022,7 +1031,8 @@ class ChoiceTracker:
                      f'round {self.rounds_started} ({cause}): offered {sorted(self._offered)}, '
                      f'window {self.settings.window_s} s')
         early = []
-        for sample in reversed(self._recent if replay else ()):  # newest first: usually none or a few
+        # Newest first: usually none or a few.
+        for sample in reversed(self._recent if replay else ()):
             if sample[0] < start:
                 break
             early.append(sample)
@@ -1042,9 +1052,9 @@ class ChoiceTracker:
         if round_ is not None and math.isfinite(round_.evidence.last_stamp):
             self._final_stamp = round_.evidence.last_stamp
         self.last_decision = decision
+        self._on_decision(decision)  # first: the log line must not delay the choice
         counts = ', '.join(f'{label} {n}' for label, n in decision.counts.items())
         self._on_log('info', 'decision', f'{decision.summary()} [{counts}]')
-        self._on_decision(decision)
         return decision
 
     def _prune_history(self, now: float) -> None:

@@ -122,10 +122,13 @@ def render_screen(picture: ScreenPicture, path: str) -> str:
                         linewidth=1, zorder=2)
         axes.add_patch(floor)
         floor.set_clip_path(panel)
-        centre = outline.mean(axis=0)
-        if x0 <= centre[0] <= x0 + panel_w and y0 <= centre[1] <= y0 + panel_h:
-            axes.text(*centre, name, color='#9aa0aa', fontsize=12, ha='center', va='center',
-                      style='italic', zorder=2, clip_on=True)
+        # Name the floor at its corner nearest the top-left that is on the panel.
+        on_panel = ((outline[:, 0] >= x0) & (outline[:, 0] <= x0 + panel_w - 60)
+                    & (outline[:, 1] >= y0) & (outline[:, 1] <= y0 + panel_h - 30))
+        if np.any(on_panel):
+            corner = outline[on_panel][np.argmin(outline[on_panel].sum(axis=1))]
+            axes.text(corner[0] + 12, corner[1] + 8, name, color='#9aa0aa', fontsize=12,
+                      ha='left', va='top', style='italic', zorder=2)
 
     for label, polygon in picture.regions.items():
         outline = _outline(polygon)
@@ -156,13 +159,13 @@ def render_screen(picture: ScreenPicture, path: str) -> str:
                      label=f'gaze outside every region ({int(np.sum(~inside))})')
         axes.scatter(gaze[inside, 0], gaze[inside, 1], s=14, c=IN_REGION_COLOUR,
                      edgecolors='none', alpha=0.8, zorder=5,
-                     label=f'gaze inside a region ({int(np.sum(inside))})')
+                     label=f'gaze inside a region shown at its time ({int(np.sum(inside))})')
 
     path_xy = np.asarray(picture.target_path, dtype=float).reshape(-1, 2)
     if len(path_xy):
-        if len(path_xy) > 1:
+        if np.ptp(path_xy, axis=0).max() > 3.0:
             axes.plot(path_xy[:, 0], path_xy[:, 1], color=TARGET_COLOUR, linewidth=1.5,
-                      linestyle='--', zorder=6, label='intended target while the view moved')
+                      linestyle='--', zorder=6, label='intended target since the options appeared')
         axes.scatter(path_xy[-1:, 0], path_xy[-1:, 1], s=420, marker='*', c=TARGET_COLOUR,
                      edgecolors='black', linewidths=1, zorder=7,
                      label=f'intended target: {picture.intended}')
@@ -229,15 +232,17 @@ def plot_accuracy_curve(path: str, sizes, curves: Dict[str, Tuple[np.ndarray, np
     figure = Figure(figsize=(10, 6), dpi=110)
     FigureCanvasAgg(figure)
     axes = figure.add_subplot(1, 1, 1)
-    colours = {'mean': '#1f77b4', 'vote': '#d62728', 'early': '#2ca02c'}
+    # Rules often agree exactly: distinct line styles keep every curve visible.
+    styles = {'mean': ('#1f77b4', '-', 'o', 2.5), 'vote': ('#d62728', '--', 's', 1.5),
+              'early': ('#2ca02c', ':', '^', 1.5)}
     for index, (method, (correct, trials)) in enumerate(curves.items()):
         correct = np.asarray(correct, dtype=float)
         trials = np.asarray(trials, dtype=float)
-        colour = colours.get(method, f'C{index + 3}')
+        colour, line, marker, width = styles.get(method, (f'C{index + 3}', '-', 'd', 1.5))
         low, high = wilson_interval(correct, trials)
-        axes.fill_between(sizes, 100 * low, 100 * high, color=colour, alpha=0.15, linewidth=0)
-        axes.plot(sizes, 100 * correct / trials, marker='o', markersize=4, color=colour,
-                  label=f'{method} (95 % interval shaded)')
+        axes.fill_between(sizes, 100 * low, 100 * high, color=colour, alpha=0.12, linewidth=0)
+        axes.plot(sizes, 100 * correct / trials, marker=marker, markersize=4, color=colour,
+                  linestyle=line, linewidth=width, label=f'{method} (95 % interval shaded)')
         if thresholds and method in thresholds and math.isfinite(thresholds[method]):
             axes.axvline(thresholds[method], color=colour, linestyle='--', linewidth=1.2,
                          label=f'{method}: binary search threshold {thresholds[method]:g} px')
@@ -245,6 +250,10 @@ def plot_accuracy_curve(path: str, sizes, curves: Dict[str, Tuple[np.ndarray, np
         axes.axvline(reference_px, color='grey', linestyle=':', linewidth=1.5,
                      label=f'original report: about {reference_px:g} px')
     axes.set_xscale('log')
+    ticks = [t for t in (4, 8, 16, 32, 64, 128, 256, 512, 1024)
+             if sizes.min() <= t <= sizes.max()]
+    axes.set_xticks(ticks)
+    axes.set_xticklabels([str(t) for t in ticks])
     axes.set_xlabel('marker size on the screen, px (side of a square of equal area)')
     axes.set_ylabel('choices identified correctly, %')
     axes.set_ylim(-2, 102)

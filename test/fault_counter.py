@@ -43,6 +43,8 @@ class FaultCase:
     name: str
     test: str
     outcome: str = RUNNING
+    #: What the test measured, shown with ``-v`` (e.g. how many samples got through).
+    note: str = ''
 
 
 class FaultRecorder:
@@ -131,8 +133,9 @@ def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Co
     terminalreporter.section('bad inputs and faults')
     if config.option.verbose > 0:
         for case in sorted(cases, key=lambda c: (CATEGORIES.index(c.category), c.test)):
+            note = f' ({case.note})' if case.note else ''
             terminalreporter.write_line(
-                f'{case.category:<12} {case.outcome:<12} {case.name}  [{case.test}]')
+                f'{case.category:<12} {case.outcome:<12} {case.name}{note}  [{case.test}]')
     for case in cases:
         if case.outcome in (NOT_HANDLED, RUNNING, KNOWN_BUG):
             terminalreporter.write_line(f'{case.outcome.upper()}: {case.category}: '

@@ -26,6 +26,7 @@ from eye_bci_ros2.camera_model import RvizCamera
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker, RVIZ_POSE_QOS
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, marker_array_to_regions
+from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.qos import EVENT_QOS, GAZE_QOS, LATCHED_QOS
 from ros_harness import Collector
@@ -112,14 +113,21 @@ class Pipeline:
 
     def __init__(self, graph, tracker: bool = True, arbiter: bool = True,
                  projector_parameters: Optional[Dict] = None,
-                 arbiter_parameters: Optional[Dict] = None):
+                 arbiter_parameters: Optional[Dict] = None,
+                 bridge_parameters: Optional[Dict] = None):
         """
         Start the nodes and connect the driver.
 
         :param tracker: run camera_tracker (else the driver publishes ``camera/pose``).
         :param arbiter: run choice_arbiter.
+        :param bridge_parameters: run lsl_gaze_bridge with these parameters
+            (else the driver publishes ``gaze``).
         """
         self.graph = graph
+        self.bridge = None
+        if bridge_parameters is not None:
+            self.bridge = graph.add(LslGazeBridge,
+                                    parameter_overrides=_overrides(bridge_parameters))
         self.tracker = graph.add(CameraTracker, parameter_overrides=_overrides(
             {'eye': EYE, 'focus': FOCUS, 'up': UP})) if tracker else None
         self.projector = graph.add(MarkerProjector, parameter_overrides=_overrides(
@@ -137,6 +145,7 @@ class Pipeline:
         self.poses = Collector(driver, PoseStamped, 'camera/pose', LATCHED_QOS)
         self.regions = Collector(driver, MarkerArray, 'choices/regions', LATCHED_QOS)
         self.choices = Collector(driver, String, 'choice', EVENT_QOS)
+        self.gazes = Collector(driver, PointStamped, 'gaze', GAZE_QOS)
         publishers = [self.choices_pub]
         if tracker:
             publishers.append(self.rviz_pub)
@@ -165,7 +174,7 @@ class Pipeline:
             expect = [m.text for m in markers if m.action == Marker.ADD]
         assert self.graph.spin_until(lambda: sorted(self.current()) == sorted(expect),
                                      WAIT_S), \
-            f'regions {sorted(self.current())} never became {sorted(expect)}'
+            f'regions {sorted(self.current())[:10]}... never became {sorted(expect)}'
         return self.current()
 
     def offer_rooms(self) -> Dict:
@@ -238,11 +247,16 @@ class Pipeline:
         self.request_pub.publish(Empty())
         assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, WAIT_S)
 
-    def finish_round(self):
-        """Wait until the open round ends (its window and stall timeout pass); return its Decision."""
-        before = self.arbiter.last_decision
-        assert self.graph.spin_until(lambda: self.arbiter.last_decision is not before, WAIT_S), \
-            'the round never ended'
+    def finish_round(self, timeout: float = WAIT_S, before=False):
+        """
+        Wait until the open round ends (its window and stall timeout pass); return its Decision.
+
+        :param before: the Decision to wait past (default: the last one now).
+        """
+        if before is False:
+            before = self.arbiter.last_decision
+        assert self.graph.spin_until(lambda: self.arbiter.last_decision is not before,
+                                     timeout), 'the round never ended'
         self.graph.spin_for(0.1)  # let the choice message arrive
         return self.arbiter.last_decision
 
@@ -253,13 +267,15 @@ class Pipeline:
         Asserts exactly the supported choice (or none) is published.
         :returns: the arbiter's Decision.
         """
+        # Aim first: the round's window runs from the request.
+        if label is None:
+            points = self.rng.uniform([0, 0], [50, 50], (240, 2))  # a corner, no region
+        else:
+            points = self.look_at_region(label)
         if new_round:
             self.request()
         published = len(self.choices.messages)
-        if label is None:
-            self.gaze(self.rng.uniform([0, 0], [50, 50], (240, 2)))  # a corner, no region
-        else:
-            self.gaze(self.look_at_region(label))
+        self.gaze(points)
         decision = self.finish_round()
         new = [message.data for message in self.choices.messages[published:]]
         assert decision.label == label, decision.summary()
@@ -270,9 +286,9 @@ class Pipeline:
         """Return every choice published so far."""
         return [message.data for message in self.choices.messages]
 
-    def answers(self, node_name: str) -> bool:
+    def answers(self, node_name: str, timeout: float = WAIT_S) -> bool:
         """Tell whether a node still answers a parameter get (``ros2 param get``)."""
-        return self.graph.get_parameters(node_name, ['use_sim_time']) == [False]
+        return self.graph.get_parameters(node_name, ['use_sim_time'], timeout) == [False]
 
 
 def _overrides(values: Dict) -> List[Parameter]:

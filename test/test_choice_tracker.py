@@ -148,6 +148,35 @@ def test_new_choices_take_the_samples_that_arrived_before_them():
     assert rec.decisions[1].samples_used == 50
 
 
+def test_lagging_new_menu_without_reorder_old_round_decides_on_new_gaze():
+    # The gaze moves to the new menu before its regions arrive.  Without
+    # reorder_s the open round decides at once on those samples (final, and
+    # reported when the new regions show it was late); the new round then
+    # takes the same samples and decides too.
+    rec = Recorder(early_decision=True, min_samples=5, dwell_s=0.0, window_s=5.0)
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    rec.feed(at(RIGHT, 10), 11.0, now=11.2)
+    assert rec.labels == ['B']
+    decision = rec.tracker.add_regions(squares({'t1': LEFT, 't2': RIGHT}, 11.0), now=11.2)
+    assert decision is not None and rec.labels == ['B', 't2']
+    assert rec.logs.count(('warning', 'late_regions')) == 1
+
+
+def test_lagging_new_menu_with_reorder_the_old_round_makes_no_choice():
+    rec = Recorder(early_decision=True, min_samples=5, dwell_s=0.0, reorder_s=0.5,
+                   window_s=5.0)
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    rec.feed(at(RIGHT, 10), 11.0, now=11.2)
+    assert rec.labels == []  # held: regions newer than 10.0 may still come
+    rec.tracker.add_regions(squares({'t1': LEFT, 't2': RIGHT}, 11.0), now=11.2)
+    # The old round had no sample before 11.0: replaced without a choice; the
+    # new round decided on the samples and waits for regions newer than them.
+    assert rec.labels == [] and rec.tracker.rounds_started == 2
+    assert rec.tracker.tick(11.71).label == 't2'
+    assert rec.labels == ['t2']
+    assert ('warning', 'late_regions') not in rec.logs
+
+
 def test_out_of_order_samples_decide_as_in_order_ones():
     rng = np.random.default_rng(5)
     points = np.vstack([rng.normal(LEFT, 20, (30, 2)), rng.normal(RIGHT, 20, (20, 2))])

@@ -31,7 +31,9 @@ went quiet and releases decisions held by ``reorder_s``.
 
 Ordering.  Gaze and regions come on separate topics, so a sample can arrive
 before the regions message stamped just before it.  Such a message
-re-classifies the open round's samples stamped after it (rare, O(round)).
+re-classifies the open round's samples stamped after it (rare, O(round)),
+and a round started by new choices at a past stamp takes the samples
+stamped after that which arrived first.
 With ``reorder_s`` 0 (default) a decision is final when made: a regions
 message that comes later with a stamp before the decision's last sample is
 logged as a warning and does not change it.  With ``reorder_s`` > 0 a
