@@ -27,7 +27,9 @@ a random 0-25 ms later the marked one (so it falls at any phase of the
 bridge's poll timer), aimed at the vertex mean of one region (taken from
 ``choices/regions``; the target changes every round).  The arbiter decides
 early on one in-region sample (``min_samples`` 1, ``dwell_s`` 0,
-``confidence`` 0.8 < the 0.9 posterior of one sample among three regions),
+``confidence`` 0.8 < the 0.9 posterior of one sample among three regions;
+``min_reaction_s`` 0 because the marked sample comes sooner after the request
+than a person could react, and the arbiter would otherwise not count it),
 so the marked sample is the sample that decides the round; a round counts
 only if the arbiter's decision is the target with exactly one in-region
 sample.  Latency = receipt of ``choice`` in the driver's callback minus the
@@ -89,7 +91,7 @@ MARKER_SCALE = (1.5, 1.5, 0.05)
 OFF_REGION_PX = (60.0, 60.0)
 #: Arbiter settings that make the first in-region sample decide a round.
 ARBITER_PARAMETERS = {'early_decision': True, 'min_samples': 1, 'dwell_s': 0.0,
-                      'confidence': 0.8, 'window_s': 30.0}
+                      'min_reaction_s': 0.0, 'confidence': 0.8, 'window_s': 30.0}
 #: Waits, s.
 SETUP_TIMEOUT_S = 30.0
 ROUND_TIMEOUT_S = 3.0

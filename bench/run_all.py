@@ -8,7 +8,9 @@ names them.  A module that does not exist yet (``bench.latency``,
 ``bench.decision``) is reported as skipped; any other failure is recorded in the
 JSON and makes the exit status 1, after the other benchmarks have run, as does a
 row whose ``agrees`` is false (fast path and reference disagree).  A module may
-name the metrics its table shows in ``TABLE_COLUMNS`` (default: all).
+name the metrics its table shows in ``TABLE_COLUMNS`` (default: all), or print
+its own table: ``format_lines(section) -> list[str]`` (used when present, e.g.
+for a nested section such as ``bench.decision``'s).
 
 Usage::
 
@@ -27,7 +29,7 @@ import os
 import sys
 import time
 import traceback
-from typing import Dict, List, Optional, Sequence
+from typing import Callable, Dict, List, Optional, Sequence
 
 from bench.timing import machine_info
 
@@ -73,10 +75,11 @@ def run_benchmarks(names: Sequence[str], quick: bool = False,
 
     :returns: ``{'sections': {name: section}, 'skipped': {name: reason},
         'errors': {name: traceback text}, 'seconds': {name: wall time},
-        'columns': {name: TABLE_COLUMNS or None}}``.
+        'columns': {name: TABLE_COLUMNS or None},
+        'formatters': {name: format_lines or None}}``.
     """
     outcome: Dict[str, Dict] = {'sections': {}, 'skipped': {}, 'errors': {}, 'seconds': {},
-                                'columns': {}}
+                                'columns': {}, 'formatters': {}}
     for name in names:
         start = time.perf_counter()
         try:
@@ -92,6 +95,7 @@ def run_benchmarks(names: Sequence[str], quick: bool = False,
         print(f'{name}: running{" (quick)" if quick else ""} ...', file=log, flush=True)
         try:
             outcome['columns'][name] = getattr(module, 'TABLE_COLUMNS', None)
+            outcome['formatters'][name] = getattr(module, 'format_lines', None)
             outcome['sections'][name] = module.run(quick=quick)
         except Exception:  # a failing benchmark must not hide the others
             outcome['errors'][name] = traceback.format_exc()
@@ -137,6 +141,24 @@ def format_table(name: str, section, columns: Optional[Sequence[str]] = None) ->
              for line in cells]
     lines.insert(1, '  '.join('-' * width for width in widths))
     return lines
+
+
+def section_lines(name: str, section, columns: Optional[Sequence[str]] = None,
+                  formatter: Optional[Callable[[Dict], List[str]]] = None) -> List[str]:
+    """
+    Lines of one section: the module's own ``format_lines`` when it has one.
+
+    :param columns: for :func:`format_table`, without a formatter.
+    :param formatter: the module's ``format_lines(section) -> list[str]``; if
+        it fails, the failure is noted and :func:`format_table` prints the section.
+    """
+    if formatter is not None:
+        try:
+            return [f'{name}:'] + [str(line) for line in formatter(section)]
+        except Exception as error:  # a broken table must not hide the results
+            return [f'{name}: format_lines failed ({error!r}); generic table:'] + \
+                format_table(name, section, columns)
+    return format_table(name, section, columns)
 
 
 def disagreements(sections: Dict[str, Dict]) -> List[str]:
@@ -210,7 +232,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     for name in names:
         if name in outcome['sections']:
             print()
-            table = format_table(name, outcome['sections'][name], outcome['columns'].get(name))
+            table = section_lines(name, outcome['sections'][name], outcome['columns'].get(name),
+                                  outcome['formatters'].get(name))
             print('\n'.join(table))
     for name, reason in outcome['skipped'].items():
         print(f'\n{name}: skipped ({reason})')

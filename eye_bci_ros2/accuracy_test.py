@@ -46,7 +46,7 @@ from typing import Callable, Dict, List, Optional, Sequence, TextIO, Tuple
 import numpy as np
 
 from eye_bci_ros2 import demo_render
-from eye_bci_ros2.arbitration import DEFAULT_HIT_RATE, RegionSet, RoundEvidence
+from eye_bci_ros2.arbitration import ArbiterSettings, RegionSet
 from eye_bci_ros2.camera_model import RvizCamera
 from eye_bci_ros2.gaze_model import GazeParams, GazeSimulator, ORIGINAL_TOBII_4C, PRESETS
 from eye_bci_ros2.geometry import polygon_signed_area
@@ -234,22 +234,16 @@ class RoomScenario:
 @dataclass(frozen=True)
 class TrialSettings:
     """
-    How each trial is simulated and decided (the choice_arbiter's parameters).
+    How each trial is simulated and decided.
 
     :ivar params: the simulated person and tracker.
     :ivar window_s: gaze collection window from the question, s.
-    :ivar hit_rate: evidence model of the early decision.
-    :ivar min_samples: early decision: in-region samples needed.
-    :ivar dwell_s: early decision: dwell on the leader, s.
-    :ivar confidence: early decision: posterior needed.
+    :ivar arbiter: the choice_arbiter's early-decision settings (its defaults).
     """
 
     params: GazeParams = ORIGINAL_TOBII_4C
     window_s: float = 1.0
-    hit_rate: float = DEFAULT_HIT_RATE
-    min_samples: int = 10
-    dwell_s: float = 0.2
-    confidence: float = 0.95
+    arbiter: ArbiterSettings = field(default_factory=ArbiterSettings)
 
 
 @dataclass
@@ -299,10 +293,9 @@ def run_trials(scenario: RoomScenario, size_px: float, trials: int, seed: int,
         valid = trace.valid
         points, stamps = trace.xy[valid], trace.t[valid]
         for column, method in enumerate(methods):
-            evidence = RoundEvidence(0.0, hit_rate=settings.hit_rate,
-                                     min_samples=settings.min_samples, dwell_s=settings.dwell_s)
+            evidence = settings.arbiter.evidence(0.0)
             if method == 'early':
-                decision = evidence.add(points, stamps, regions, settings.confidence) \
+                decision = evidence.add(points, stamps, regions, settings.arbiter.confidence) \
                     or evidence.decide('mean')
             else:
                 evidence.add(points, stamps, regions)

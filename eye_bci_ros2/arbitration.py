@@ -25,15 +25,34 @@ prior, after ``n_r`` of ``N`` in-region samples fell on label ``r``::
     P(r | n) = h^n_r ((1 - h)/(R - 1))^(N - n_r) / sum_s (same for s)
              = 1 / sum_s exp(lambda (n_s - n_r)),  lambda = log(h (R - 1) / (1 - h))
 
-so only count differences matter.  A label is chosen early when, all at
-once: its posterior is >= ``confidence``; the round holds >= ``min_samples``
+so only count differences matter.  A *run* is a maximal sequence of
+consecutive in-region samples on one label (out-of-region samples, e.g.
+blinks, do not interrupt it; an in-region sample on another label ends it).
+
+Fresh evidence.  Only a sample that can be a reaction to the round's display
+is evidence for the early decision: no person reacts to a new display faster
+than ``min_reaction_s`` (about 0.1 s for a saccade), so a run that began
+before ``start + min_reaction_s`` is a gaze that was already there (typically
+where the previous menu showed the option just chosen, and a target of the
+new menu may now lie there).  Its samples are *stale*, even those after that
+time, until the gaze leaves the region for another one: the next run is a new
+fixation and is fresh.  Fresh samples are therefore exactly those of runs
+starting at or after ``start + min_reaction_s``; the early decision weighs
+only them (counts, posterior, ``min_samples``), and ``min_reaction_s`` 0
+makes every sample fresh (the rule off).  The window-end rules (mean, vote)
+always use every sample of the window, so ``mean`` stays the original rule
+and a gaze that stays on a region it rested on from the start is decided by
+it, at the window end: slower, never a hasty wrong choice.
+
+A label is chosen early when, all at once: its posterior from the fresh
+counts is >= ``confidence``; the round holds >= ``min_samples`` fresh
 in-region samples; the label holds the most recent ``min_samples`` in-region
-samples without interruption (out-of-region samples, e.g. blinks, do not
-interrupt); and that run of samples spans >= ``dwell_s`` of sample time.  The
-dwell keeps a saccade that crosses a region, or a gaze still resting where
-the previous menu was, from triggering a choice.  With one offered region the
-posterior is 1 and only the dwell applies.  ``R`` counts every label offered
-during the round.
+samples in one fresh run; and that run spans >= ``dwell_s`` of sample time.
+The dwell keeps a saccade that crosses a region from triggering a choice at
+any tracker rate (``min_samples`` counts samples: at 1200 Hz a saccade
+crossing a region leaves several samples on it).
+With one offered region the posterior is 1 and only the run, dwell and
+freshness tests apply.  ``R`` counts every label offered during the round.
 
 Regions may move during a round (the camera moves, the labels stay): every
 sample is classified against the regions shown at its own time and evidence
@@ -68,6 +87,12 @@ METHODS = ('mean', 'vote')
 #: Default probability that an in-region sample falls on the looked-at region.
 DEFAULT_HIT_RATE = 0.9
 
+#: Default shortest reaction to a new display, s: faster gaze is not a reaction to it.
+DEFAULT_MIN_REACTION_S = 0.1
+
+#: Largest accepted ``min_reaction_s``, s.
+MAX_REACTION_S = 2.0
+
 
 @dataclass(frozen=True)
 class Decision:
@@ -89,6 +114,10 @@ class Decision:
     :param mean_point: mean of the in-region samples (screen px, motion
         compensated, see the module doc), shape (2,), or None.
     :param reason: why there is no choice ('' when there is one).
+    :param fresh_samples: of the in-region samples, those that can be a
+        reaction to the display (module doc); for an ``early`` decision
+        ``margin`` and ``posterior`` are those of the fresh counts, the
+        evidence it weighed.  -1 when not known (batch functions).
     """
 
     label: Optional[str]
@@ -101,13 +130,16 @@ class Decision:
     counts: Dict[str, int] = field(default_factory=dict)
     mean_point: Optional[Tuple[float, float]] = None
     reason: str = ''
+    fresh_samples: int = -1
 
     def summary(self) -> str:
         """One line for a log: the choice and how it was reached."""
         head = f"choice '{self.label}'" if self.label is not None \
             else f'no choice ({self.reason})'
+        fresh = f' ({self.fresh_samples} fresh)' \
+            if 0 <= self.fresh_samples < self.in_region_samples else ''
         return (f'{head} by {self.method}: {self.samples_used} samples, '
-                f'{self.in_region_samples} in regions, margin {self.margin:.2f}, '
+                f'{self.in_region_samples} in regions{fresh}, margin {self.margin:.2f}, '
                 f'posterior {self.posterior:.3f}, '
                 f'{self.time_to_decision:.3f} s after the round start')
 
@@ -157,6 +189,14 @@ def check_hit_rate(hit_rate: float) -> None:
     if not 0.5 < hit_rate < 1.0:
         raise ValueError(f'hit_rate must be in (0.5, 1), got {hit_rate}: an in-region sample '
                          'must be more likely on the looked-at region than elsewhere')
+
+
+def check_min_reaction(min_reaction_s: float) -> None:
+    """Raise ValueError unless 0 <= min_reaction_s <= MAX_REACTION_S."""
+    if not 0.0 <= min_reaction_s <= MAX_REACTION_S:
+        raise ValueError(f'min_reaction_s must be in [0, {MAX_REACTION_S}] s, got '
+                         f'{min_reaction_s}: it is the shortest time a person takes to react '
+                         'to a new display (about 0.1 s)')
 
 
 def posterior_from_counts(counts, hit_rate: float = DEFAULT_HIT_RATE) -> np.ndarray:
@@ -353,31 +393,40 @@ class RoundEvidence:
 
     :param start: round start, s (the clock of the sample stamps).
     :param hit_rate: h of the evidence model, in (0.5, 1).
-    :param min_samples: in-region samples needed, and held by the leader
-        without interruption, before an early decision (>= 1).
+    :param min_samples: fresh in-region samples needed, and held by the
+        leader in one fresh run, before an early decision (>= 1).
     :param dwell_s: sample time the leader's run must span before an early
         decision, s (>= 0).
+    :param min_reaction_s: runs starting before ``start + min_reaction_s``
+        are stale and not evidence for the early decision (module doc), s
+        (>= 0; 0 = every sample is fresh).  A change applies to the samples
+        added after it.
     """
 
     def __init__(self, start: float = 0.0, hit_rate: float = DEFAULT_HIT_RATE,
-                 min_samples: int = 10, dwell_s: float = 0.0):
+                 min_samples: int = 10, dwell_s: float = 0.0, min_reaction_s: float = 0.0):
         """Start an empty round."""
         check_hit_rate(hit_rate)
         if int(min_samples) < 1:
             raise ValueError(f'min_samples must be at least 1, got {min_samples}')
         if not dwell_s >= 0:
             raise ValueError(f'dwell_s must be >= 0, got {dwell_s}')
+        check_min_reaction(min_reaction_s)
         self.start = float(start)
         self.hit_rate = float(hit_rate)
         self.min_samples = int(min_samples)
         self.dwell_s = float(dwell_s)
+        self.min_reaction_s = float(min_reaction_s)
         self.labels: list = []
         self.samples = 0
         self.in_region = 0
+        #: Fresh in-region samples (module doc).
+        self.fresh = 0
         self.last_stamp = math.nan
         self.decision: Optional[Decision] = None
         self._label_index: Dict[str, int] = {}
         self._counts = np.zeros(0, dtype=np.int64)
+        self._fresh_counts = np.zeros(0, dtype=np.int64)
         self._centroids = np.zeros((0, 2))
         self._offset_sum = np.zeros(2)
         self._latest: Optional[RegionSet] = None
@@ -391,6 +440,16 @@ class RoundEvidence:
     def counts(self) -> Dict[str, int]:
         """In-region samples per offered label."""
         return dict(zip(self.labels, self._counts.tolist()))
+
+    @property
+    def fresh_counts(self) -> Dict[str, int]:
+        """Fresh in-region samples per offered label (the early decision's evidence)."""
+        return dict(zip(self.labels, self._fresh_counts.tolist()))
+
+    @property
+    def fresh_from(self) -> float:
+        """Return the stamp from which a run is fresh, s (-inf when ``min_reaction_s`` is 0)."""
+        return self.start + self.min_reaction_s if self.min_reaction_s > 0 else -math.inf
 
     def posterior(self) -> Dict[str, float]:
         """Posterior of each offered label (module doc)."""
@@ -414,6 +473,8 @@ class RoundEvidence:
                 self._label_index[label] = len(self.labels)
                 self.labels.append(label)
             self._counts = np.concatenate([self._counts, np.zeros(len(new), dtype=np.int64)])
+            self._fresh_counts = np.concatenate(
+                [self._fresh_counts, np.zeros(len(new), dtype=np.int64)])
             self._centroids = np.concatenate([self._centroids, np.full((len(new), 2), np.nan)])
         ids = np.array([self._label_index[label] for label in region_set.labels] + [-1],
                        dtype=np.intp)
@@ -454,17 +515,21 @@ class RoundEvidence:
         inside = np.flatnonzero(region >= 0)
         label = ids[region[inside]]
         run_count, run_start = self._runs(label, stamps[inside])
+        fresh = run_start >= self.fresh_from
         stop = len(points)
         decided = None
         if confidence is not None and inside.size:
             decided = self._first_confident(label, stamps[inside], run_count, run_start,
-                                            confidence)
+                                            fresh, confidence)
             if decided is not None:
                 stop = inside[decided] + 1
         taken = inside[inside < stop]
         kept = len(taken)
         if kept:
             self._counts += np.bincount(label[:kept], minlength=len(self.labels))
+            fresh_label = label[:kept][fresh[:kept]]
+            self._fresh_counts += np.bincount(fresh_label, minlength=len(self.labels))
+            self.fresh += len(fresh_label)
             # Position relative to its label's centroid at the sample's time.
             offsets = points[taken] - label_centroids[label[:kept]]
             self._offset_sum += offsets.sum(axis=0)
@@ -495,20 +560,27 @@ class RoundEvidence:
         run_start = np.where(continuing, self._run_start, stamps[np.maximum(start_pos, 0)])
         return run_count, run_start
 
-    def _first_confident(self, label, stamps, run_count, run_start,
+    def _first_confident(self, label, stamps, run_count, run_start, fresh,
                          confidence) -> Optional[int]:
-        """Index of the first in-region sample after which the early test passes."""
+        """
+        Find the first in-region sample after which the early test passes.
+
+        All arguments have shape (M,), one entry per in-region sample of the
+        batch: label id, stamp s, run length and run start s after it, and
+        whether it is fresh.
+        :returns: its index in those arrays, or None.
+        """
         count, width = len(label), len(self.labels)
-        # Counts per label after each sample of the batch, (M, L).
+        # Fresh counts per label after each sample of the batch, (M, L).
         cumulative = np.zeros((count, width), dtype=np.int64)
-        cumulative[np.arange(count), label] = 1
+        cumulative[np.arange(count), label] = fresh
         np.cumsum(cumulative, axis=0, out=cumulative)
-        cumulative += self._counts
+        cumulative += self._fresh_counts
         leader = cumulative.argmax(axis=1)
         posterior = posterior_from_counts(cumulative, self.hit_rate)
         leader_posterior = posterior[np.arange(count), leader]
-        total = self.in_region + np.arange(1, count + 1)
-        passed = ((leader_posterior >= confidence) & (total >= self.min_samples)
+        total = self.fresh + np.cumsum(fresh)
+        passed = (fresh & (leader_posterior >= confidence) & (total >= self.min_samples)
                   & (label == leader) & (run_count >= self.min_samples)
                   & (stamps - run_start >= self.dwell_s - 1e-9))
         hits = np.flatnonzero(passed)
@@ -518,12 +590,13 @@ class RoundEvidence:
         """Test the early decision on the evidence so far (no samples added)."""
         if self.decision is not None:
             return self.decision
-        if not self.in_region:
+        if not self.fresh:
             return None
-        leader = int(np.argmax(self._counts))
-        posterior = posterior_from_counts(self._counts, self.hit_rate)[leader]
-        if (posterior >= confidence and self.in_region >= self.min_samples
-                and self._run_label == leader and self._run_count >= self.min_samples
+        leader = int(np.argmax(self._fresh_counts))
+        posterior = posterior_from_counts(self._fresh_counts, self.hit_rate)[leader]
+        if (posterior >= confidence and self.fresh >= self.min_samples
+                and self._run_label == leader and self._run_start >= self.fresh_from
+                and self._run_count >= self.min_samples
                 and self.last_stamp - self._run_start >= self.dwell_s - 1e-9):
             self.decision = self._decision(self.labels[leader], 'early')
         return self.decision
@@ -561,9 +634,10 @@ class RoundEvidence:
         return self._decision(self._latest.labels[region], method)
 
     def _decision(self, label: Optional[str], method: str, reason: str = '') -> Decision:
-        """Build a Decision from the current state."""
+        """Build a Decision from the current state (early: margin, posterior of fresh counts)."""
+        weighed = self._fresh_counts if method == 'early' else self._counts
         if self.in_region:
-            leader, margin, posterior = _counts_summary(self._counts, self.hit_rate)
+            leader, margin, posterior = _counts_summary(weighed, self.hit_rate)
             chosen = self._label_index[label] if label is not None else leader
             probability = float(posterior[chosen])
             mean = self.mean_point()
@@ -572,7 +646,7 @@ class RoundEvidence:
             margin, probability, mean_point = 0.0, math.nan, None
         return Decision(label, method, self.samples, self.in_region, margin, probability,
                         time_to_decision=self.last_stamp - self.start, counts=self.counts,
-                        mean_point=mean_point, reason=reason)
+                        mean_point=mean_point, reason=reason, fresh_samples=self.fresh)
 
 
 #: A round holding this many samples closes at once (bounds memory on a runaway stream).
@@ -642,8 +716,11 @@ class ArbiterSettings:
     :param window_s: gaze collection time of a round, s of sample stamps (> 0).
     :param early_decision: decide before the window ends on strong evidence.
     :param confidence: posterior needed for an early decision, in (0.5, 1).
-    :param min_samples: early decision: in-region samples needed (>= 1).
+    :param min_samples: early decision: fresh in-region samples needed (>= 1).
     :param dwell_s: early decision: span of the leader's run, s (>= 0).
+    :param min_reaction_s: early decision: a run starting earlier than this
+        after the round start is not evidence (a gaze already there), s
+        (0 to :data:`MAX_REACTION_S`; 0 = off).
     :param hit_rate: evidence model h, in (0.5, 1).
     :param reorder_s: longest wait of a decision for regions that may apply
         to its last samples, s (>= 0; 0 = decide at once).
@@ -654,9 +731,12 @@ class ArbiterSettings:
     method: str = 'mean'
     window_s: float = 1.0
     early_decision: bool = False
+    # Early-decision defaults: the configuration bench/decision.py selects on its
+    # tuning persons (90 Hz and 1200 Hz trackers, gaze off the menu or on another target).
     confidence: float = 0.95
-    min_samples: int = 10
-    dwell_s: float = 0.2
+    min_samples: int = 2
+    dwell_s: float = 0.02
+    min_reaction_s: float = DEFAULT_MIN_REACTION_S
     hit_rate: float = DEFAULT_HIT_RATE
     reorder_s: float = 0.0
     stall_timeout_s: float = 0.5
@@ -675,6 +755,12 @@ class ArbiterSettings:
         for name in ('dwell_s', 'reorder_s', 'stall_timeout_s'):
             if not getattr(self, name) >= 0:
                 raise ValueError(f'{name} must be >= 0 s, got {getattr(self, name)}')
+        check_min_reaction(self.min_reaction_s)
+
+    def evidence(self, start: float) -> 'RoundEvidence':
+        """Return an empty :class:`RoundEvidence` for a round starting at ``start`` s."""
+        return RoundEvidence(start, hit_rate=self.hit_rate, min_samples=self.min_samples,
+                             dwell_s=self.dwell_s, min_reaction_s=self.min_reaction_s)
 
     def replace(self, **changed) -> 'ArbiterSettings':
         """Return a copy with ``changed`` fields (unknown names are ignored)."""
@@ -689,9 +775,7 @@ class _Round:
 
     def __init__(self, start: float, settings: ArbiterSettings):
         self.start = start
-        self.evidence = RoundEvidence(start, hit_rate=settings.hit_rate,
-                                      min_samples=settings.min_samples,
-                                      dwell_s=settings.dwell_s)
+        self.evidence = settings.evidence(start)
         # In-window samples as they arrived, for re-classification.
         self.log = SampleLog()
         self.window_closed = False
@@ -784,13 +868,18 @@ class ChoiceTracker:
         return self._round is not None
 
     def configure(self, **changed) -> None:
-        """Change settings (names of :class:`ArbiterSettings`); the open round follows."""
+        """
+        Change settings (names of :class:`ArbiterSettings`).
+
+        The open round uses them from its next sample on (counts so far stay).
+        """
         self.settings = self.settings.replace(**changed)
         if self._round is not None:
             evidence = self._round.evidence
             evidence.hit_rate = float(self.settings.hit_rate)
             evidence.min_samples = int(self.settings.min_samples)
             evidence.dwell_s = float(self.settings.dwell_s)
+            evidence.min_reaction_s = float(self.settings.min_reaction_s)
 
     # -- inputs ---------------------------------------------------------------------------
 
@@ -954,8 +1043,7 @@ class ChoiceTracker:
             closed and ``until`` is past it), else None.
         """
         settings = self.settings
-        evidence = RoundEvidence(round_.start, hit_rate=settings.hit_rate,
-                                 min_samples=settings.min_samples, dwell_s=settings.dwell_s)
+        evidence = settings.evidence(round_.start)
         stamps, points = round_.log.ordered()
         if until < math.inf:
             keep = np.searchsorted(stamps, until, side='left')

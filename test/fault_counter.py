@@ -8,9 +8,10 @@ Every fault case registers itself with the ``fault`` fixture::
         with fault('gaze', 'NaN sample on gaze'):
             ...  # inject the fault, then assert alive / state kept / logged
 
-A case is *handled* when its block finishes and its test passes; it is *not
-handled* when the block raises or the test fails, a *known bug* when the test
-is an expected failure (``xfail``), and *skipped* with its test.  At the end
+A case is *handled* when its block finishes; it is *not handled* when its
+block raises, or when its test fails outside every block (a final check that
+covers them all); a *known bug* when the test is an expected failure
+(``xfail``), and *skipped* with its test.  At the end
 of the session the terminal summary says, e.g.::
 
     bad inputs and faults tried: 212 (gaze 14, camera 9, markers 16, parameters 160,
@@ -91,16 +92,17 @@ def fault(request: pytest.FixtureRequest) -> FaultRecorder:
 def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
     """Settle the outcome of a test's cases from its report."""
     report = yield
-    failed = report.failed
-    if report.when == 'call' or failed or report.skipped:
-        for case in item.config.stash.get(_CASES, []):
-            if case.test != item.nodeid:
-                continue
+    if report.when == 'call' or report.failed or report.skipped:
+        cases = [case for case in item.config.stash.get(_CASES, []) if case.test == item.nodeid]
+        # A failure outside every case's block (e.g. the final "still alive" check)
+        # implicates all of them; one inside a block is that case's alone.
+        blamed = report.failed and not any(case.outcome == NOT_HANDLED for case in cases)
+        for case in cases:
             if hasattr(report, 'wasxfail') and report.skipped:
                 case.outcome = KNOWN_BUG
             elif report.skipped:
                 case.outcome = SKIPPED
-            elif failed or case.outcome == RUNNING:
+            elif blamed or case.outcome == RUNNING:
                 case.outcome = NOT_HANDLED
     return report
 

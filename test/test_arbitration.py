@@ -256,3 +256,91 @@ def test_batch_classification_is_fast_enough_for_the_benchmark(rng):
     inside_a = (np.abs(points - (200, 300)) <= 50).all(axis=1)
     assert np.array_equal(region == 0, inside_a)
     assert math.isfinite(decide_vote(points, regions).margin)
+
+
+def resting_on_b_then_a(rng, latency_s=0.2):
+    """Gaze on B from the round start, a saccade after ``latency_s``, then on A."""
+    resting = int(round(latency_s * RATE_HZ))
+    return np.vstack([around((800, 300), resting, rng), [[500, 300]],
+                      around((200, 300), 60, rng)])
+
+
+def early_settings(**changed):
+    """Return the node's default early-decision settings with ``changed`` ones."""
+    settings = {'min_samples': 2, 'dwell_s': 0.02, 'min_reaction_s': 0.1, 'hit_rate': 0.9}
+    settings.update(changed)
+    return settings
+
+
+def test_gaze_resting_on_a_target_at_the_start_is_not_chosen_early(rng):
+    # The new menu appears with the gaze on B (where the previous menu was);
+    # 200 ms later the person looks at A, the option they want.
+    regions = two_regions()
+    points = resting_on_b_then_a(rng)
+    evidence = RoundEvidence(0.0, **early_settings())
+    decision = evidence.add(points, stamps(len(points)), regions, confidence=0.95)
+    assert decision is not None and decision.label == 'A' and decision.method == 'early'
+    # Chosen on the first fresh samples on A: the saccade lands at 0.21 s,
+    # 3 samples at 100 Hz span the 0.02 s dwell.
+    assert decision.time_to_decision == pytest.approx(0.23)
+    assert decision.fresh_samples == 3 and decision.in_region_samples == 23
+    assert decision.counts == {'A': 3, 'B': 20}
+    assert decision.posterior >= 0.95  # of the fresh evidence it weighed
+    assert evidence.fresh_counts == {'A': 3, 'B': 0}
+
+
+def test_min_reaction_zero_restores_the_old_rule_that_takes_the_resting_target(rng):
+    regions = two_regions()
+    points = resting_on_b_then_a(rng)
+    old = RoundEvidence(0.0, **early_settings(min_reaction_s=0.0))
+    decision = old.add(points, stamps(len(points)), regions, confidence=0.95)
+    assert decision.label == 'B' and decision.time_to_decision < 0.1
+    # Exactly the rule without the fresh-evidence test: same sample, same evidence.
+    assert decision.fresh_samples == decision.in_region_samples == 3
+
+
+def test_resting_target_counts_again_once_the_gaze_came_back_to_it(rng):
+    # On B from the start, a glance at A too short for the dwell, back to B:
+    # the return to B is a new fixation, a reaction to the menu.
+    regions = two_regions()
+    points = np.vstack([around((800, 300), 20, rng), around((200, 300), 1, rng),
+                        around((800, 300), 40, rng)])
+    evidence = RoundEvidence(0.0, **early_settings())
+    decision = evidence.add(points, stamps(len(points)), regions, confidence=0.95)
+    assert decision.label == 'B' and decision.time_to_decision == pytest.approx(0.23)
+
+
+def test_gaze_staying_on_the_resting_target_is_decided_at_the_window_end(rng):
+    # Never left B: no fresh evidence, no early choice; the window rule, on
+    # every sample, still chooses B.
+    regions = two_regions()
+    points = around((800, 300), 100, rng)
+    evidence = RoundEvidence(0.0, **early_settings())
+    assert evidence.add(points, stamps(100), regions, confidence=0.95) is None
+    assert evidence.fresh == 0 and evidence.in_region == 100
+    assert evidence.early(0.95) is None
+    without_rule = RoundEvidence(0.0, **early_settings(min_reaction_s=0.0))
+    without_rule.add(points, stamps(100), regions)
+    assert without_rule.early(0.95).label == 'B'
+    assert evidence.decide('mean').label == 'B'
+    assert evidence.decide('mean').posterior > 0.99
+
+
+def test_window_rules_use_every_sample_whatever_min_reaction(rng):
+    regions = two_regions()
+    points = resting_on_b_then_a(rng, latency_s=0.45)  # 46 samples near B, 60 on A
+    decided = []
+    for min_reaction_s in (0.0, 0.1, 2.0):
+        for method in ('mean', 'vote'):
+            evidence = RoundEvidence(0.0, min_reaction_s=min_reaction_s)
+            evidence.add(points, stamps(len(points)), regions)
+            decision = evidence.decide(method)
+            decided.append((method, decision.label, decision.counts, decision.posterior))
+    assert decided[:2] == decided[2:4] == decided[4:]
+    assert decided[1][1] == 'A' and decided[1][2] == {'A': 60, 'B': 45}
+
+
+def test_min_reaction_must_be_between_zero_and_two_seconds():
+    for bad in (-0.01, 2.5, math.nan):
+        with pytest.raises(ValueError, match='min_reaction_s'):
+            RoundEvidence(0.0, min_reaction_s=bad)

@@ -5,6 +5,7 @@ Quick mode only; nothing here depends on how fast anything ran, only on what
 the benchmark computes: its layouts, trials, metrics, tuning and section.
 """
 
+from dataclasses import asdict, replace
 import math
 import os
 import sys
@@ -15,6 +16,7 @@ import pytest
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from bench import decision, run_all  # noqa: E402
+from eye_bci_ros2.arbitration import ArbiterSettings, ChoiceTracker  # noqa: E402
 
 METRIC_KEYS = {'accuracy', 'wrong', 'no_choice', 'median_samples', 'median_ms', 'mean_ms',
                'itr_bits_per_min', 'trials', 'not_landed'}
@@ -41,20 +43,29 @@ def test_quick_section_has_every_rule_count_and_size(section):
             total = metrics['accuracy'] + metrics['wrong'] + metrics['no_choice']
             assert total == pytest.approx(1.0)
     assert set(section['best']['config']) == {'confidence', 'min_samples', 'dwell_s',
-                                              'hit_rate', 'method', 'window_s'}
+                                              'hit_rate', 'method', 'window_s',
+                                              'min_reaction_s'}
     assert section['setup']['tuned_on_test_set'] is False
-    assert set(section['stress_other_target']) == {'original', 'node_default', 'best',
-                                                   'proposal'}
+    for rule in ('original', 'vote', 'node_default', 'best'):
+        stress = section['stress_other_target'][rule]
+        assert {(c, s) for c, s, _ in _cells(stress)} == {
+            (str(c), str(s)) for c in (3, 4, 9) for s in decision.SIZES}, rule
+    for scenario in decision.SCENARIOS:
+        assert set(section['fast_1200hz'][scenario]) == {'original', 'node_default', 'best'}
     search = section['best']['search']
     assert search['configurations'] == len(search['results']) == 4  # the quick grid
+    assert search['tuning_sets'] == ['new_menu', 'other_target', 'new_menu_1200hz',
+                                     'other_target_1200hz']
 
 
 def test_goal_row_is_the_worst_best_cell_at_100_px(section):
     goal = section['goal_100px']
     best = [section['best'][c]['100'] for c in ('3', '4', '9')]
     original = [section['original'][c]['100'] for c in ('3', '4', '9')]
+    stress = [section['stress_other_target']['best'][c]['100'] for c in ('3', '4', '9')]
 
     assert goal['accuracy'] == min(m['accuracy'] for m in best)
+    assert goal['stress_accuracy'] == min(m['accuracy'] for m in stress)
     assert goal['median_ms'] == max(m['median_ms'] for m in best)
     ratios = [b['itr_bits_per_min'] / o['itr_bits_per_min'] for b, o in zip(best, original)]
     assert goal['itr_ratio'] == pytest.approx(min(ratios))
@@ -130,20 +141,19 @@ def test_early_decision_fed_in_node_sized_chunks_equals_one_batch():
             assert decision.decide_early(trial, regions, config, chunk=1) == whole
 
 
-def test_benchmark_decisions_are_the_node_trackers_decisions():
-    arbitration = pytest.importorskip('eye_bci_ros2.arbitration')
-    if not hasattr(arbitration, 'ChoiceTracker'):
-        pytest.skip('no ChoiceTracker (the node logic without ROS) in arbitration')
+@pytest.mark.parametrize('scenario', decision.SCENARIOS)
+def test_benchmark_decisions_are_the_node_trackers_decisions(scenario):
     regions = decision.region_set(4, 60)
-    trials = decision.simulate_trials(4, 60, range(decision.TEST_SEED, decision.TEST_SEED + 20))
-    config = decision.EarlyConfig(0.95, 2, 0.0, 0.9)
+    trials = decision.simulate_trials(4, 60, range(decision.TEST_SEED, decision.TEST_SEED + 20),
+                                      scenario)
+    config = decision.EarlyConfig()  # the node defaults
+    defaults = ArbiterSettings()
+    assert all(value == getattr(defaults, name) for name, value in asdict(config).items()
+               if name != 'window_s')
     for early in (True, False):
         for trial in trials:
-            settings = arbitration.ArbiterSettings(
-                method='mean', window_s=decision.WINDOW_S, early_decision=early,
-                confidence=config.confidence, min_samples=config.min_samples,
-                dwell_s=config.dwell_s, hit_rate=config.hit_rate)
-            tracker = arbitration.ChoiceTracker(settings)
+            settings = ArbiterSettings(early_decision=early, **asdict(config))
+            tracker = ChoiceTracker(settings)
             tracker.add_regions(regions, now=0.0)
             made = None
             for stamp, (x, y) in zip(trial.stamps, trial.points):
@@ -154,6 +164,7 @@ def test_benchmark_decisions_are_the_node_trackers_decisions():
                 made = tracker.add_sample(decision.WINDOW_S, 0.0, 0.0, now=decision.WINDOW_S)
             if early:
                 label, when = decision.decide_early(trial, regions, config)
+                assert (made.method == 'early') == (when < decision.WINDOW_S)
                 if when < decision.WINDOW_S:
                     assert made.time_to_decision == pytest.approx(when)
             else:
@@ -161,16 +172,17 @@ def test_benchmark_decisions_are_the_node_trackers_decisions():
             assert made.label == label
 
 
-def test_gaze_resting_on_a_target_fools_the_fast_rule_but_not_the_proposal():
-    config = decision.EarlyConfig(0.95, 3, 0.0, 0.9)
+def test_gaze_resting_on_a_target_fools_the_fast_rule_without_min_reaction():
+    fresh = decision.EarlyConfig(0.95, 3, 0.0, 0.9, min_reaction_s=0.1)
+    stale = replace(fresh, min_reaction_s=0.0)
     regions = decision.region_set(3, 100)
     trials = decision.simulate_trials(3, 100, range(decision.TEST_SEED, decision.TEST_SEED + 10),
                                       'other_target')
     for trial in trials:
         resting = str(int(np.argmin(np.hypot(*(decision.layout(3, 100) - trial.start).T))))
-        label, when = decision.decide_early(trial, regions, config)
+        label, when = decision.decide_early(trial, regions, stale)
         assert label == resting and when < trial.onset
-        label, when = decision.decide_fresh(trial, regions, config)
+        label, when = decision.decide_early(trial, regions, fresh)
         assert label == str(trial.goal) and when > trial.onset - 0.05
 
 
@@ -183,25 +195,51 @@ def test_tuning_never_sees_a_test_seed(monkeypatch):
         simulated.update(seeds)
         return simulate(count, size, seeds, scenario, params)
 
-    def recording_tune(data, grid):
-        tuned_on.append({id(trial) for _, trials in data.values() for trial in trials})
+    def recording_tune(sets, grid):
+        tuned_on.append({id(trial) for data in sets.values() for _, trials in data.values()
+                         for trial in trials})
         tuned_on.append(set(simulated))  # everything simulated so far is tuning data
-        return tune(data, grid)
+        return tune(sets, grid)
 
     monkeypatch.setattr(decision, 'simulate_trials', recording_simulate)
     monkeypatch.setattr(decision, 'tune', recording_tune)
     decision.run(quick=True, trials=3, tuning_trials=4, counts=(3,), sizes=(100,),
-                 stress=False)
+                 fast_trials=2)
 
-    assert len(tuned_on[0]) == 4
+    assert len(tuned_on[0]) == 2 * 4 + 2 * 2  # 90 Hz and 1200 Hz, both scenarios
     assert tuned_on[1] == set(range(decision.TUNING_SEED, decision.TUNING_SEED + 4))
     assert simulated - tuned_on[1] == set(range(decision.TEST_SEED, decision.TEST_SEED + 3))
 
 
-def test_run_all_loads_it_and_prints_its_tables(section, capsys):
+def test_tuning_rejects_a_rule_fooled_by_a_resting_gaze():
+    sets = {scenario: decision._simulate([(3, 100)], decision.TUNING_SEED, 10, scenario)
+            for scenario in decision.SCENARIOS}
+    grid = {'confidence': (0.95,), 'min_samples': (2,), 'dwell_s': (0.02,),
+            'min_reaction_s': (0.0, 0.1), 'hit_rate': (0.9,)}
+    config, search = decision.tune(sets, grid)
+    assert config.min_reaction_s == 0.1 and search['selected_feasible']
+    # Alone the main scenario cannot tell them apart (no one reacts in 0.1 s).
+    results = decision.tune({'new_menu': sets['new_menu']}, grid)[1]['results']
+    assert results[0]['mean_itr_bits_per_min'] == results[1]['mean_itr_bits_per_min']
+
+
+def test_run_all_prints_its_own_table(section, capsys):
     assert run_all.load('decision') is decision
-    lines = run_all.format_table('decision', section, decision.TABLE_COLUMNS)
-    assert any(line.lstrip().startswith('goal_100px') for line in lines)
+    lines = run_all.section_lines('decision', section, formatter=decision.format_lines)
+    assert lines[0] == 'decision:' and lines[1:] == decision.format_lines(section)
+    text = '\n'.join(lines)
+    assert 'goal at 100 px, main scenario' in text and 'stress accuracy' in text
+    assert text.count(' best  9  200 ') == 2  # main and stress tables
+    assert '1200 Hz tracker, other_target' in text
     assert decision.main(['--quick']) == 0
     out = capsys.readouterr().out
     assert 'goal at 100 px' in out and 'stress' in out and 'RoundEvidence' in out
+
+
+def test_run_all_falls_back_to_the_generic_table_when_a_formatter_fails():
+    def broken(section):
+        raise KeyError('rows')
+
+    lines = run_all.section_lines('x', {'1': {'ms': 2.0}}, formatter=broken)
+    assert 'format_lines failed' in lines[0]
+    assert lines[1].split() == ['x', 'ms'] and lines[3].split() == ['1', '2.000']

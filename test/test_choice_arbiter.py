@@ -9,6 +9,7 @@ from ros_harness import Collector
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
+from eye_bci_ros2.arbitration import ArbiterSettings
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import regions_to_marker_array
 from eye_bci_ros2.nodes.qos import EVENT_QOS, GAZE_QOS, LATCHED_QOS
@@ -17,6 +18,8 @@ pytestmark = pytest.mark.ros
 
 RATE_HZ = 100.0
 LEFT, RIGHT = (300.0, 500.0), (1500.0, 500.0)
+#: A screen point off every region of the tests.
+OFF = (900.0, 900.0)
 
 
 def to_time(seconds: float) -> Time:
@@ -94,16 +97,18 @@ class Rig:
             message.point.x, message.point.y = float(x), float(y)
             self.gaze.publish(message)
 
-    def send_paced(self, centre, count, until):
+    def send_paced(self, centre, count, until, away=0):
         """
         Publish one sample every 1/RATE_HZ s, stamped now, until ``until()``.
 
+        :param away: the first ``away`` samples fall off every region (the
+            person has not reacted to the new display yet).
         :returns: how many samples were published before ``until()`` held.
         """
         for k in range(count):
             if until():
                 return k
-            self.send(self.looks(centre, 1), self.now())
+            self.send(self.looks(OFF if k < away else centre, 1), self.now())
             self.graph.spin_for(1.0 / RATE_HZ)
         self.graph.spin_until(until, 5.0)
         return count
@@ -161,18 +166,20 @@ def test_vote_and_mean_differ_when_the_mean_falls_between(graph):
 def test_early_decision_chooses_before_the_window_ends(graph):
     rig = Rig(graph, early_decision=True, min_samples=5, dwell_s=0.05, confidence=0.95)
     rig.offer({'A': LEFT, 'B': RIGHT})
-    published_early = rig.send_paced(RIGHT, 300, lambda: rig.choices.messages)
+    # 15 samples (>= 0.15 s) elsewhere first: a reaction, not a gaze already on B.
+    published_early = rig.send_paced(RIGHT, 300, lambda: rig.choices.messages, away=15)
     assert rig.labels == ['B']
     early = rig.arbiter.last_decision
     assert early.method == 'early'
     assert early.posterior >= 0.95
     # A 1 s window at 100 Hz holds 100 samples; the early choice needs a handful.
-    assert early.samples_used < 30
+    assert early.in_region_samples < 15
 
     # The same gaze without early decision waits for the whole window.
     assert graph.set_parameters('/choice_arbiter', {'early_decision': False})[0].successful
     rig.request()
-    published_window = rig.send_paced(RIGHT, 300, lambda: len(rig.choices.messages) > 1)
+    published_window = rig.send_paced(RIGHT, 300, lambda: len(rig.choices.messages) > 1,
+                                      away=15)
     assert rig.labels == ['B', 'B']
     window = rig.arbiter.last_decision
     assert window.method == 'mean'
@@ -273,6 +280,34 @@ def test_bad_parameters_are_rejected_with_a_reason(graph):
     rig.send(rig.looks(LEFT, 110), start)
     assert graph.spin_until(lambda: rig.choices.messages, 10.0)
     assert rig.labels == ['A']
+
+
+def test_early_decision_alone_does_not_choose_the_option_under_a_resting_gaze(graph):
+    # Defaults apart from early_decision: the benchmarked configuration.
+    rig = Rig(graph, early_decision=True)
+    names = ['confidence', 'min_samples', 'dwell_s', 'min_reaction_s', 'hit_rate']
+    defaults = ArbiterSettings()
+    assert graph.get_parameters('/choice_arbiter', names) == \
+        [getattr(defaults, name) for name in names]
+    # The tables appear with the gaze still where the room was, on table1;
+    # 0.2 s later the person looks at table2.
+    start = rig.offer({'table1': LEFT, 'table2': RIGHT})
+    rig.send(np.vstack([rig.looks(LEFT, 20), rig.looks(RIGHT, 30)]), start)
+    decision = rig.wait_decision()
+    assert decision.label == 'table2' and decision.method == 'early'
+    assert 0.2 < decision.time_to_decision < 0.3
+    graph.spin_for(0.2)
+    assert rig.labels == ['table2']
+
+
+def test_min_reaction_is_validated_against_its_range(graph):
+    Rig(graph)
+    for bad in (-0.1, 2.5):
+        result = graph.set_parameters('/choice_arbiter', {'min_reaction_s': bad})[0]
+        assert not result.successful and 'min_reaction_s' in result.reason, bad
+    assert graph.get_parameters('/choice_arbiter', ['min_reaction_s']) == [0.1]
+    assert graph.set_parameters('/choice_arbiter', {'min_reaction_s': 0.25})[0].successful
+    assert graph.get_parameters('/choice_arbiter', ['min_reaction_s']) == [0.25]
 
 
 def test_bad_parameter_override_fails_at_start(graph):

@@ -66,10 +66,11 @@ def test_window_end_is_decided_by_the_first_sample_after_it():
 def test_early_decision_is_made_by_the_deciding_sample_without_a_tick():
     rec = Recorder(early_decision=True, min_samples=3, dwell_s=0.0, confidence=0.9)
     rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
-    points = np.vstack([at((900.0, 900.0), 5), at(LEFT, 10)])  # off-region, then on A
+    # Off-region for 0.15 s (longer than min_reaction_s), then on A.
+    points = np.vstack([at((900.0, 900.0), 15), at(LEFT, 10)])
     decided = rec.feed(points, 10.0)
-    # Three samples on A are needed: the 3rd in-region sample (index 7) decides.
-    assert decided == 7
+    # Three samples on A are needed: the 3rd in-region sample (index 17) decides.
+    assert decided == 17
     assert rec.labels == ['A']
     assert rec.decisions[0].method == 'early'
     assert rec.decisions[0].in_region_samples == 3
@@ -152,8 +153,10 @@ def test_lagging_new_menu_without_reorder_old_round_decides_on_new_gaze():
     # The gaze moves to the new menu before its regions arrive.  Without
     # reorder_s the open round decides at once on those samples (final, and
     # reported when the new regions show it was late); the new round then
-    # takes the same samples and decides too.
-    rec = Recorder(early_decision=True, min_samples=5, dwell_s=0.0, window_s=5.0)
+    # takes the same samples and decides too (min_reaction_s 0: the gaze is
+    # taken as moving with the menu, to test the rounds, not the reaction rule).
+    rec = Recorder(early_decision=True, min_samples=5, dwell_s=0.0, window_s=5.0,
+                   min_reaction_s=0.0)
     rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
     rec.feed(at(RIGHT, 10), 11.0, now=11.2)
     assert rec.labels == ['B']
@@ -164,7 +167,7 @@ def test_lagging_new_menu_without_reorder_old_round_decides_on_new_gaze():
 
 def test_lagging_new_menu_with_reorder_the_old_round_makes_no_choice():
     rec = Recorder(early_decision=True, min_samples=5, dwell_s=0.0, reorder_s=0.5,
-                   window_s=5.0)
+                   window_s=5.0, min_reaction_s=0.0)
     rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
     rec.feed(at(RIGHT, 10), 11.0, now=11.2)
     assert rec.labels == []  # held: regions newer than 10.0 may still come
@@ -202,7 +205,7 @@ def test_new_choices_replace_an_unfinished_round_without_a_choice():
 
 
 def test_request_starts_a_round_and_settings_change_the_open_round():
-    rec = Recorder(early_decision=True, min_samples=50, dwell_s=0.0)
+    rec = Recorder(early_decision=True, min_samples=50, dwell_s=0.0, min_reaction_s=0.0)
     rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
     rec.feed(at(LEFT, 5), 10.0)
     rec.tracker.configure(min_samples=8)
@@ -220,3 +223,27 @@ def test_bad_settings_raise():
         ArbiterSettings(window_s=0.0)
     with pytest.raises(ValueError, match='reorder_s'):
         ChoiceTracker().configure(reorder_s=-1.0)
+
+
+def test_early_decision_defaults_ignore_a_gaze_resting_on_an_option_of_the_new_menu():
+    # The real task: the room was chosen on the left; the tables appear and
+    # one of them (t1) lies where the gaze still rests.  The person reacts
+    # after 200 ms and looks at t2.  early_decision alone, defaults otherwise.
+    outcomes = {}
+    for min_reaction_s in (ArbiterSettings().min_reaction_s, 0.0):
+        rec = Recorder(early_decision=True, min_reaction_s=min_reaction_s)
+        rec.tracker.add_regions(squares({'t1': LEFT, 't2': RIGHT}, 20.0), now=20.0)
+        decided = rec.feed(np.vstack([at(LEFT, 20), at(RIGHT, 30)]), 20.0)
+        outcomes[min_reaction_s] = (rec.labels, decided)
+    assert ArbiterSettings().min_reaction_s == pytest.approx(0.1)
+    # Decided on t2 by the third sample there (0.02 s dwell at 100 Hz).
+    assert outcomes[0.1] == (['t2'], 22)
+    # Without the rule the resting gaze chooses t1 within two samples.
+    assert outcomes[0.0] == (['t1'], 2)
+
+
+def test_min_reaction_setting_is_validated():
+    with pytest.raises(ValueError, match='min_reaction_s'):
+        ArbiterSettings(min_reaction_s=-0.1)
+    with pytest.raises(ValueError, match='min_reaction_s'):
+        ChoiceTracker().configure(min_reaction_s=2.5)

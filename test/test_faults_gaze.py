@@ -274,13 +274,14 @@ def test_lsl_stream_with_the_wrong_channel_count(graph, capfd, fault, channels):
     log = LogTap(capfd)
     rig.offer_rooms()
     with fault('gaze', f'LSL stream with {channels} unlabelled channel(s) (wrong layout)'):
-        connect(graph, outlet)
         mark = log.mark()
+        connect(graph, outlet)
         rig.request()
         outlet.push_chunk([[100.0 * (k + 1)] * channels for k in range(50)])
         outlet.push_chunk([])   # an empty chunk is no sample at all
         assert graph.spin_until(lambda: rig.bridge.counters['layout'] == 50, WAIT_S)
-        assert log.wait_for(graph, 'lsl_gaze_bridge.*does not fit profile', mark)
+        assert log.wait_for(graph, "lsl_gaze_bridge.*does not fit profile 'custom'", mark)
+        assert log.wait_for(graph, 'lsl_gaze_bridge.*dropping gaze samples', mark)
         decision = rig.finish_round()
         assert decision.label is None and decision.samples_used == 0
         assert rig.gazes.messages == [] and rig.published_choices() == []
@@ -314,23 +315,33 @@ def test_lsl_samples_out_of_order_in_time(graph, capfd, fault):
 
 
 @pytest.mark.lsl
-def test_lsl_burst_of_ten_thousand_samples_reaches_ros_whole(graph, capfd, fault):
+@pytest.mark.parametrize('rate', [
+    pytest.param(1200.0, marks=pytest.mark.xfail(strict=True, reason=(
+        'BUG (lsl_gaze_bridge): one poll publishes up to 8 x max_chunk = 8192 samples while '
+        'the gaze QoS keeps 1000: a subscriber on the same executor gets the last 1000'))),
+    pytest.param(0.0, marks=pytest.mark.xfail(strict=True, reason=(
+        'BUG (lsl_gaze_bridge): the inlet of an irregular-rate stream holds '
+        'INLET_BUFFER_S x 100 = 1000 samples; liblsl drops the rest of a burst, uncounted'))),
+], ids=['1200 Hz stream', 'irregular-rate stream'])
+def test_lsl_burst_of_ten_thousand_samples_reaches_ros_whole(graph, capfd, fault, rate):
     """10 000 samples in one chunk (8 s of a 1200 Hz tracker after a stall) all arrive."""
-    outlet, info = make_outlet('custom', stream_type=unique_id('gaze'), max_buffered=60)
+    outlet, info = make_outlet('custom', stream_type=unique_id('gaze'), rate=rate,
+                               max_buffered=360)
     rig = lsl_pipeline(graph, info)
     rig.offer_rooms()
     connect(graph, outlet)
     first_lsl_sample(graph, rig, outlet)
-    with fault('gaze', 'burst of 10 000 LSL samples at once'):
-        before_published = rig.bridge.counters['published']
+    with fault('gaze', f'burst of 10 000 LSL samples at once ({rate:g} Hz stream)') as case:
+        before = dict(rig.bridge.counters)
         before_received = len(rig.gazes.messages)
         push(outlet, rig.look_at_region('kitchen', count=10000))
-        assert graph.spin_until(
-            lambda: rig.bridge.counters['published'] - before_published == 10000, 60.0)
-        graph.spin_until(lambda: len(rig.gazes.messages) - before_received >= 10000, 10.0)
+        graph.spin_until(lambda: len(rig.gazes.messages) - before_received >= 10000, 15.0)
         assert rig.answers('/lsl_gaze_bridge')
+        counters = rig.bridge.counters
         received = len(rig.gazes.messages) - before_received
-        assert received == 10000, f'published 10000 gaze samples, {received} arrived'
+        case.note = (f"bridge pulled {counters['received'] - before['received']}, published "
+                     f"{counters['published'] - before['published']}, {received} arrived")
+        assert received == 10000, case.note
 
 
 @pytest.mark.lsl
@@ -388,6 +399,14 @@ def test_lsl_stream_lost_mid_round_and_restarted(graph, capfd, fault):
         assert (decision.label, new) == ('bathroom', ['bathroom']), decision.summary()
 
 
+def spin_streaming(graph, outlet, seconds, point=(20.0, 20.0)):
+    """Spin while ``outlet`` streams a gaze point off every region at about 100 Hz."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        outlet.push_chunk(sample_for('custom', [point]).tolist())
+        graph.spin_for(0.01)
+
+
 @pytest.mark.lsl
 def test_second_stream_of_the_same_type_is_not_mixed_in(graph, capfd, fault):
     stream_type = unique_id('gaze')
@@ -400,18 +419,40 @@ def test_second_stream_of_the_same_type_is_not_mixed_in(graph, capfd, fault):
     first_lsl_sample(graph, rig, first)
     with fault('gaze', 'second LSL stream of the same type appears'):
         mark = log.mark()
-        time.sleep(0.05)
         second, second_info = make_outlet('custom', stream_type=stream_type)
-        graph.spin_for(1.0)   # the resolver has seen it by now
+        spin_streaming(graph, first, 1.5)   # the tracker streams on; the resolver sees both
         assert rig.bridge.stream_uid == first_info.uid()
+        assert not second.have_consumers()
         rig.request()
+        before = rig.arbiter.last_decision
         published = len(rig.choices.messages)
         push(second, rig.look_at_region('kitchen', count=600))   # the intruder
         push(first, rig.look_at_region('bathroom', count=360))   # the person
-        decision = rig.finish_round()
+        deadline = time.monotonic() + WAIT_S
+        while rig.arbiter.last_decision is before and time.monotonic() < deadline:
+            spin_streaming(graph, first, 0.1)
+        decision = rig.finish_round(before=before)
         assert decision.label == 'bathroom', decision.summary()
         assert decision.in_region_samples == 360
         assert [m.data for m in rig.choices.messages[published:]] == ['bathroom']
-        assert not second.have_consumers()
-        assert re.search('lsl_gaze_bridge.*(2 LSL streams match|another|also)',
-                         log.since(mark)), 'the second stream is not mentioned in the log'
+        assert rig.bridge.stream_uid == first_info.uid()
+        assert 'switching to' not in log.since(mark)
+
+
+@pytest.mark.lsl
+@pytest.mark.xfail(strict=True, reason='MISSING WARNING (lsl_gaze_bridge): a second matching '
+                   'stream that appears while connected is not reported (only at connection)')
+def test_second_stream_of_the_same_type_is_reported(graph, capfd, fault):
+    stream_type = unique_id('gaze')
+    first, first_info = make_outlet('custom', stream_type=stream_type)
+    rig = lsl_pipeline(graph, first_info, stream_name='*', source_id='*')
+    log = LogTap(capfd)
+    connect(graph, first)
+    first_lsl_sample(graph, rig, first)
+    with fault('gaze', 'second LSL stream of the same type appears: reported'):
+        mark = log.mark()
+        second, _ = make_outlet('custom', stream_type=stream_type)
+        spin_streaming(graph, first, 2.0)
+        assert rig.bridge.stream_uid == first_info.uid()
+        assert re.search(f"lsl_gaze_bridge.*{second.get_info().name()}", log.since(mark)), \
+            'the second stream is not mentioned in the log'

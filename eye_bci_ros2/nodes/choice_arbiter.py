@@ -20,8 +20,13 @@ window arrives, or ``stall_timeout_s`` after the window on the node clock if
 the gaze stream goes quiet, and publishes at most one ``choice`` (none when
 no sample fell in a region, or the mean fell in none).  With
 ``early_decision`` it ends as soon as the evidence passes ``confidence``
-(see :mod:`eye_bci_ros2.arbitration`).  The next round starts on the next
-request or change of the offered labels.
+(see :mod:`eye_bci_ros2.arbitration`).  That evidence is only *fresh* gaze:
+gaze that was on a region before the round start + ``min_reaction_s``
+(sooner than any person reacts to the new display) counts only once it has
+moved to another region, so the option that lies where the gaze rested on
+the previous menu is not chosen by accident; a gaze that never leaves it is
+decided at the window end by ``method``, on every sample.  The next round
+starts on the next request or change of the offered labels.
 
 Latency.  Each gaze sample is classified in its own callback against the
 regions shown at its stamp (the newest set in the steady state, O(1) work),
@@ -50,8 +55,8 @@ from rclpy.node import Node
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.arbitration import (ArbiterSettings, ChoiceTracker, Decision, METHODS,
-                                      RegionSet)
+from eye_bci_ros2.arbitration import (ArbiterSettings, ChoiceTracker, Decision,
+                                      MAX_REACTION_S, METHODS, RegionSet)
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions, SCREEN_FRAME
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.qos import EVENT_QOS, GAZE_QOS, LATCHED_QOS
@@ -81,19 +86,27 @@ PARAMETERS = (
               'Gaze collection time of a round, s of sample stamps from the round start',
               value_range=(0.0, 60.0), check=_positive),
     ParamSpec('early_decision', False,
-              'Decide before the window ends once the evidence for one region reaches '
-              'confidence (and min_samples / dwell_s hold)'),
+              'Decide before the window ends once the fresh evidence for one region reaches '
+              'confidence (and min_samples / dwell_s / min_reaction_s hold); the defaults of '
+              'those are the configuration bench/decision.py selects'),
     ParamSpec('confidence', 0.95,
               'Posterior probability of the leading region needed for an early decision',
               value_range=(0.5, 1.0), check=_open_unit_half),
-    ParamSpec('min_samples', 10,
-              'Early decision: in-region samples needed, and the most recent ones the '
+    ParamSpec('min_samples', 2,
+              'Early decision: fresh in-region samples needed, and the most recent ones the '
               'leading region must hold without interruption',
               value_range=(1, 100000)),
-    ParamSpec('dwell_s', 0.2,
+    ParamSpec('dwell_s', 0.02,
               'Early decision: sample time the uninterrupted run on the leading region must '
-              'span, s (keeps saccades and a gaze still on the old menu from choosing)',
+              'span, s (keeps a saccade that crosses a region from choosing it, at any '
+              'tracker rate)',
               value_range=(0.0, 10.0)),
+    ParamSpec('min_reaction_s', 0.1,
+              'Early decision: shortest reaction to a new display, s; gaze on a region from '
+              'before round start + min_reaction_s (a gaze already resting there) counts '
+              'only after it has moved to another region; 0 = off. The window-end rule '
+              'always uses every sample',
+              value_range=(0.0, MAX_REACTION_S)),
     ParamSpec('hit_rate', 0.9,
               'Evidence model: probability that an in-region sample is on the looked-at region',
               value_range=(0.5, 1.0), check=_open_unit_half),
