@@ -19,6 +19,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PointStamped, Pose, PoseStamped
 import numpy as np
 from rclpy.parameter import Parameter
+from ros_harness import Collector
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -29,7 +30,6 @@ from eye_bci_ros2.nodes.conversions import arrays_to_pose, marker_array_to_regio
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.qos import EVENT_QOS, GAZE_QOS, LATCHED_QOS
-from ros_harness import Collector
 
 #: Generous wait for anything to arrive, s (2 shared cores; never a timing assertion).
 WAIT_S = 10.0
@@ -65,7 +65,7 @@ def cube(label: str, position, scale=(1.5, 1.5, 0.05), marker_id: Optional[int] 
 
 
 def room_markers() -> List[Marker]:
-    """The three room cubes of :data:`ROOMS`."""
+    """Build the three room cubes of :data:`ROOMS`."""
     return [cube(label, (x, y, 0.0), marker_id=i)
             for i, (label, (x, y)) in enumerate(ROOMS.items())]
 
@@ -77,7 +77,7 @@ def to_time(seconds: float) -> Time:
 
 
 def static_camera() -> RvizCamera:
-    """The camera of the rig's static view (1280x720 panel, no screen offset)."""
+    """Return the camera of the rig's static view (1280x720 panel, no screen offset)."""
     return RvizCamera.from_look_at(EYE, FOCUS, UP)
 
 

@@ -83,7 +83,12 @@ class RosGraph:
         helper = getattr(self, '_param_helper', None)
         if helper is None:
             helper = self._param_helper = self.node('test_param_client')
-        client = AsyncParameterClient(helper, node_name)
+            self._param_clients = {}
+        # One client per node: each holds six service clients, and a new one per call
+        # makes every wait set (and so every later call) slower.
+        client = self._param_clients.get(node_name)
+        if client is None:
+            client = self._param_clients[node_name] = AsyncParameterClient(helper, node_name)
         assert self.spin_until(lambda: client.services_are_ready(), timeout), \
             f'parameter services of {node_name} not ready'
         return client

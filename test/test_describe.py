@@ -3,10 +3,11 @@
 import os
 
 from domain_coordinator import domain_id
-from eye_bci_ros2.nodes import describe
 import pytest
 import rclpy
 from rclpy.context import Context
+
+from eye_bci_ros2.nodes import describe
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CONFIG = os.path.join(REPO, 'config', 'eye_bci.yaml')

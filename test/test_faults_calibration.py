@@ -133,7 +133,7 @@ def test_three_points_are_enough_for_the_direct_fit(fault):
 
 
 def document(points=None, pixels=None, **changes):
-    """A correspondence document (dict) of the scene, with ``changes`` applied."""
+    """Build the correspondences of the scene as a dict, with ``changes`` applied."""
     if points is None:
         points, pixels = scene()
     entries = [{'world': [float(v) for v in p], 'pixel': [float(v) for v in q]}

@@ -9,14 +9,14 @@ round still chooses exactly what the gaze looks at.
 
 import math
 
+from fault_rig import (cube, EYE, FOCUS, LogTap, Pipeline, room_markers, static_camera, UP,
+                       WAIT_S)
 import numpy as np
 import pytest
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.camera_model import look_at_pose, ogre_pose_from_optical
 from eye_bci_ros2.nodes.conversions import pose_to_arrays
-from fault_rig import (cube, EYE, FOCUS, LogTap, Pipeline, room_markers, static_camera, UP,
-                       WAIT_S)
 
 pytestmark = pytest.mark.ros
 

@@ -14,12 +14,11 @@ import math
 import re
 import time
 
+from fault_rig import LogTap, Pipeline, WAIT_S
+from lsl_outlets import make_outlet, sample_for, unique_id
 import numpy as np
 import pylsl
 import pytest
-
-from fault_rig import LogTap, Pipeline, WAIT_S
-from lsl_outlets import make_outlet, sample_for, unique_id
 
 pytestmark = pytest.mark.ros
 
@@ -257,8 +256,9 @@ def test_lsl_nan_inf_and_huge_samples_are_dropped_and_counted(graph, capfd, faul
         assert counters['nonfinite'] - before['nonfinite'] == 80
         assert counters['offscreen'] - before['offscreen'] == 40
         assert counters['published'] - before['published'] == 300
-        assert log.wait_for(graph, r'lsl_gaze_bridge.*dropped invalid gaze samples \(80 '
-                                   r'nonfinite, 40 offscreen', mark)
+        # One warning per chunk at most every 5 s: it names the reasons of its chunk.
+        assert log.wait_for(graph, r'lsl_gaze_bridge.*dropped invalid gaze samples \(\d+ '
+                                   r'(nonfinite|offscreen)', mark)
         assert rig.answers('/lsl_gaze_bridge')
 
 
@@ -331,7 +331,8 @@ def test_lsl_burst_of_ten_thousand_samples_reaches_ros_whole(graph, capfd, fault
     rig.offer_rooms()
     connect(graph, outlet)
     first_lsl_sample(graph, rig, outlet)
-    with fault('gaze', f'burst of 10 000 LSL samples at once ({rate:g} Hz stream)') as case:
+    kind = f'{rate:g} Hz' if rate else 'irregular-rate'
+    with fault('gaze', f'burst of 10 000 LSL samples at once ({kind} stream)') as case:
         before = dict(rig.bridge.counters)
         before_received = len(rig.gazes.messages)
         push(outlet, rig.look_at_region('kitchen', count=10000))
@@ -454,5 +455,5 @@ def test_second_stream_of_the_same_type_is_reported(graph, capfd, fault):
         second, _ = make_outlet('custom', stream_type=stream_type)
         spin_streaming(graph, first, 2.0)
         assert rig.bridge.stream_uid == first_info.uid()
-        assert re.search(f"lsl_gaze_bridge.*{second.get_info().name()}", log.since(mark)), \
+        assert re.search(f'lsl_gaze_bridge.*{second.get_info().name()}', log.since(mark)), \
             'the second stream is not mentioned in the log'

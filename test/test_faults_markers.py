@@ -1,6 +1,5 @@
 """
-Marker faults: bad scales, poses and quaternions, markers behind the camera, a flood of
-markers, and the choices vanishing in the middle of a round.
+Marker faults: bad scales, poses, quaternions; behind the camera; floods; mid-round removal.
 
 Driven through the real camera_tracker (static view), marker_projector and
 choice_arbiter (:class:`fault_rig.Pipeline`).  After each fault: the nodes
@@ -10,14 +9,14 @@ and gaze where the bad marker would be chooses nothing.
 
 import math
 
+from fault_rig import (cube, EYE, FOCUS, LogTap, Pipeline, room_markers, static_camera, UP,
+                       WAIT_S)
 import numpy as np
 import pytest
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.camera_model import look_at_pose, ogre_pose_from_optical
-from fault_rig import cube, EYE, FOCUS, LogTap, Pipeline, room_markers, static_camera, UP, \
-    WAIT_S
 
 pytestmark = pytest.mark.ros
 
@@ -250,7 +249,7 @@ def test_a_hundred_thousand_markers_in_one_array(graph, capfd, fault):
 
 def test_marker_arrays_in_quick_succession_are_all_applied(graph, capfd, fault):
     """
-    MarkerArrays are incremental (RViz semantics), so none may be dropped.
+    Apply every incremental MarkerArray (RViz semantics): none may be dropped.
 
     A task node adds one choice per array, as RViz tutorials do, with a
     normal publisher queue (depth 10).  Two arrays that arrive before the

@@ -19,6 +19,8 @@ import math
 import re
 from typing import Any, Dict, List, Tuple
 
+from fault_rig import LogTap
+from lsl_outlets import unique_id
 import numpy as np
 import pytest
 from rcl_interfaces.msg import ParameterType
@@ -29,8 +31,6 @@ from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.choice_menu import ChoiceMenu
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from fault_rig import LogTap
-from lsl_outlets import unique_id
 
 pytestmark = pytest.mark.ros
 
@@ -60,7 +60,7 @@ def _bad_scene(tmp_path) -> str:
 
 
 def _matrix(fx=869.0, fy=869.0, w=1.0) -> List[float]:
-    """A row-major 3x4 intrinsic as 12 doubles."""
+    """Return a row-major 3x4 intrinsic as 12 doubles."""
     return [fx, 0.0, 640.0, 0.0, 0.0, fy, 360.0, 0.0, 0.0, 0.0, w, 0.0]
 
 
@@ -147,8 +147,8 @@ def generated_values(name: str, descriptor) -> List[Tuple[Any, str]]:
 
 def same(first, second) -> bool:
     """Compare parameter values, NaN-safe, arrays as lists."""
-    if isinstance(first, (list, tuple, np.ndarray)) or isinstance(second, (list, tuple,
-                                                                          np.ndarray)):
+    arrays = (list, tuple, np.ndarray)
+    if isinstance(first, arrays) or isinstance(second, arrays):
         return np.array_equal(np.asarray(first, dtype=object), np.asarray(second, dtype=object))
     return first == second or (isinstance(first, float) and isinstance(second, float)
                                and math.isnan(first) and math.isnan(second))

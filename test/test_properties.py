@@ -23,7 +23,8 @@ import math
 from hypothesis import assume, given, HealthCheck, settings, strategies as st
 import numpy as np
 
-from eye_bci_ros2.arbitration import decide_mean, decide_vote, RegionSet, RoundEvidence
+from eye_bci_ros2.arbitration import (ArbiterSettings, ChoiceTracker, decide_mean, decide_vote,
+                                      RegionSet, RoundEvidence)
 from eye_bci_ros2.camera_model import rviz_intrinsic, RvizCamera
 from eye_bci_ros2.geometry import (back_project, box_silhouettes, cube_corners_batch, look_at,
                                    MIN_DEPTH, polygon_signed_area, project_points)
@@ -40,7 +41,7 @@ vector3 = st.tuples(coordinate, coordinate, coordinate).map(np.array)
 
 @st.composite
 def views(draw):
-    """An eye, focus and up that define a camera (eye != focus, up not along the view)."""
+    """Draw an eye, focus and up that define a camera (eye != focus, up not along the view)."""
     eye = draw(vector3)
     focus = draw(vector3)
     up = draw(st.tuples(*[st.floats(-1.0, 1.0)] * 3).map(np.array))
@@ -53,7 +54,7 @@ def views(draw):
 
 @st.composite
 def intrinsics(draw):
-    """An intrinsic and its panel size: the analytic RViz one, or a general one with skew."""
+    """Draw an intrinsic and its panel size: the analytic RViz one, or one with skew."""
     width = draw(st.integers(64, 4096))
     height = draw(st.integers(64, 4096))
     if draw(st.booleans()):
@@ -108,7 +109,7 @@ def test_projecting_a_back_projected_pixel_returns_it(view, camera, data):
 
 
 def _edge_distances(polygon: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Signed distance (px) of points (N, 2) inside each edge of a convex polygon; min over edges."""
+    """Return how far (px) points (N, 2) lie inside a convex polygon: min over its edges."""
     start = polygon
     edge = np.roll(polygon, -1, axis=0) - start
     length = np.linalg.norm(edge, axis=1)
@@ -149,8 +150,8 @@ def test_silhouettes_contain_every_projected_corner(view, camera, data):
 
 
 @SETTINGS
-@given(view=views(), data=st.data(), offset=st.tuples(st.integers(-4000, 4000),
-                                                       st.integers(-4000, 4000)),
+@given(view=views(), data=st.data(),
+       offset=st.tuples(st.integers(-4000, 4000), st.integers(-4000, 4000)),
        clip=st.booleans())
 def test_screen_offset_moves_every_region_by_exactly_the_offset(view, data, offset, clip):
     camera = RvizCamera.from_look_at(*view, image_size=(1280, 720))
@@ -308,3 +309,29 @@ def test_decisions_do_not_depend_on_the_order_of_the_samples(regions, data):
         decisions.append((evidence.decide('mean'), evidence.decide('vote')))
     for first, second in zip(*decisions):
         same_decision(first, second)
+
+
+@SETTINGS
+@given(regions=region_sets(), data=st.data(), method=st.sampled_from(['mean', 'vote']))
+def test_live_tracker_decides_the_same_whatever_order_the_samples_arrive(regions, data,
+                                                                         method):
+    """The node's tracker, fed one sample at a time in any order, decides as the batch rule."""
+    labels, polygons = regions
+    points = data.draw(gaze_samples(polygons))
+    stamps = 0.1 + np.arange(len(points)) / 1200.0   # all inside the 1 s window
+    rule = decide_mean if method == 'mean' else decide_vote
+    expected = rule(points, RegionSet(labels, polygons))
+    assume(method == 'vote' or edge_margin(RegionSet(labels, polygons),
+                                           expected.mean_point) > 1e-6)
+    order = np.array(data.draw(st.permutations(range(len(points)))))
+    for sequence in (np.arange(len(points)), order):
+        tracker = ChoiceTracker(ArbiterSettings(method=method, window_s=1.0))
+        tracker.add_regions(RegionSet(labels, polygons, 0.0), now=0.0)
+        for k in sequence.tolist():
+            assert tracker.add_sample(stamps[k], points[k, 0], points[k, 1], now=0.5) is None
+        # The first sample after the window closes the round.
+        decision = tracker.add_sample(1.5, math.nan, math.nan, now=1.5)
+        assert decision is not None and decision is tracker.last_decision
+        assert decision.label == expected.label, (decision.summary(), expected.summary())
+        assert {k: n for k, n in decision.counts.items() if n} == \
+            {k: n for k, n in expected.counts.items() if n}

@@ -25,6 +25,7 @@ from typing import Any, Dict, List, Optional, Tuple
 from geometry_msgs.msg import PoseStamped
 import numpy as np
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -48,6 +49,14 @@ WARN_PERIOD_S = 5.0
 
 #: Problems listed in one warning about a MarkerArray.
 MAX_LISTED = 5
+
+#: ``choices``: latched like LATCHED_QOS, but deep, because MarkerArrays are
+#: incremental (RViz semantics): with depth 1, an array that arrives before the
+#: previous one is taken replaces it, and a lost DELETE leaves a withdrawn
+#: choice selectable.
+CHOICES_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=100,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 Key = Tuple[str, int]
 
@@ -240,7 +249,7 @@ class MarkerProjector(Node):
         self._warned: Dict[str, float] = {}
         self._last_stamp: Optional[Time] = None
         self._publisher = self.create_publisher(MarkerArray, 'choices/regions', LATCHED_QOS)
-        self.create_subscription(MarkerArray, 'choices', self._on_markers, LATCHED_QOS)
+        self.create_subscription(MarkerArray, 'choices', self._on_markers, CHOICES_QOS)
         self.create_subscription(PoseStamped, 'camera/pose', self._on_camera, LATCHED_QOS)
         self.get_logger().info(f'projecting markers in \'{self._params["world_frame"]}\' with '
                                f'{self._camera!r}; waiting for camera/pose')
