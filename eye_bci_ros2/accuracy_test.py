@@ -544,7 +544,7 @@ def _run_simulated(args, scene: Scene, methods, sizes, settings: TrialSettings) 
     os.makedirs(args.output_dir, exist_ok=True)
     path = os.path.join(args.output_dir, 'accuracy_summary.json')
     with open(path, 'w', encoding='utf-8') as stream:
-        json.dump(summary, stream, indent=2, default=_json_default)
+        json.dump(summary, stream, indent=2, default=demo_render.json_default)
     files.append(path)
     print('wrote ' + ', '.join(files))
     return 0
@@ -707,15 +707,6 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
         for node in nodes:
             node.destroy_node()
         context.try_shutdown()
-
-
-def _json_default(value):
-    """Make numpy values JSON-serialisable."""
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f'cannot serialise {type(value).__name__}')
 
 
 if __name__ == '__main__':

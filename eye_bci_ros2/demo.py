@@ -823,7 +823,7 @@ def _write_outputs(result: DemoResult, person: GazeParams) -> List[str]:
     }
     path = os.path.join(directory, 'summary.json')
     with open(path, 'w', encoding='utf-8') as stream:
-        json.dump(summary, stream, indent=2, default=_json_default)
+        json.dump(summary, stream, indent=2, default=demo_render.json_default)
     files.append(path)
     path = os.path.join(directory, 'selections.csv')
     columns = ['round_index', 'step', 'attempt', 'intended', 'chosen', 'correct', 'method',
@@ -838,15 +838,6 @@ def _write_outputs(result: DemoResult, person: GazeParams) -> List[str]:
                              'picture': os.path.basename(row['picture'])})
     files.append(path)
     return files
-
-
-def _json_default(value):
-    """Make numpy values JSON-serialisable."""
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f'cannot serialise {type(value).__name__}')
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -278,3 +278,12 @@ def png_size(path: str) -> Tuple[int, int]:
 def summarise_counts(counts: Dict[str, int]) -> List[str]:
     """Format per-label sample counts, largest first, as 'label n'."""
     return [f'{label} {n}' for label, n in sorted(counts.items(), key=lambda kv: -kv[1])]
+
+
+def json_default(value):
+    """Make numpy values JSON-serialisable (``json.dump(..., default=json_default)``)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f'cannot serialise {type(value).__name__}')

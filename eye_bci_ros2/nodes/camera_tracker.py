@@ -23,6 +23,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from eye_bci_ros2.camera_model import look_at_pose, optical_pose_from_ogre
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
+from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.qos import LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
@@ -41,24 +42,6 @@ DEFAULT_FOCUS = [10.0, 6.0, 0.0]
 DEFAULT_UP = [0.0, 0.0, 1.0]
 
 
-def _three_finite(value: Any) -> Optional[str]:
-    """Reject anything but 3 finite numbers."""
-    if value is None or len(value) != 3:
-        return f'needs exactly 3 numbers (x, y, z), got {0 if value is None else len(value)}'
-    if not np.all(np.isfinite(np.asarray(value, dtype=float))):
-        return 'contains NaN or infinite values'
-    return None
-
-
-def _frame_name(value: Any) -> Optional[str]:
-    """Reject an empty frame id or one with a leading slash (tf2 refuses both)."""
-    if not value:
-        return 'must not be empty'
-    if value.startswith('/'):
-        return f"'{value}' must not start with '/'"
-    return None
-
-
 def _view_problem(values: Dict[str, Any]) -> Optional[str]:
     """Reject an eye/focus/up combination that defines no camera."""
     try:
@@ -71,18 +54,18 @@ def _view_problem(values: Dict[str, Any]) -> Optional[str]:
 PARAMETERS: List[ParamSpec] = [
     ParamSpec('world_frame', 'map',
               'Frame of camera/pose: the RViz fixed frame the markers are in.',
-              check=_frame_name),
+              check=check_frame_id),
     ParamSpec('eye', DEFAULT_EYE,
               'Static view: camera position (x, y, z) in world_frame, m. Used until '
               'the first rviz/current_camera_pose arrives.',
-              check=_three_finite, array_type='double_array'),
+              check=check_vector3, array_type='double_array'),
     ParamSpec('focus', DEFAULT_FOCUS,
               'Static view: point the camera looks at (x, y, z) in world_frame, m.',
-              check=_three_finite, array_type='double_array'),
+              check=check_vector3, array_type='double_array'),
     ParamSpec('up', DEFAULT_UP,
               'Static view: world direction that appears up on the screen; not '
               'parallel to focus - eye.',
-              check=_three_finite, array_type='double_array'),
+              check=check_vector3, array_type='double_array'),
 ]
 
 

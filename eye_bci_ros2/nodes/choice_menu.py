@@ -37,7 +37,7 @@ from std_msgs.msg import Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.nodes.conversions import arrays_to_pose
-from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.qos import EVENT_QOS, LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.scene import CubeMarker, default_scene_path, load_scene, Room, Scene, View
@@ -72,7 +72,7 @@ class ChoiceMenu(Node):
                       '(false: offer nothing more)'),
             ParamSpec('world_frame', 'map',
                       "Frame of the markers and camera goals; must match the scene's "
-                      'frame_id', check=lambda v: None if v.strip() else 'must not be empty'),
+                      'frame_id', check=check_frame_id),
         )
         try:
             values = declare_parameters(self, parameters, self._on_parameters,

@@ -22,15 +22,10 @@ import rclpy
 from rclpy.context import Context
 from rclpy.parameter import Parameter
 
+from eye_bci_ros2.nodes.eye_bci import PIPELINE
+
 #: (node name, module, class) of every node with parameters, in pipeline order.
-NODES = (
-    ('lsl_gaze_bridge', 'eye_bci_ros2.nodes.lsl_gaze_bridge', 'LslGazeBridge'),
-    ('camera_tracker', 'eye_bci_ros2.nodes.camera_tracker', 'CameraTracker'),
-    ('marker_projector', 'eye_bci_ros2.nodes.marker_projector', 'MarkerProjector'),
-    ('choice_arbiter', 'eye_bci_ros2.nodes.choice_arbiter', 'ChoiceArbiter'),
-    ('choice_menu', 'eye_bci_ros2.nodes.choice_menu', 'ChoiceMenu'),
-    ('sim_rviz_view', 'eye_bci_ros2.nodes.sim_rviz_view', 'SimRvizView'),
-)
+NODES = PIPELINE + (('sim_rviz_view', 'eye_bci_ros2.nodes.sim_rviz_view', 'SimRvizView'),)
 
 #: Declared by rclpy itself on every node: not ours to document.
 _BUILTIN = {'use_sim_time', 'start_type_description_service'}

@@ -22,12 +22,26 @@ the first time-correction estimate (about 0.7 s after connecting); if none
 comes within 5 s (UDP time service unreachable) the bridge warns and stamps
 with arrival time until one does.
 
+Bursts: samples are published at most ``max_publish_rate_hz`` per second
+(a token bucket refilled at that rate, holding up to
+:data:`PUBLISH_BURST` samples), several times the live rate.  A backlog (a
+sender that stalled and then pushed seconds of gaze at once, or samples held
+while the executor was busy) stays in the inlet's buffer, which liblsl fills
+without loss (:data:`INLET_BUFFER_S`), and drains over a few seconds:
+publishing it in one callback would overflow every subscriber whose queue
+(``GAZE_QOS`` depth) is shorter than the burst, and a subscriber on the same
+executor takes only one message per wait.  Stamps stay acquisition times,
+so a drained backlog is exactly as old as it is.
+
 Lost streams: inlets are created with ``recover=False``, so an outlet that
 goes away raises ``LostError`` at once; the bridge then resolves again and
 re-reads the channel labels, because a restarted application may advertise
-a different layout.  A stream that is still advertised but sends nothing for
-``stale_timeout_s`` is reported, replaced when a newer matching stream
-exists, and dropped when it is no longer advertised.
+a different layout.  A stream that sends nothing for ``stale_timeout_s`` is
+reported and kept while it is still advertised (Tobii Stream Engine sends
+nothing while it sees no eyes: switching then would hand control to another
+device's gaze); only when it is gone does the bridge take the newest
+matching stream, with a warning.  A further matching stream that appears
+while connected is reported once, never used.
 """
 
 from dataclasses import dataclass
@@ -51,8 +65,19 @@ from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.qos import GAZE_QOS
 from eye_bci_ros2.nodes.runner import spin_node
 
-#: Inlet buffer: seconds at the nominal rate (x100 samples for irregular streams).
-INLET_BUFFER_S = 10
+#: Inlet buffer, s of gaze; liblsl drops the oldest samples beyond it, uncounted.
+INLET_BUFFER_S = 60
+#: Rate assumed to size the inlet buffer of an irregular-rate stream, Hz.
+IRREGULAR_BUFFER_RATE_HZ = 1200.0
+#: Automatic publish limit: this many times the nominal rate ...
+CATCH_UP_FACTOR = 4.0
+#: ... and at least this, samples/s (irregular streams; apps that advertise
+#: a placeholder rate, like App-TobiiPro's 600 Hz for a 1200 Hz tracker).
+MIN_AUTO_PUBLISH_RATE_HZ = 2400.0
+#: Most samples published in one poll when the stream was quiet (token bucket size).
+PUBLISH_BURST = 32
+#: "Draining a backlog" when at least this many samples wait after a poll.
+BACKLOG_LOG_SAMPLES = 256
 #: Longest wait for a stream's full description when connecting, s.
 INFO_TIMEOUT_S = 0.2
 #: Without a time-correction estimate after this long, stamp by arrival, s.
@@ -132,6 +157,11 @@ PARAMETERS = (
               '6 ms at 1200 Hz, see bench/latency.py; 10 ms: about 14 ms, at half the CPU)',
               value_range=(0.001, 1.0)),
     ParamSpec('max_chunk', 1024, 'most samples pulled at once', value_range=(1, 65536)),
+    ParamSpec('max_publish_rate_hz', 0.0,
+              'most gaze samples published per second; a backlog beyond it (a burst from '
+              'the sender) waits in the LSL inlet buffer (60 s) and drains at this rate, so '
+              'subscribers with a shorter queue lose nothing; 0 = 4 x the nominal rate, at '
+              'least 2400', value_range=(0.0, 1e6)),
     ParamSpec('resolve_period_s', 0.5,
               'period of looking for the stream and checking its health, s',
               value_range=(0.05, 10.0)),
@@ -182,6 +212,7 @@ class _Connection:
     labels: List[str]
     buffer: np.ndarray
     connected_at: float
+    nominal_srate: float
     mapping: Optional[GazeMapping] = None
     mapping_error: str = ''
     time_correction: Optional[float] = None
@@ -190,6 +221,12 @@ class _Connection:
     reading_since: Optional[float] = None
     last_sample_at: Optional[float] = None
     stale: bool = False
+    #: Samples that may be published now (token bucket), and when it was last filled.
+    tokens: float = float(PUBLISH_BURST)
+    tokens_at: Optional[float] = None
+    #: A backlog being drained: when it was noticed, and how many samples it held then.
+    backlog_since: Optional[float] = None
+    backlog_published: int = 0
 
 
 class LslGazeBridge(Node):
@@ -206,6 +243,10 @@ class LslGazeBridge(Node):
         self._connection: Optional[_Connection] = None
         self._resolver: Optional[pylsl.ContinuousResolver] = None
         self._ignored_uids = set()
+        # Other matching streams already reported, so each is reported once.
+        self._reported_uids = set()
+        # Description of a stream that went away, until another one is opened.
+        self._gone: Optional[str] = None
         self._last_looking_log = -LOOKING_LOG_PERIOD_S
         self._poll_timer = None
         self._resolve_timer = None
@@ -238,6 +279,11 @@ class LslGazeBridge(Node):
         return self._connection.uid if self._connection else None
 
     @property
+    def publish_rate_hz(self) -> Optional[float]:
+        """Return the most samples published per second from the stream in use; None idle."""
+        return self._publish_rate(self._connection) if self._connection else None
+
+    @property
     def stale(self) -> bool:
         """Tell whether the stream in use has sent nothing for ``stale_timeout_s``."""
         return bool(self._connection and self._connection.stale)
@@ -260,6 +306,8 @@ class LslGazeBridge(Node):
                 f"(profile '{self._config.profile}')")
             self._disconnect()
             self._ignored_uids.clear()
+            self._reported_uids.clear()
+            self._gone = None
             self._start_resolver()
         elif self._connection is not None:
             if 'max_chunk' in changed:

@@ -33,7 +33,7 @@ from eye_bci_ros2.calibration import rviz_intrinsic
 from eye_bci_ros2.camera_model import parse_intrinsic, RvizCamera
 from eye_bci_ros2.geometry import external_from_pose
 from eye_bci_ros2.nodes.conversions import pose_to_arrays, regions_to_marker_array
-from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.qos import LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
 
@@ -174,18 +174,10 @@ def _intrinsic_values(value: Any) -> Optional[str]:
     return None
 
 
-def _frame_name(value: Any) -> Optional[str]:
-    if not value:
-        return 'must not be empty'
-    if value.startswith('/'):
-        return f"'{value}' must not start with '/'"
-    return None
-
-
 PARAMETERS: List[ParamSpec] = [
     ParamSpec('world_frame', 'map',
               'RViz fixed frame: only markers (and camera poses) in this frame are projected.',
-              check=_frame_name),
+              check=check_frame_id),
     ParamSpec('image_width', 1280, 'Width W of the RViz render panel, px.',
               value_range=(1, MAX_IMAGE_SIDE)),
     ParamSpec('image_height', 720, 'Height H of the RViz render panel, px.',

@@ -9,6 +9,7 @@ accepted values to the node, so ``ros2 param set`` takes effect at once.
 """
 
 from dataclasses import dataclass
+import math
 from typing import Any, Callable, Dict, Iterable, Optional, Tuple
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
@@ -149,6 +150,25 @@ def declare_parameters(
     node.add_on_set_parameters_callback(on_set)
     node.add_post_set_parameters_callback(post_set)
     return values
+
+
+def check_frame_id(value: Any) -> Optional[str]:
+    """Reject an empty frame id or one with a leading slash (tf2 refuses both)."""
+    if not str(value).strip():
+        return 'must not be empty'
+    if str(value).startswith('/'):
+        return f"'{value}' must not start with '/'"
+    return None
+
+
+def check_vector3(value: Any) -> Optional[str]:
+    """Reject anything but 3 finite numbers (x, y, z)."""
+    if value is None or len(value) != 3:
+        count = 0 if value is None else len(value)
+        return f'needs 3 finite numbers (x, y, z): exactly 3 numbers expected, got {count}'
+    if not all(math.isfinite(v) for v in value):
+        return 'needs 3 finite numbers (x, y, z): contains NaN or infinite values'
+    return None
 
 
 def _plain(value: Any) -> Any:

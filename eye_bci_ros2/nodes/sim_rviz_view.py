@@ -20,7 +20,6 @@ Topics:
   pose in ``world_frame``; latched).
 """
 
-import math
 from typing import Any, Dict, Optional
 
 from geometry_msgs.msg import Pose, PoseStamped
@@ -30,6 +29,7 @@ from rclpy.node import Node
 
 from eye_bci_ros2 import geometry
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
+from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.qos import LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
@@ -40,16 +40,6 @@ from eye_bci_ros2.view_animation import (
 DEFAULT_EYE = (10.0, -2.0, 17.0)
 DEFAULT_FOCUS = (10.0, 6.0, 0.0)
 DEFAULT_UP = (0.0, 0.0, 1.0)
-
-
-def _check_vector(value) -> Optional[str]:
-    if len(value) != 3 or not all(math.isfinite(v) for v in value):
-        return f'expected 3 finite numbers (x, y, z), got {list(value)}'
-    return None
-
-
-def _check_frame(value) -> Optional[str]:
-    return None if value.strip() else 'must not be empty'
 
 
 def _check_view(values: Dict[str, Any]) -> Optional[str]:
@@ -63,13 +53,13 @@ def _check_view(values: Dict[str, Any]) -> Optional[str]:
 PARAMETERS = (
     ParamSpec('eye', list(DEFAULT_EYE),
               'Initial camera position (x, y, z) in world_frame, m; setting it moves the '
-              'view there at once', check=_check_vector, array_type='double_array'),
+              'view there at once', check=check_vector3, array_type='double_array'),
     ParamSpec('focus', list(DEFAULT_FOCUS),
               'Initial focus point (x, y, z) in world_frame, m; setting it moves the '
-              'view at once', check=_check_vector, array_type='double_array'),
+              'view at once', check=check_vector3, array_type='double_array'),
     ParamSpec('up', list(DEFAULT_UP),
               'Initial up vector (x, y, z) in world_frame; must not be along the view',
-              check=_check_vector, array_type='double_array'),
+              check=check_vector3, array_type='double_array'),
     ParamSpec('transition_time_s', 1.0,
               'Duration of an animated move to a camera/goal, s (0 = jump)',
               value_range=(0.0, 60.0)),
@@ -78,7 +68,7 @@ PARAMETERS = (
               value_range=(1.0, 240.0)),
     ParamSpec('world_frame', 'map',
               'Fixed frame of the view; goals in another frame are ignored',
-              check=_check_frame),
+              check=check_frame_id),
 )
 
 
