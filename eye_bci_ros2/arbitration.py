@@ -93,6 +93,12 @@ DEFAULT_MIN_REACTION_S = 0.1
 #: Largest accepted ``min_reaction_s``, s.
 MAX_REACTION_S = 2.0
 
+#: Default bound on how far after its arrival a gaze sample may be stamped, s.
+DEFAULT_MAX_FUTURE_S = 1.0
+
+#: Largest accepted ``max_future_s``, s.
+MAX_FUTURE_S = 60.0
+
 
 @dataclass(frozen=True)
 class Decision:
@@ -273,7 +279,8 @@ class RegionSet:
         points = _points_array(points)
         if not self.labels:
             return np.full(len(points), -1, dtype=np.intp)
-        inside = self._set.contains(points)
+        with np.errstate(invalid='ignore', over='ignore'):  # NaN, inf: in no region
+            inside = self._set.contains(points)
         return self._resolve(points, inside)
 
     def classify_one(self, x: float, y: float) -> int:
@@ -281,7 +288,9 @@ class RegionSet:
         if not self.labels:
             return -1
         point = np.array([[x, y]], dtype=float)
-        return int(self._resolve(point, self._set.contains(point))[0])
+        with np.errstate(invalid='ignore', over='ignore'):
+            inside = self._set.contains(point)
+        return int(self._resolve(point, inside)[0])
 
     def _resolve(self, points: np.ndarray, inside: np.ndarray) -> np.ndarray:
         """Pick one region per point from an (N, R) inside matrix."""
@@ -726,6 +735,10 @@ class ArbiterSettings:
         to its last samples, s (>= 0; 0 = decide at once).
     :param stall_timeout_s: close a round this long after its window when
         no later sample arrives, s of arrival time (>= 0).
+    :param max_future_s: drop a sample stamped more than this after its
+        arrival, s (0 to :data:`MAX_FUTURE_S`): acquisition cannot follow
+        arrival, so only a clock offset or a corrupt stamp does that, and
+        one such sample must not end a round (:class:`ChoiceTracker`).
     """
 
     method: str = 'mean'
@@ -740,6 +753,7 @@ class ArbiterSettings:
     hit_rate: float = DEFAULT_HIT_RATE
     reorder_s: float = 0.0
     stall_timeout_s: float = 0.5
+    max_future_s: float = DEFAULT_MAX_FUTURE_S
 
     def __post_init__(self):
         """Reject values no round can run with."""
@@ -756,6 +770,10 @@ class ArbiterSettings:
             if not getattr(self, name) >= 0:
                 raise ValueError(f'{name} must be >= 0 s, got {getattr(self, name)}')
         check_min_reaction(self.min_reaction_s)
+        if not 0.0 <= self.max_future_s <= MAX_FUTURE_S:
+            raise ValueError(f'max_future_s must be in [0, {MAX_FUTURE_S}] s, got '
+                             f'{self.max_future_s}: it bounds how far after its arrival a '
+                             'gaze sample may be stamped (about 1 s)')
 
     def evidence(self, start: float) -> 'RoundEvidence':
         """Return an empty :class:`RoundEvidence` for a round starting at ``start`` s."""
@@ -804,6 +822,19 @@ class ChoiceTracker:
     stamped after the window arrives, when the early test passes (with
     ``early_decision``), or ``stall_timeout_s`` after the window on the
     arrival clock when the stream is quiet (:meth:`tick`).
+
+    Stamps.  A sample stamped more than ``max_future_s`` after its arrival
+    (``now``) is dropped: acquisition cannot follow arrival, so the stamp is
+    corrupt or its clock wrong, and taken it would end the open round at once
+    (or the next one, which takes recent samples) and lose the gaze that
+    follows.  A sample stamped more than ``window_s`` before the open round's
+    start (between rounds: before ``now - 2 window_s``, as a round may start
+    ``window_s`` in the past) is dropped too: no round can use it.  Both are
+    counted (:attr:`samples_from_future`, :attr:`samples_too_old`) and logged
+    as warnings (keys ``gaze_future``, ``gaze_too_old``).  A NaN or infinite
+    coordinate is taken as a sample in no region (it counts in
+    ``samples_used``, never as evidence), counted (:attr:`samples_not_finite`)
+    and logged (key ``gaze_not_finite``).
 
     Latency.  Each sample is classified on arrival against the region set
     shown at its stamp (the newest one in the steady state: O(1) work), so the
@@ -854,8 +885,14 @@ class ChoiceTracker:
         self.last_decision: Optional[Decision] = None
         #: Rounds started so far.
         self.rounds_started = 0
-        #: Gaze samples received so far.
+        #: Gaze samples received so far (dropped ones included).
         self.samples_received = 0
+        #: Samples dropped for a stamp more than ``max_future_s`` after their arrival.
+        self.samples_from_future = 0
+        #: Samples dropped for a stamp too long before any round they could be part of.
+        self.samples_too_old = 0
+        #: Samples with a NaN or infinite coordinate (taken as in no region).
+        self.samples_not_finite = 0
 
     @property
     def offered(self) -> frozenset:
@@ -887,14 +924,26 @@ class ChoiceTracker:
         """
         Take one gaze sample, in arrival order.
 
-        :param stamp: acquisition time of the sample, s.
-        :param x: screen x, px.
-        :param y: screen y, px.
-        :param now: arrival time, s.
+        Samples with an implausible stamp are dropped (class doc, "Stamps").
+
+        :param stamp: acquisition time of the sample, s (finite).
+        :param x: screen x, px (NaN or infinite: in no region).
+        :param y: screen y, px (NaN or infinite: in no region).
+        :param now: arrival time, s (finite).
         :returns: the decision this sample completed (also passed to
             ``on_decision``), else None.
         """
+        if not (math.isfinite(stamp) and math.isfinite(now)):
+            raise ValueError(f'gaze sample stamp {stamp} s and arrival time {now} s must be '
+                             'finite')
         self.samples_received += 1
+        if not self._plausible(stamp, now):
+            return None
+        if not (math.isfinite(x) and math.isfinite(y)):
+            self.samples_not_finite += 1
+            self._on_log('warning', 'gaze_not_finite',
+                         f'gaze sample ({x}, {y}) px is NaN or infinite: taken as in no region '
+                         f'({self.samples_not_finite} such samples so far)')
         recent = self._recent
         recent.append((stamp, x, y))
         horizon = now - self.settings.window_s - RECENT_MARGIN_S
@@ -904,6 +953,32 @@ class ChoiceTracker:
         if round_ is None or stamp < round_.start:
             return None
         return self._take(round_, stamp, x, y, now)
+
+    def _plausible(self, stamp: float, now: float) -> bool:
+        """Tell whether a sample's stamp can be right and of use; count and log it if not."""
+        settings = self.settings
+        ahead = stamp - now
+        if ahead > settings.max_future_s:
+            self.samples_from_future += 1
+            self._on_log('warning', 'gaze_future',
+                         f'gaze sample stamped {ahead:.3f} s after its arrival dropped (more '
+                         f'than max_future_s {settings.max_future_s} s: a corrupt stamp or a '
+                         f'wrong clock); {self.samples_from_future} dropped so far')
+            return False
+        round_ = self._round
+        # The earliest stamp a round can use: a round started by new choices begins at
+        # most window_s in the past.
+        earliest = round_.start if round_ is not None else now - settings.window_s
+        behind = earliest - stamp
+        if behind > settings.window_s:
+            self.samples_too_old += 1
+            what = 'the round start' if round_ is not None else 'any round start'
+            self._on_log('warning', 'gaze_too_old',
+                         f'gaze sample stamped {behind:.3f} s before {what} dropped (more '
+                         f'than window_s {settings.window_s} s: delivered late, or a corrupt '
+                         f'stamp); {self.samples_too_old} dropped so far')
+            return False
+        return True
 
     def add_regions(self, region_set: RegionSet, now: float) -> Optional[Decision]:
         """

@@ -18,6 +18,8 @@ import zlib
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PointStamped, Pose, PoseStamped
 import numpy as np
+import rclpy.logging
+from rclpy.logging import LoggingSeverity
 from rclpy.parameter import Parameter
 from ros_harness import Collector
 from std_msgs.msg import Empty, String
@@ -38,7 +40,17 @@ WAIT_S = 10.0
 RATE_HZ = 1200.0
 
 #: Arbiter settings that keep rounds short: 0.4 s windows, closed 0.2 s after a quiet end.
-FAST_ARBITER = {'window_s': 0.4, 'stall_timeout_s': 0.2, 'reorder_s': 0.05}
+#: :meth:`Pipeline.gaze` publishes recorded gaze at once, stamped up to ``count / rate``
+#: ahead of the clock (8.3 s for a burst of 10 000), so the arbiter must take stamps that
+#: far ahead (its default ``max_future_s`` is 1 s).
+FAST_ARBITER = {'window_s': 0.4, 'stall_timeout_s': 0.2, 'reorder_s': 0.05,
+                'max_future_s': 10.0}
+
+#: Loggers of the nodes the rig runs (the fault checks read their INFO lines).
+NODE_LOGGERS = ('camera_tracker', 'marker_projector', 'choice_arbiter', 'lsl_gaze_bridge')
+
+#: Where :meth:`Pipeline.close_window` looks: the top-left screen corner, in no region.
+CORNER = (1.0, 1.0)
 
 #: Static view of the rig's camera_tracker (world frame ``map``, m): 8 m back, 12 m up.
 EYE, FOCUS, UP = [0.0, -8.0, 12.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]
@@ -124,6 +136,12 @@ class Pipeline:
             (else the driver publishes ``gaze``).
         """
         self.graph = graph
+        # Logger levels are process-wide in rcutils, and another test in this process (the
+        # demo runs quiet) may have raised them: the checks here read INFO lines.
+        for name in NODE_LOGGERS:
+            rclpy.logging.set_logger_level(name, LoggingSeverity.INFO)
+        self._current_source = None
+        self._current: Dict = {}
         self.bridge = None
         if bridge_parameters is not None:
             self.bridge = graph.add(LslGazeBridge,
@@ -187,10 +205,14 @@ class Pipeline:
 
     def current(self) -> Dict:
         """Return the newest regions, {label: polygon (K, 2) screen px} ({} before any)."""
-        if self.regions.last is None:
+        last = self.regions.last
+        if last is None:
             return {}
-        labels, polygons = marker_array_to_regions(self.regions.last)
-        return dict(zip(labels, polygons))
+        if last is not self._current_source:
+            # Converted once per message: a test may poll this on 100 000 regions.
+            labels, polygons = marker_array_to_regions(last)
+            self._current, self._current_source = dict(zip(labels, polygons)), last
+        return dict(self._current)
 
     def centre(self, label: str) -> np.ndarray:
         """Return the vertex mean of a region now shown, screen px (2,)."""
@@ -247,24 +269,48 @@ class Pipeline:
         self.request_pub.publish(Empty())
         assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, WAIT_S)
 
+    def window_s(self) -> float:
+        """Return the arbiter's ``window_s`` now, s."""
+        return self.arbiter.get_parameter('window_s').value
+
+    def close_window(self) -> None:
+        """
+        End the open round now: publish one sample stamped past its window (in no region).
+
+        A round ends when a sample stamped after its window arrives; without
+        one it waits ``stall_timeout_s`` past the window on the clock.  The
+        round started at or before now, so ``now + window_s`` is past its
+        window; published after the round's gaze (same publisher, reliable),
+        it arrives after it.  Like every sample, it stays among the recent
+        samples a round started by new choices in the next ``window_s`` takes
+        (as a sample in no region).
+        """
+        self.gaze([CORNER], stamps=[self.now() + self.window_s() + 0.01])
+
     def finish_round(self, timeout: float = WAIT_S, before=False):
         """
         Wait until the open round ends (its window and stall timeout pass); return its Decision.
 
+        Also waits for the ``choice`` it publishes, if any.
         :param before: the Decision to wait past (default: the last one now).
         """
         if before is False:
             before = self.arbiter.last_decision
+        published = len(self.choices.messages)
         assert self.graph.spin_until(lambda: self.arbiter.last_decision is not before,
                                      timeout), 'the round never ended'
-        self.graph.spin_for(0.1)  # let the choice message arrive
-        return self.arbiter.last_decision
+        decision = self.arbiter.last_decision
+        if decision.label is not None:
+            self.graph.spin_until(lambda: len(self.choices.messages) > published, WAIT_S)
+        self.graph.spin_for(0.05)  # a second, wrong choice would show here
+        return decision
 
     def choose(self, label: Optional[str], new_round: bool = True):
         """
         Run a round looking at ``label`` (None: at nothing) and check the outcome.
 
-        Asserts exactly the supported choice (or none) is published.
+        The round is ended by :meth:`close_window` (no wait for its stall
+        timeout).  Asserts exactly the supported choice (or none) is published.
         :returns: the arbiter's Decision.
         """
         # Aim first: the round's window runs from the request.
@@ -276,6 +322,7 @@ class Pipeline:
             self.request()
         published = len(self.choices.messages)
         self.gaze(points)
+        self.close_window()
         decision = self.finish_round()
         new = [message.data for message in self.choices.messages[published:]]
         assert decision.label == label, decision.summary()

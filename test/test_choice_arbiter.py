@@ -1,5 +1,7 @@
 """The choice_arbiter node on a private ROS 2 graph, driven through its topics and parameters."""
 
+import re
+
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PointStamped
 import numpy as np
@@ -28,11 +30,16 @@ def to_time(seconds: float) -> Time:
     return Time(sec=sec, nanosec=int(round((seconds - sec) * 1e9)) % 1000000000)
 
 
+#: The tests publish a round's gaze at once, stamped up to 1.2 s ahead of the clock.
+MAX_FUTURE_S = 5.0
+
+
 class Rig:
     """The arbiter plus a driver node publishing regions, gaze and requests."""
 
     def __init__(self, graph, **parameters):
         self.graph = graph
+        parameters = {'max_future_s': MAX_FUTURE_S, **parameters}
         overrides = [Parameter(name, value=value) for name, value in parameters.items()]
         self.arbiter = graph.add(ChoiceArbiter, parameter_overrides=overrides)
         self.driver = graph.node('test_driver')
@@ -84,34 +91,21 @@ class Rig:
         """Gaze positions around a screen point, shape (count, 2) px."""
         return self.rng.normal(centre, spread, (count, 2))
 
-    def send(self, points, start):
+    def send(self, points, start, stamps=None):
         """
         Publish gaze samples all at once, stamped at RATE_HZ from ``start`` s.
 
         Stamps sit half a period off the grid so none lies on a window edge.
+        :param stamps: explicit stamps (N,), s, instead.
         """
-        for k, (x, y) in enumerate(points):
+        if stamps is None:
+            stamps = start + (np.arange(len(points)) + 0.5) / RATE_HZ
+        for (x, y), stamp in zip(points, stamps):
             message = PointStamped()
             message.header.frame_id = 'screen'
-            message.header.stamp = to_time(start + (k + 0.5) / RATE_HZ)
+            message.header.stamp = to_time(float(stamp))
             message.point.x, message.point.y = float(x), float(y)
             self.gaze.publish(message)
-
-    def send_paced(self, centre, count, until, away=0):
-        """
-        Publish one sample every 1/RATE_HZ s, stamped now, until ``until()``.
-
-        :param away: the first ``away`` samples fall off every region (the
-            person has not reacted to the new display yet).
-        :returns: how many samples were published before ``until()`` held.
-        """
-        for k in range(count):
-            if until():
-                return k
-            self.send(self.looks(OFF if k < away else centre, 1), self.now())
-            self.graph.spin_for(1.0 / RATE_HZ)
-        self.graph.spin_until(until, 5.0)
-        return count
 
     def wait_decision(self, rounds_done=1):
         """Spin until ``rounds_done`` rounds have finished; return the last decision."""
@@ -149,8 +143,8 @@ def test_vote_and_mean_differ_when_the_mean_falls_between(graph):
     decision = rig.wait_decision()
     assert decision.label is None and 'no region' in decision.reason
     # The samples were stamped up to 1.1 s ahead of the clock; let the ones past the
-    # window arrive before the next round, whose window they would otherwise close.
-    graph.spin_for(0.3)
+    # window arrive before the next round, whose window they would otherwise fall in.
+    assert graph.spin_until(lambda: rig.arbiter.samples_received == 110, 10.0)
     assert rig.labels == []
 
     result = graph.set_parameters('/choice_arbiter', {'method': 'vote'})
@@ -165,27 +159,29 @@ def test_vote_and_mean_differ_when_the_mean_falls_between(graph):
 
 def test_early_decision_chooses_before_the_window_ends(graph):
     rig = Rig(graph, early_decision=True, min_samples=5, dwell_s=0.05, confidence=0.95)
-    rig.offer({'A': LEFT, 'B': RIGHT})
-    # 15 samples (>= 0.15 s) elsewhere first: a reaction, not a gaze already on B.
-    published_early = rig.send_paced(RIGHT, 300, lambda: rig.choices.messages, away=15)
-    assert rig.labels == ['B']
-    early = rig.arbiter.last_decision
-    assert early.method == 'early'
+    start = rig.offer({'A': LEFT, 'B': RIGHT})
+    # 15 samples (0.15 s) elsewhere first: a reaction, not a gaze already on B.
+    gaze = np.vstack([rig.looks(OFF, 15), rig.looks(RIGHT, 100)])
+    rig.send(gaze, start)
+    early = rig.wait_decision()
+    assert early.label == 'B' and early.method == 'early', early.summary()
     assert early.posterior >= 0.95
     # A 1 s window at 100 Hz holds 100 samples; the early choice needs a handful.
-    assert early.in_region_samples < 15
+    assert early.in_region_samples < 15 and early.time_to_decision < 0.25
+    assert graph.spin_until(lambda: rig.choices.messages, 10.0)
+    # Every sample taken before the next round (later ones would fall in its window).
+    assert graph.spin_until(lambda: rig.arbiter.samples_received == len(gaze), 10.0)
+    assert rig.labels == ['B']
 
     # The same gaze without early decision waits for the whole window.
     assert graph.set_parameters('/choice_arbiter', {'early_decision': False})[0].successful
-    rig.request()
-    published_window = rig.send_paced(RIGHT, 300, lambda: len(rig.choices.messages) > 1,
-                                      away=15)
-    assert rig.labels == ['B', 'B']
+    rig.send(gaze, rig.request())
+    assert graph.spin_until(lambda: rig.arbiter.last_decision is not early, 10.0)
     window = rig.arbiter.last_decision
-    assert window.method == 'mean'
-    assert window.time_to_decision > 0.8  # sample time: the last in-window sample
-    assert window.samples_used > 2 * early.samples_used
-    assert published_early < published_window / 2
+    assert window.label == 'B' and window.method == 'mean', window.summary()
+    assert window.samples_used == 100 and window.time_to_decision > 0.9
+    assert graph.spin_until(lambda: len(rig.choices.messages) > 1, 10.0)
+    assert rig.labels == ['B', 'B']
 
 
 def test_no_choice_when_every_sample_is_outside(graph):
@@ -218,10 +214,15 @@ def test_new_choices_start_a_round_but_moved_ones_do_not(graph):
     # Same labels, moved by the camera: geometry only, no new round, no new choice.
     rig.offer({'room1': (400.0, 600.0), 'room2': (1400.0, 600.0)}, new_round=False)
     graph.spin_for(0.2)
-    rig.send(rig.looks((400.0, 600.0), 110), rig.now())
-    graph.spin_for(0.5)
+    moved = rig.now()
+    rig.send(rig.looks((400.0, 600.0), 110), moved)
+    assert graph.spin_until(lambda: rig.arbiter.samples_received == 220, 10.0)
+    graph.spin_for(0.2)
     assert rig.arbiter.rounds_started == 1
     assert rig.labels == ['room1']
+    # The next menu comes after that gaze (a round started by new choices takes the
+    # samples stamped after its start).
+    assert graph.spin_until(lambda: rig.now() > moved + 1.1, 10.0)
 
     # A new menu (other labels) is a new question: no request needed.
     start = rig.offer({'table1': LEFT, 'table2': (900.0, 500.0), 'table3': RIGHT})
@@ -252,7 +253,7 @@ def test_samples_use_the_regions_shown_at_their_time(graph):
     # A and B swap places 0.3 s into the round, and the gaze samples after the
     # swap, including the one that ends the window, arrive 0.2 s before the
     # regions message that announces it: the decision waits for it.
-    rig = Rig(graph, reorder_s=0.6)  # longer than the 0.2 s the regions lag
+    rig = Rig(graph, reorder_s=1.2)  # well beyond the 0.2 s the regions lag, even under load
     start = rig.offer({'A': LEFT, 'B': RIGHT})
     swap = start + 0.3
     rig.send(rig.looks(RIGHT, 80), swap)
@@ -296,7 +297,8 @@ def test_early_decision_alone_does_not_choose_the_option_under_a_resting_gaze(gr
     decision = rig.wait_decision()
     assert decision.label == 'table2' and decision.method == 'early'
     assert 0.2 < decision.time_to_decision < 0.3
-    graph.spin_for(0.2)
+    assert graph.spin_until(lambda: rig.choices.messages, 10.0)
+    graph.spin_for(0.1)
     assert rig.labels == ['table2']
 
 
@@ -313,3 +315,43 @@ def test_min_reaction_is_validated_against_its_range(graph):
 def test_bad_parameter_override_fails_at_start(graph):
     with pytest.raises(ValueError, match='method'):
         graph.add(ChoiceArbiter, parameter_overrides=[Parameter('method', value='median')])
+
+
+def test_a_sample_stamped_far_in_the_future_is_dropped_and_the_round_goes_on(graph, capfd):
+    rig = Rig(graph, window_s=0.5, max_future_s=ArbiterSettings().max_future_s)
+    start = rig.offer({'kitchen': LEFT, 'bedroom': RIGHT})
+    # One corrupt stamp an hour ahead: taken, it would end the round with no gaze in it.
+    rig.send([OFF], None, stamps=[rig.now() + 3600.0])
+    assert graph.spin_until(lambda: rig.arbiter.samples_from_future == 1, 10.0)
+    assert rig.arbiter.last_decision is None and rig.labels == []
+    # The person's gaze that follows decides the round.
+    rig.send(rig.looks(RIGHT, 60), start)
+    decision = rig.wait_decision()
+    assert decision.label == 'bedroom' and decision.samples_used == 50, decision.summary()
+    assert graph.spin_until(lambda: rig.choices.messages, 10.0)
+    assert rig.labels == ['bedroom']
+    assert graph.spin_until(lambda: rig.arbiter.samples_received == 61, 10.0)
+    assert rig.arbiter.samples_from_future == 1 and rig.labels == ['bedroom']
+    log = capfd.readouterr().err
+    assert re.search(r'choice_arbiter.*gaze sample stamped 3600\.\d+ s after its arrival '
+                     r'dropped \(more than max_future_s 1\.0 s', log), log[-2000:]
+
+
+def test_nan_and_infinite_gaze_is_never_evidence_and_is_reported_once(graph, capfd):
+    rig = Rig(graph)
+    start = rig.offer({'kitchen': LEFT, 'bedroom': RIGHT})
+    bad = np.array([[np.nan, np.nan], [np.nan, 500.0], [np.inf, 500.0], [300.0, -np.inf]] * 10)
+    # 40 bad samples among 60 on the kitchen (1 s window at 100 Hz), then one past the window.
+    points = np.vstack([rig.looks(LEFT, 30), bad, rig.looks(LEFT, 31)])
+    rig.send(points, start)
+    decision = rig.wait_decision()
+    assert decision.label == 'kitchen', decision.summary()
+    assert decision.samples_used == 100 and decision.in_region_samples == 60
+    assert rig.arbiter.samples_not_finite == 40
+    assert graph.spin_until(lambda: rig.choices.messages, 10.0)
+    assert rig.labels == ['kitchen']
+    # One warning for all 40 (throttled), with the count so far.
+    log = capfd.readouterr().err
+    warnings = re.findall(r'choice_arbiter.*gaze sample \(.*\) px is NaN or infinite: taken '
+                          r'as in no region \((\d+) such samples so far\)', log)
+    assert warnings == ['1'], log[-2000:]

@@ -247,3 +247,83 @@ def test_min_reaction_setting_is_validated():
         ArbiterSettings(min_reaction_s=-0.1)
     with pytest.raises(ValueError, match='min_reaction_s'):
         ChoiceTracker().configure(min_reaction_s=2.5)
+
+
+# -- implausible stamps and values -------------------------------------------------------------
+
+
+def test_one_sample_stamped_far_in_the_future_does_not_end_the_round():
+    rec = Recorder(window_s=0.5)
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    # A corrupt stamp an hour ahead, then the person looks at B.
+    assert rec.tracker.add_sample(3610.0, *LEFT, now=10.01) is None
+    assert rec.tracker.round_open and rec.labels == []
+    assert rec.tracker.samples_from_future == 1
+    assert ('warning', 'gaze_future') in rec.logs
+    assert rec.feed(at(RIGHT, 60), 10.0) == 50
+    assert rec.labels == ['B'] and rec.decisions[0].samples_used == 50
+    # Nor does it end the next round, which takes the recent samples stamped after its start.
+    rec.tracker.add_regions(squares({'C': LEFT, 'D': RIGHT}, 10.6), now=10.6)
+    assert rec.tracker.round_open
+    assert rec.feed(at(LEFT, 60), 10.6) == 50
+    assert rec.labels == ['B', 'C']
+
+
+def test_a_stamp_a_little_ahead_of_arrival_is_taken():
+    # Within max_future_s (a tracker clock slightly ahead): the sample is gaze like any other.
+    rec = Recorder(window_s=0.5, max_future_s=0.3)
+    rec.tracker.add_regions(squares({'A': LEFT}, 10.0), now=10.0)
+    rec.tracker.add_sample(10.25, *LEFT, now=10.0)
+    rec.tracker.add_sample(10.31, *LEFT, now=10.0)
+    assert rec.tracker.samples_from_future == 1
+    assert rec.tracker.add_sample(10.6, *LEFT, now=10.6).samples_used == 1
+
+
+def test_samples_stamped_long_before_the_round_start_are_dropped_and_counted():
+    rec = Recorder(window_s=1.0)
+    rec.tracker.add_regions(squares({'A': LEFT}, 10.0), now=10.0)
+    # Just before the round (a little late): ignored as before, not an error.
+    rec.tracker.add_sample(9.5, *LEFT, now=10.1)
+    assert rec.tracker.samples_too_old == 0 and rec.logs.count(('warning', 'gaze_too_old')) == 0
+    # More than window_s before the round start: no round can use it.
+    rec.tracker.add_sample(8.9, *LEFT, now=10.1)
+    rec.tracker.add_sample(-1e6, *LEFT, now=10.1)
+    assert rec.tracker.samples_too_old == 2 and ('warning', 'gaze_too_old') in rec.logs
+    assert rec.tracker.samples_received == 3
+    assert rec.feed(at(LEFT, 101), 10.0) == 100
+    assert rec.labels == ['A'] and rec.decisions[0].samples_used == 100
+    # Between rounds the bound is two windows before now (a round may start one in the past).
+    rec.tracker.add_sample(9.95, *LEFT, now=12.0)
+    rec.tracker.add_sample(10.05, *LEFT, now=12.0)
+    assert rec.tracker.samples_too_old == 3
+
+
+def test_nan_and_infinite_gaze_are_counted_and_never_evidence():
+    rec = Recorder(window_s=0.5, method='vote')
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    bad = [(np.nan, np.nan), (np.nan, 500.0), (np.inf, 500.0), (300.0, -np.inf)] * 5
+    points = np.vstack([at(LEFT, 10), bad, at(RIGHT, 5), at((900.0, 900.0), 16)])
+    assert rec.feed(points, 10.0) == 50
+    decision = rec.decisions[0]
+    assert decision.label == 'A'
+    assert decision.samples_used == 50 and decision.in_region_samples == 15
+    assert decision.counts == {'A': 10, 'B': 5}
+    assert rec.tracker.samples_not_finite == 20
+    assert rec.logs.count(('warning', 'gaze_not_finite')) == 20  # the node throttles them
+    # NaN alone chooses nothing.
+    rec.tracker.request(now=11.0)
+    rec.feed(np.vstack([at((np.nan, np.nan), 50), at(LEFT, 1)]), 11.0)
+    assert rec.labels == ['A', None] and rec.decisions[1].samples_used == 50
+
+
+def test_non_finite_stamps_and_max_future_are_validated():
+    tracker = ChoiceTracker()
+    with pytest.raises(ValueError, match='finite'):
+        tracker.add_sample(np.nan, 1.0, 1.0, now=10.0)
+    with pytest.raises(ValueError, match='finite'):
+        tracker.add_sample(10.0, 1.0, 1.0, now=np.inf)
+    assert tracker.samples_received == 0
+    with pytest.raises(ValueError, match='max_future_s'):
+        ArbiterSettings(max_future_s=-0.1)
+    with pytest.raises(ValueError, match='max_future_s'):
+        tracker.configure(max_future_s=1e6)

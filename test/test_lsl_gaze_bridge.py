@@ -3,6 +3,7 @@
 import gc
 import time
 
+from fault_rig import LogTap
 from geometry_msgs.msg import PointStamped
 from lsl_outlets import bridge_parameters, make_outlet, sample_for, unique_id
 import numpy as np
@@ -222,17 +223,56 @@ def test_quiet_stream_is_reported_and_resumes(graph):
     assert node.stream_uid == info.uid()
 
 
-def test_quiet_stream_gives_way_to_a_newer_matching_one(graph):
+def test_quiet_stream_is_kept_while_advertised_and_replaced_once_gone(graph, capfd):
     name = unique_id('hung')
-    hung, _ = make_outlet('custom', name=name)
+    hung, hung_info = make_outlet('custom', name=name)
     node, gaze = start_bridge(graph, profile='custom', stream_name=name, stale_timeout_s=0.3,
                               resolve_period_s=0.1)
+    log = LogTap(capfd)
     connect(graph, hung)
     replacement, replacement_info = make_outlet('custom', name=name)
+    # The bridge has seen the newer stream and says so, but stays with the quiet one.
+    assert log.wait_for(graph, f'lsl_gaze_bridge.*another LSL stream .*{replacement_info.uid()}')
+    assert graph.spin_until(lambda: node.stale, WAIT_S), 'quiet stream not reported'
+    graph.spin_for(0.5)
+    assert node.stream_uid == hung_info.uid() and not replacement.have_consumers()
+    # The application restarts: its old outlet goes away, the new one is picked up.
+    del hung
+    gc.collect()
     connect(graph, replacement)
     assert node.stream_uid == replacement_info.uid()
     replacement.push_sample([7.0, 8.0])
     np.testing.assert_allclose(wait_for(graph, gaze, 1), [[7, 8]])
+
+
+def test_a_burst_is_paced_and_arrives_whole_with_acquisition_stamps(graph, capfd):
+    outlet, info = make_outlet('custom', rate=1200.0)
+    node, gaze = start_bridge(graph, **bridge_parameters('custom', info))
+    log = LogTap(capfd)
+    connect(graph, outlet)
+    assert node.publish_rate_hz == 2400.0   # twice the nominal rate, at least 2400
+    result, = graph.set_parameters('/lsl_gaze_bridge', {'max_publish_rate_hz': 1000.0})
+    assert result.successful, result.reason
+    assert node.publish_rate_hz == 1000.0
+    outlet.push_sample([1.0, 1.0])
+    wait_for(graph, gaze, 1)   # clock offset known: samples are published as they come
+
+    points = np.random.default_rng(3).uniform([0, 0], [1920, 1080], (3000, 2))
+    stamps = pylsl.local_clock() - 3.0 + np.arange(3000) / 1200.0
+    mark = log.mark()
+    outlet.push_chunk(points.tolist(), stamps.tolist())
+    # One poll (spin_until runs one callback per check) publishes one bucket, not the burst.
+    assert graph.spin_until(lambda: node.counters['received'] > 1, WAIT_S)
+    assert node.counters['published'] - 1 <= 32
+    assert log.wait_for(graph, 'lsl_gaze_bridge.*draining a backlog of', mark)
+    received = wait_for(graph, gaze, 3001)[1:]
+    np.testing.assert_allclose(received, points, atol=1e-3)   # float32 stream
+    assert log.wait_for(graph, r'lsl_gaze_bridge.*backlog drained: \d+ gaze samples', mark)
+    # Published late, stamped when they were taken.
+    offsets = np.array([stamp_ns(m) for m in gaze.messages[1:]]) * 1e-9
+    np.testing.assert_allclose(np.diff(offsets), 1 / 1200.0, atol=1e-4)
+    age_s = (ros_now_ns(graph) - stamp_ns(gaze.messages[1])) * 1e-9
+    assert age_s > 3.0
 
 
 def test_bad_parameter_values_are_rejected_with_a_reason(graph):

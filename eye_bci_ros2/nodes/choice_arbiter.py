@@ -28,6 +28,17 @@ the previous menu is not chosen by accident; a gaze that never leaves it is
 decided at the window end by ``method``, on every sample.  The next round
 starts on the next request or change of the offered labels.
 
+Bad gaze.  A sample stamped more than ``max_future_s`` after it arrived
+(node clock) is dropped: a corrupt stamp or a wrong clock, which would
+otherwise end the round at once and lose the gaze that follows.  A sample
+stamped more than ``window_s`` before the round start (between rounds,
+before now - 2 ``window_s``) is dropped as no round can use it.  A NaN or
+infinite gaze point is a sample in no region, never evidence.  Each is
+counted (:attr:`ChoiceArbiter.samples_from_future`,
+:attr:`ChoiceArbiter.samples_too_old`,
+:attr:`ChoiceArbiter.samples_not_finite`) and logged as a warning at most
+once per 5 s of each kind.
+
 Latency.  Each gaze sample is classified in its own callback against the
 regions shown at its stamp (the newest set in the steady state, O(1) work),
 so the ``choice`` is published from the callback of the sample that
@@ -56,6 +67,7 @@ from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.arbitration import (ArbiterSettings, ChoiceTracker, Decision,
+                                      DEFAULT_MAX_FUTURE_S, MAX_FUTURE_S,
                                       MAX_REACTION_S, METHODS, RegionSet)
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions, SCREEN_FRAME
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
@@ -120,6 +132,11 @@ PARAMETERS = (
               'When no gaze sample stamped after the window arrives, close the round this '
               'long after the window end (node clock), s',
               value_range=(0.0, 10.0)),
+    ParamSpec('max_future_s', DEFAULT_MAX_FUTURE_S,
+              'Drop gaze samples stamped more than this after their arrival (node clock), s: '
+              'only a corrupt stamp or a wrong clock does that, and one such sample would '
+              'end the round at once; raise it only for a tracker clock known to run ahead',
+              value_range=(0.0, MAX_FUTURE_S)),
 )
 
 
@@ -163,6 +180,21 @@ class ChoiceArbiter(Node):
     def samples_received(self) -> int:
         """Return the number of gaze samples taken since the node started."""
         return self._tracker.samples_received
+
+    @property
+    def samples_from_future(self) -> int:
+        """Return the number of gaze samples dropped for a stamp after max_future_s."""
+        return self._tracker.samples_from_future
+
+    @property
+    def samples_too_old(self) -> int:
+        """Return the number of gaze samples dropped for a stamp too old for any round."""
+        return self._tracker.samples_too_old
+
+    @property
+    def samples_not_finite(self) -> int:
+        """Return the number of NaN or infinite gaze samples (taken as in no region)."""
+        return self._tracker.samples_not_finite
 
     # -- parameters -------------------------------------------------------------------------
 

@@ -23,30 +23,33 @@ comes within 5 s (UDP time service unreachable) the bridge warns and stamps
 with arrival time until one does.
 
 Bursts: samples are published at most ``max_publish_rate_hz`` per second
-(a token bucket refilled at that rate, holding up to
-:data:`PUBLISH_BURST` samples), several times the live rate.  A backlog (a
-sender that stalled and then pushed seconds of gaze at once, or samples held
-while the executor was busy) stays in the inlet's buffer, which liblsl fills
-without loss (:data:`INLET_BUFFER_S`), and drains over a few seconds:
-publishing it in one callback would overflow every subscriber whose queue
-(``GAZE_QOS`` depth) is shorter than the burst, and a subscriber on the same
-executor takes only one message per wait.  Stamps stay acquisition times,
-so a drained backlog is exactly as old as it is.
+(a token bucket refilled at that rate, holding at least
+:data:`PUBLISH_BURST` samples): twice the live rate by default.  A backlog
+(a sender that stalled and then pushed seconds of gaze at once, or samples
+held while the executor was busy) stays in the inlet's buffer, which liblsl
+fills without loss up to :data:`INLET_BUFFER_S` of gaze, and drains over a
+few seconds: publishing it in one callback would overflow every subscriber
+whose queue (``GAZE_QOS`` depth) is shorter than the burst, and a
+subscriber on the same executor takes only one message per wait.  Stamps
+stay acquisition times, so a drained backlog is exactly as old as it is.
 
 Lost streams: inlets are created with ``recover=False``, so an outlet that
 goes away raises ``LostError`` at once; the bridge then resolves again and
 re-reads the channel labels, because a restarted application may advertise
-a different layout.  A stream that sends nothing for ``stale_timeout_s`` is
-reported and kept while it is still advertised (Tobii Stream Engine sends
-nothing while it sees no eyes: switching then would hand control to another
-device's gaze); only when it is gone does the bridge take the newest
-matching stream, with a warning.  A further matching stream that appears
-while connected is reported once, never used.
+a different layout (a lost stream is not reopened for
+:data:`LOST_IGNORE_S`, while the resolver may still list it).  A stream
+that sends nothing for ``stale_timeout_s`` is reported and kept while it
+is still advertised (Tobii Stream Engine sends nothing while it sees no
+eyes: switching then would hand control to another device's gaze); only
+when it is gone does the bridge take the newest matching stream, with a
+warning.  A further matching stream that appears while connected is
+reported once and never used.
 """
 
 from dataclasses import dataclass
+import math
 import time
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Tuple
 
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, PointStamped
@@ -70,26 +73,35 @@ INLET_BUFFER_S = 60
 #: Rate assumed to size the inlet buffer of an irregular-rate stream, Hz.
 IRREGULAR_BUFFER_RATE_HZ = 1200.0
 #: Automatic publish limit: this many times the nominal rate ...
-CATCH_UP_FACTOR = 4.0
-#: ... and at least this, samples/s (irregular streams; apps that advertise
-#: a placeholder rate, like App-TobiiPro's 600 Hz for a 1200 Hz tracker).
+CATCH_UP_FACTOR = 2.0
+#: ... and at least this, samples/s (irregular streams; apps that advertise a
+#: placeholder rate, like App-TobiiPro's 600 Hz for a 1200 Hz tracker).  One
+#: executor running the arbiter and a listener delivers about 3000 gaze
+#: messages/s on a loaded 2-core machine (test_faults_gaze burst tests).
 MIN_AUTO_PUBLISH_RATE_HZ = 2400.0
-#: Most samples published in one poll when the stream was quiet (token bucket size).
+#: Most samples published in one poll after a pause (token bucket size, at least).
 PUBLISH_BURST = 32
-#: "Draining a backlog" when at least this many samples wait after a poll.
-BACKLOG_LOG_SAMPLES = 256
+#: Report a backlog that takes at least this long to drain, s (not the one left
+#: by the wait for the first clock offset, about 0.7 s of gaze).
+BACKLOG_LOG_S = 0.5
 #: Longest wait for a stream's full description when connecting, s.
 INFO_TIMEOUT_S = 0.2
 #: Without a time-correction estimate after this long, stamp by arrival, s.
 CLOCK_SYNC_TIMEOUT_S = 5.0
 #: A resolver forgets a stream this long after it stopped answering, s.
 RESOLVER_FORGET_S = 2.0
+#: A lost stream is not reopened for this long (the resolver may still list a dead
+#: outlet); after it, a stream whose connection only broke can be used again, s.
+LOST_IGNORE_S = 2.5 * RESOLVER_FORGET_S
 #: Most chunks pulled per poll, so a huge backlog cannot hog the executor.
 MAX_PULLS_PER_POLL = 8
 #: Repeating warnings at most this often, s.
 WARN_THROTTLE_S = 5.0
 #: "Still looking" at most this often, s.
 LOOKING_LOG_PERIOD_S = 10.0
+#: Tries at reading the ROS and LSL clocks together, and a bracket good enough, s.
+CLOCK_READS = 3
+CLOCK_BRACKET_S = 20e-6
 #: Stamps must fit builtin_interfaces/Time (int32 seconds).
 _MAX_STAMP_S = 2.0 ** 31 - 1
 #: Counters kept and logged by the bridge.
@@ -150,7 +162,9 @@ PARAMETERS = (
               'drop samples more than this far outside the screen, px',
               value_range=(0.0, 10000.0)),
     ParamSpec('stale_timeout_s', 2.0,
-              'warn when the stream sends nothing for this long, s', value_range=(0.05, 3600.0)),
+              'warn when the stream sends nothing for this long, s; the bridge stays with it '
+              'while it is advertised and switches only when it is gone',
+              value_range=(0.05, 3600.0)),
     ParamSpec('poll_period_s', 0.002,
               'period of pulling samples from LSL, s; a sample waits up to this long in the '
               'inlet, so it bounds the added latency (2 ms: p99 LSL push -> choice about '
@@ -160,8 +174,9 @@ PARAMETERS = (
     ParamSpec('max_publish_rate_hz', 0.0,
               'most gaze samples published per second; a backlog beyond it (a burst from '
               'the sender) waits in the LSL inlet buffer (60 s) and drains at this rate, so '
-              'subscribers with a shorter queue lose nothing; 0 = 4 x the nominal rate, at '
-              'least 2400', value_range=(0.0, 1e6)),
+              'subscribers with a shorter queue lose nothing; it must not exceed what the '
+              'slowest gaze subscriber takes; 0 = twice the nominal rate, at least 2400',
+              value_range=(0.0, 1e6)),
     ParamSpec('resolve_period_s', 0.5,
               'period of looking for the stream and checking its health, s',
               value_range=(0.05, 10.0)),
@@ -201,12 +216,33 @@ def _describe(info: pylsl.StreamInfo) -> str:
             f'{info.channel_count()} ch, {rate_text}, host {info.hostname()})')
 
 
+def _inlet_buflen(nominal_srate: float) -> int:
+    """
+    Return pylsl's ``max_buflen`` for :data:`INLET_BUFFER_S` of gaze.
+
+    liblsl reads it as seconds for a stream with a nominal rate, but as
+    hundreds of samples for an irregular one (nominal rate 0).
+    """
+    if nominal_srate > 0:
+        return INLET_BUFFER_S
+    return int(math.ceil(INLET_BUFFER_S * IRREGULAR_BUFFER_RATE_HZ / 100.0))
+
+
+def _how_to_choose(info: pylsl.StreamInfo, current_source_id: str) -> str:
+    """Tell the user how to select this stream instead (or why source_id cannot)."""
+    if info.source_id() and info.source_id() != current_source_id:
+        return f"To use it instead, set the parameter source_id to '{info.source_id()}'."
+    return (f"It has the same source_id ('{info.source_id()}'): to use it instead, stop the "
+            f'other sender or select it by stream_name.')
+
+
 @dataclass
 class _Connection:
     """One open inlet and what the bridge knows about its stream."""
 
     inlet: pylsl.StreamInlet
     uid: str
+    source_id: str
     created_at: float
     description: str
     labels: List[str]
@@ -224,9 +260,9 @@ class _Connection:
     #: Samples that may be published now (token bucket), and when it was last filled.
     tokens: float = float(PUBLISH_BURST)
     tokens_at: Optional[float] = None
-    #: A backlog being drained: when it was noticed, and how many samples it held then.
+    #: A backlog being drained: when it was noticed, and the 'received' count then.
     backlog_since: Optional[float] = None
-    backlog_published: int = 0
+    backlog_start_count: int = 0
 
 
 class LslGazeBridge(Node):
@@ -242,11 +278,12 @@ class LslGazeBridge(Node):
         self._logged_counters = dict(self._counters)
         self._connection: Optional[_Connection] = None
         self._resolver: Optional[pylsl.ContinuousResolver] = None
-        self._ignored_uids = set()
+        # Streams not to open: uid -> until when (monotonic s; inf = for good).
+        self._ignored: Dict[str, float] = {}
         # Other matching streams already reported, so each is reported once.
         self._reported_uids = set()
-        # Description of a stream that went away, until another one is opened.
-        self._gone: Optional[str] = None
+        # (uid, description) of a stream that went away, until another one is opened.
+        self._gone: Optional[Tuple[str, str]] = None
         self._last_looking_log = -LOOKING_LOG_PERIOD_S
         self._poll_timer = None
         self._resolve_timer = None
@@ -305,7 +342,7 @@ class LslGazeBridge(Node):
                 f'stream selection changed: now looking for {self._config.describe_selection()} '
                 f"(profile '{self._config.profile}')")
             self._disconnect()
-            self._ignored_uids.clear()
+            self._ignored.clear()
             self._reported_uids.clear()
             self._gone = None
             self._start_resolver()
@@ -362,7 +399,7 @@ class LslGazeBridge(Node):
         return sorted(found, key=lambda info: info.created_at())
 
     def _maintain(self) -> None:
-        """Connect when idle; refresh the clock offset; handle a quiet stream."""
+        """Connect when idle; refresh the clock offset; report other and quiet streams."""
         try:
             now = time.monotonic()
             connection = self._connection
@@ -372,42 +409,64 @@ class LslGazeBridge(Node):
             if connection.time_correction is None or now - connection.time_correction_at >= \
                     self._params['time_correction_period_s']:
                 self._refresh_time_correction(connection, now)
+            candidates = self._candidates()
+            self._report_others(connection, candidates)
             quiet_since = connection.last_sample_at or connection.reading_since
             if quiet_since is None or now - quiet_since < self._params['stale_timeout_s']:
                 return  # still waiting for the clock offset, or not quiet
-            if not connection.stale:
-                connection.stale = True
-                self.get_logger().warning(
-                    f'no gaze samples from {connection.description} for '
-                    f'{now - quiet_since:.1f} s; waiting for it to resume')
-            self._replace_stale(connection, now)
+            if any(info.uid() == connection.uid for info in candidates):
+                if not connection.stale:
+                    connection.stale = True
+                    self.get_logger().warning(
+                        f'no gaze samples from {connection.description} for '
+                        f'{now - quiet_since:.1f} s (no eyes detected?); it is still '
+                        f'advertised, so the bridge stays with it and waits for it to resume')
+                return
+            # Quiet and no longer advertised: the sender is gone (a lost connection
+            # usually raises LostError in _poll first).
+            self.get_logger().warning(
+                f'{connection.description} is no longer advertised; looking for another')
+            self._drop_lost(connection)
+            self._connect_newest(now)
         except Exception as exc:  # noqa: B902 - a node never dies on a stream
             self.get_logger().warning(f'LSL maintenance failed: {exc}',
                                       throttle_duration_sec=WARN_THROTTLE_S)
 
-    def _replace_stale(self, connection: _Connection, now: float) -> None:
-        """Drop a stale stream that vanished, or switch to a newer matching one."""
-        candidates = self._candidates()
-        if not any(info.uid() == connection.uid for info in candidates):
+    def _report_others(self, connection: _Connection,
+                       candidates: List[pylsl.StreamInfo]) -> None:
+        """Warn once about each further matching stream: it is not used."""
+        for info in candidates:
+            uid = info.uid()
+            if uid == connection.uid or uid in self._reported_uids \
+                    or self._is_ignored(uid, time.monotonic()):
+                continue
+            self._reported_uids.add(uid)
             self.get_logger().warning(
-                f'{connection.description} is no longer advertised; looking for another')
-            self._ignored_uids.add(connection.uid)
-            self._disconnect()
-            self._connect_newest(now)
-            return
-        newer = [info for info in candidates if info.created_at() > connection.created_at
-                 and info.uid() not in self._ignored_uids]
-        if newer:
-            self.get_logger().warning(
-                f'{connection.description} is quiet and a newer matching stream exists: '
-                f'switching to {_describe(newer[-1])}')
-            self._disconnect()
-            self._open(newer[-1], now)
+                f'another LSL stream matches {self._config.describe_selection()}: '
+                f"{_describe(info)}, uid '{uid}'; it is NOT used: the bridge stays with "
+                f"{connection.description}, uid '{connection.uid}'. "
+                f'{_how_to_choose(info, connection.source_id)}')
+
+    def _drop_lost(self, connection: _Connection) -> None:
+        """Forget a stream that went away; the next one opened is announced as its successor."""
+        self._ignored[connection.uid] = time.monotonic() + LOST_IGNORE_S
+        self._gone = (connection.uid, connection.description)
+        self._disconnect()
+
+    def _is_ignored(self, uid: str, now: float) -> bool:
+        """Tell whether the stream ``uid`` must not be opened now."""
+        until = self._ignored.get(uid)
+        if until is None:
+            return False
+        if now < until:
+            return True
+        del self._ignored[uid]
+        return False
 
     def _connect_newest(self, now: float) -> None:
         """Open the newest matching stream, if any."""
         candidates = [info for info in self._candidates()
-                      if info.uid() not in self._ignored_uids]
+                      if not self._is_ignored(info.uid(), now)]
         if not candidates:
             if now - self._last_looking_log >= LOOKING_LOG_PERIOD_S:
                 self._last_looking_log = now
@@ -421,6 +480,14 @@ class LslGazeBridge(Node):
                 f'{len(candidates)} LSL streams match {self._config.describe_selection()}: '
                 f'using the newest, {_describe(newest)} (also found: {others}); set '
                 f'source_id to choose')
+            self._reported_uids.update(info.uid() for info in candidates[:-1])
+        if self._gone is not None:
+            gone_uid, gone = self._gone
+            if gone_uid == newest.uid():
+                self.get_logger().info(f'{gone} is back (its connection broke); reconnecting')
+            else:
+                self.get_logger().warning(f'{gone} is gone: switching to the newest matching '
+                                          f'stream, {_describe(newest)}')
         self._open(newest, now)
 
     def _open(self, info: pylsl.StreamInfo, now: float) -> None:
@@ -428,9 +495,10 @@ class LslGazeBridge(Node):
         if info.channel_format() == pylsl.cf_string:
             self.get_logger().warning(f'ignoring {_describe(info)}: it carries strings, '
                                       f'not numbers')
-            self._ignored_uids.add(info.uid())
+            self._ignored[info.uid()] = math.inf
             return
-        inlet = pylsl.StreamInlet(info, max_buflen=INLET_BUFFER_S, recover=False)
+        inlet = pylsl.StreamInlet(info, max_buflen=_inlet_buflen(info.nominal_srate()),
+                                  recover=False)
         try:
             full = inlet.info(timeout=INFO_TIMEOUT_S)
         except LslTimeoutError:
@@ -438,7 +506,7 @@ class LslGazeBridge(Node):
                                       throttle_duration_sec=WARN_THROTTLE_S)
             return
         except LostError:
-            self._ignored_uids.add(info.uid())
+            self._ignored[info.uid()] = now + LOST_IGNORE_S
             return
         for call in (inlet.open_stream, inlet.time_correction):
             try:
@@ -446,10 +514,13 @@ class LslGazeBridge(Node):
             except LslTimeoutError:
                 pass
         connection = _Connection(
-            inlet=inlet, uid=full.uid(), created_at=full.created_at(),
+            inlet=inlet, uid=full.uid(), source_id=full.source_id(),
+            created_at=full.created_at(),
             description=_describe(full), labels=_channel_labels(full),
-            buffer=self._make_buffer(inlet), connected_at=now)
+            buffer=self._make_buffer(inlet), connected_at=now,
+            nominal_srate=full.nominal_srate())
         self._connection = connection
+        self._gone = None
         self._poll_timer.reset()
         labels = ', '.join(label or '?' for label in connection.labels) or 'no labels'
         self.get_logger().info(f'connected to LSL stream {connection.description}; '
@@ -517,25 +588,83 @@ class LslGazeBridge(Node):
                     f'samples with their arrival time')
         if connection.reading_since is None:
             connection.reading_since = now
+        rate = self._publish_rate(connection)
+        if connection.tokens_at is not None:
+            bucket = max(float(PUBLISH_BURST), rate * self._params['poll_period_s'])
+            connection.tokens = min(bucket,
+                                    connection.tokens + (now - connection.tokens_at) * rate)
+        connection.tokens_at = now
         try:
+            budget = int(connection.tokens)
             for _ in range(MAX_PULLS_PER_POLL):
+                wanted = min(len(connection.buffer), budget)
+                if wanted <= 0:
+                    break
                 samples, timestamps = connection.inlet.pull_chunk(
-                    timeout=0.0, max_samples=len(connection.buffer),
-                    dest_obj=connection.buffer, as_numpy=True)
+                    timeout=0.0, max_samples=wanted, dest_obj=connection.buffer,
+                    as_numpy=True)
                 count = len(timestamps)
                 if count == 0:
                     break
+                budget -= count
+                connection.tokens -= count
                 self._publish_chunk(connection, samples, timestamps, now)
-                if count < len(connection.buffer):
+                if count < wanted:
                     break
+            if budget <= 0 or connection.backlog_since is not None:
+                self._track_backlog(connection, now, rate)
         except LostError:
-            self.get_logger().warning(f'lost LSL stream {connection.description}; '
-                                      f'looking for it again')
-            self._ignored_uids.add(connection.uid)
-            self._disconnect()
+            self.get_logger().warning(f'lost LSL stream {connection.description} (sender '
+                                      f'closed or connection broken); looking for a '
+                                      f'matching stream')
+            self._drop_lost(connection)
         except Exception as exc:  # noqa: B902 - a node never dies on a sample
             self.get_logger().warning(f'failed to read {connection.description}: {exc}',
                                       throttle_duration_sec=WARN_THROTTLE_S)
+
+    def _publish_rate(self, connection: _Connection) -> float:
+        """Return the most samples published per second from this stream."""
+        if self._params['max_publish_rate_hz'] > 0.0:
+            return self._params['max_publish_rate_hz']
+        return max(CATCH_UP_FACTOR * connection.nominal_srate, MIN_AUTO_PUBLISH_RATE_HZ)
+
+    def _track_backlog(self, connection: _Connection, now: float, rate: float) -> None:
+        """Say when samples pile up in the inlet faster than they may be published."""
+        waiting = connection.inlet.samples_available()
+        if connection.backlog_since is None:
+            if waiting < rate * BACKLOG_LOG_S:
+                return
+            connection.backlog_since = now
+            connection.backlog_start_count = self._counters['received']
+            self.get_logger().warning(
+                f'draining a backlog of {waiting} gaze samples from {connection.description} '
+                f'at up to {rate:g} samples/s (max_publish_rate_hz); their stamps are their '
+                f'acquisition times, so they are published late, not lost',
+                throttle_duration_sec=WARN_THROTTLE_S)
+        elif waiting == 0:
+            drained = self._counters['received'] - connection.backlog_start_count
+            self.get_logger().info(f'backlog drained: {drained} gaze samples read in '
+                                   f'{now - connection.backlog_since:.1f} s')
+            connection.backlog_since = None
+
+    def _clock_pair(self) -> Tuple[int, float]:
+        """
+        Read the ROS clock (ns) and this machine's LSL clock (s) at the same instant.
+
+        The ROS reading is bracketed by two LSL readings and paired with their
+        midpoint; of up to :data:`CLOCK_READS` tries the narrowest bracket wins, so
+        a thread switch between the reads cannot shift a chunk's stamps.
+        """
+        best = None
+        for _ in range(CLOCK_READS):
+            before = pylsl.local_clock()
+            ros_ns = self.get_clock().now().nanoseconds
+            after = pylsl.local_clock()
+            if best is None or after - before < best[0]:
+                best = (after - before, ros_ns, 0.5 * (before + after))
+            if best[0] <= CLOCK_BRACKET_S:
+                break
+        return best[1], best[2]
 
     def _publish_chunk(self, connection: _Connection, samples: np.ndarray,
                        timestamps: np.ndarray, now: float) -> None:
@@ -554,8 +683,7 @@ class LslGazeBridge(Node):
             return
 
         # Map LSL time to the ROS clock at the moment of the pull (see module doc).
-        ros_now_ns = self.get_clock().now().nanoseconds
-        lsl_now = pylsl.local_clock()
+        ros_now_ns, lsl_now = self._clock_pair()
         if connection.arrival_stamps:
             delta_s = np.zeros(count)
         else:
