@@ -904,6 +904,11 @@ class ChoiceTracker:
         """Whether a round is collecting gaze (or holding a decision)."""
         return self._round is not None
 
+    @property
+    def round_start(self) -> Optional[float]:
+        """Return the open round's start, s (its window is ``[start, start + window_s)``)."""
+        return self._round.start if self._round is not None else None
+
     def configure(self, **changed) -> None:
         """
         Change settings (names of :class:`ArbiterSettings`).

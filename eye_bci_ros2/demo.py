@@ -656,9 +656,11 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                             initial_xy=REST_XY, send_lost=False)
     log(streamer.describe())
 
-    if not options.verbose:
-        for name in NODE_NAMES + ('sim_rviz_view', 'demo_experiment'):
-            rclpy.logging.set_logger_level(name, rclpy.logging.LoggingSeverity.WARN)
+    # Logger levels are process-wide: quiet the nodes for the run, then put them back.
+    quiet = () if options.verbose else NODE_NAMES + ('sim_rviz_view', 'demo_experiment')
+    levels = {name: rclpy.logging.get_logger_level(name) for name in quiet}
+    for name in quiet:
+        rclpy.logging.set_logger_level(name, rclpy.logging.LoggingSeverity.WARN)
     with domain_id() as domain:
         context = Context()
         rclpy.init(context=context, domain_id=domain)
@@ -697,6 +699,8 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
             # After the bridge has closed its inlet, so liblsl does not report a broken stream.
             streamer.stop()
             context.try_shutdown()
+            for name, level in levels.items():
+                rclpy.logging.set_logger_level(name, level)
 
     return _summarise(options, person, source_id, script, driver, log)
 

@@ -46,6 +46,11 @@ RATE_HZ = 1200.0
 FAST_ARBITER = {'window_s': 0.4, 'stall_timeout_s': 0.2, 'reorder_s': 0.05,
                 'max_future_s': 10.0}
 
+#: Arbiter settings for tests that end every round themselves (:meth:`Pipeline.close_window`,
+#: a request or new choices): a stall timeout longer than any hold-up of this process, so no
+#: round closes before its gaze is taken.
+SELF_CLOSED_ROUNDS = {'stall_timeout_s': 3.0}
+
 #: Loggers of the nodes the rig runs (the fault checks read their INFO lines).
 NODE_LOGGERS = ('camera_tracker', 'marker_projector', 'choice_arbiter', 'lsl_gaze_bridge')
 
@@ -265,27 +270,48 @@ class Pipeline:
 
     def request(self) -> None:
         """Start a fresh round and wait until the arbiter has."""
-        rounds = self.arbiter.rounds_started
+        asked = self.now()
         self.request_pub.publish(Empty())
-        assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, WAIT_S)
+
+        def started() -> bool:
+            # The round of this request starts at its arrival, after ``asked``; a round
+            # that regions still on their way start (new choices) is stamped before it.
+            start = self.arbiter.round_start
+            return start is not None and start >= asked
+        assert self.graph.spin_until(started, WAIT_S), 'the request started no round'
 
     def window_s(self) -> float:
         """Return the arbiter's ``window_s`` now, s."""
         return self.arbiter.get_parameter('window_s').value
+
+    def round_start(self) -> float:
+        """Return the start of the arbiter's open round, s (now when none is open)."""
+        start = self.arbiter.round_start
+        return self.now() if start is None else start
+
+    def gaze_in_round(self, points) -> float:
+        """
+        Publish gaze samples stamped from the open round's start (:meth:`gaze`).
+
+        Every sample of 0.2 s of gaze is then in the round's window, however
+        long this process was held up since the round started.
+        :returns: the stamp after the last sample, s.
+        """
+        return self.gaze(points, start=self.round_start())
 
     def close_window(self) -> None:
         """
         End the open round now: publish one sample stamped past its window (in no region).
 
         A round ends when a sample stamped after its window arrives; without
-        one it waits ``stall_timeout_s`` past the window on the clock.  The
-        round started at or before now, so ``now + window_s`` is past its
-        window; published after the round's gaze (same publisher, reliable),
-        it arrives after it.  Like every sample, it stays among the recent
-        samples a round started by new choices in the next ``window_s`` takes
-        (as a sample in no region).
+        one it waits ``stall_timeout_s`` past the window on the clock.
+        Published after the round's gaze (same publisher, reliable), it
+        arrives after it.  It must be less than the arbiter's
+        ``max_future_s`` ahead of the clock (:data:`FAST_ARBITER`).  Like
+        every sample, it stays among the recent samples a round started by
+        new choices in the next ``window_s`` takes (as a sample in no region).
         """
-        self.gaze([CORNER], stamps=[self.now() + self.window_s() + 0.01])
+        self.gaze([CORNER], stamps=[self.round_start() + self.window_s() + 0.01])
 
     def finish_round(self, timeout: float = WAIT_S, before=False):
         """
@@ -309,8 +335,9 @@ class Pipeline:
         """
         Run a round looking at ``label`` (None: at nothing) and check the outcome.
 
-        The round is ended by :meth:`close_window` (no wait for its stall
-        timeout).  Asserts exactly the supported choice (or none) is published.
+        The gaze is stamped from the round's start and the round ended by
+        :meth:`close_window` (no wait for its stall timeout).  Asserts
+        exactly the supported choice (or none) is published.
         :returns: the arbiter's Decision.
         """
         # Aim first: the round's window runs from the request.
@@ -321,7 +348,7 @@ class Pipeline:
         if new_round:
             self.request()
         published = len(self.choices.messages)
-        self.gaze(points)
+        self.gaze_in_round(points)
         self.close_window()
         decision = self.finish_round()
         new = [message.data for message in self.choices.messages[published:]]

@@ -333,8 +333,9 @@ def test_a_sample_stamped_far_in_the_future_is_dropped_and_the_round_goes_on(gra
     assert graph.spin_until(lambda: rig.arbiter.samples_received == 61, 10.0)
     assert rig.arbiter.samples_from_future == 1 and rig.labels == ['bedroom']
     log = capfd.readouterr().err
-    assert re.search(r'choice_arbiter.*gaze sample stamped 3600\.\d+ s after its arrival '
-                     r'dropped \(more than max_future_s 1\.0 s', log), log[-2000:]
+    # Stamped an hour after the driver's clock: a little less after the arrival.
+    assert re.search(r'choice_arbiter.*gaze sample stamped 3[56]\d\d\.\d+ s after its '
+                     r'arrival dropped \(more than max_future_s 1\.0 s', log), log[-2000:]
 
 
 def test_nan_and_infinite_gaze_is_never_evidence_and_is_reported_once(graph, capfd):

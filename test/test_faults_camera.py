@@ -9,8 +9,8 @@ round still chooses exactly what the gaze looks at.
 
 import math
 
-from fault_rig import (cube, EYE, FOCUS, LogTap, Pipeline, room_markers, static_camera, UP,
-                       WAIT_S)
+from fault_rig import (cube, EYE, FOCUS, LogTap, Pipeline, room_markers, SELF_CLOSED_ROUNDS,
+                       static_camera, UP, WAIT_S)
 import numpy as np
 import pytest
 from visualization_msgs.msg import MarkerArray
@@ -64,7 +64,7 @@ VIEW_FAULTS = {
 @pytest.mark.parametrize('name', sorted(VIEW_FAULTS))
 def test_degenerate_static_view_is_rejected_and_the_regions_kept(graph, capfd, fault, name):
     values, reason = VIEW_FAULTS[name]
-    rig = Pipeline(graph)
+    rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     log = LogTap(capfd)
     before = rig.offer_rooms()
     poses = len(rig.poses.messages)
@@ -95,7 +95,7 @@ RVIZ_POSE_FAULTS = {
 @pytest.mark.parametrize('name', sorted(RVIZ_POSE_FAULTS))
 def test_bad_rviz_pose_is_ignored_and_the_last_good_view_kept(graph, capfd, fault, name):
     (position, quaternion), reason = RVIZ_POSE_FAULTS[name]
-    rig = Pipeline(graph)
+    rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     log = LogTap(capfd)
     rig.offer_rooms()
     # A good live pose first: that is the state to keep.
@@ -120,7 +120,7 @@ def test_bad_rviz_pose_is_ignored_and_the_last_good_view_kept(graph, capfd, faul
 
 
 def test_non_unit_rviz_quaternion_means_the_same_view(graph, capfd, fault):
-    rig = Pipeline(graph)
+    rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     rig.offer_rooms()
     with fault('camera', 'RViz pose: non-unit quaternion (x1000)'):
         rig.publish_rviz_pose(LIVE_OGRE[0], np.asarray(LIVE_OGRE[1]) * 1000.0)
@@ -134,7 +134,7 @@ def test_non_unit_rviz_quaternion_means_the_same_view(graph, capfd, fault):
 
 
 def test_camera_absurdly_far_away_shows_nothing_then_recovers(graph, capfd, fault):
-    rig = Pipeline(graph)
+    rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     before = rig.offer_rooms()
     with fault('camera', 'RViz pose 1e300 m away'):
         count = len(rig.regions.messages)
@@ -149,8 +149,8 @@ def test_camera_absurdly_far_away_shows_nothing_then_recovers(graph, capfd, faul
         # Gaze where the rooms were: no choice can come from regions that are not shown.
         if not rig.current():
             rig.request()
-            rig.gaze(rig.rng.normal(np.unique(before['kitchen'], axis=0).mean(axis=0), 5.0,
-                                    (240, 2)))
+            kitchen = np.unique(before['kitchen'], axis=0).mean(axis=0)
+            rig.gaze_in_round(rig.rng.normal(kitchen, 5.0, (240, 2)))
             rig.close_window()
             assert rig.finish_round().label is None
         # Back to a sane view: everything works again.
@@ -176,7 +176,7 @@ CAMERA_POSE_FAULTS = {
 @pytest.mark.parametrize('name', sorted(CAMERA_POSE_FAULTS))
 def test_bad_camera_pose_keeps_the_last_camera_for_new_markers(graph, capfd, fault, name):
     (position, quaternion, frame), reason = CAMERA_POSE_FAULTS[name]
-    rig = Pipeline(graph, tracker=False)
+    rig = Pipeline(graph, tracker=False, arbiter_parameters=SELF_CLOSED_ROUNDS)
     log = LogTap(capfd)
     camera = static_camera()
     rig.publish_camera(*look_at_pose(EYE, FOCUS, UP))
@@ -202,7 +202,7 @@ def test_bad_camera_pose_keeps_the_last_camera_for_new_markers(graph, capfd, fau
 
 def test_pose_that_never_arrives_uses_the_static_view(graph, capfd, fault):
     with fault('camera', 'RViz pose never arrives (static view used)'):
-        rig = Pipeline(graph)
+        rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
         regions = rig.offer_rooms()
         expected = expected_regions(static_camera(), room_markers())
         assert sorted(regions) == sorted(expected)
@@ -214,7 +214,7 @@ def test_pose_that_never_arrives_uses_the_static_view(graph, capfd, fault):
 
 
 def test_no_camera_pose_means_no_regions_and_no_choice(graph, capfd, fault):
-    rig = Pipeline(graph, tracker=False)
+    rig = Pipeline(graph, tracker=False, arbiter_parameters=SELF_CLOSED_ROUNDS)
     log = LogTap(capfd)
     with fault('camera', 'camera/pose never arrives (no tracker)'):
         markers = room_markers()
@@ -228,7 +228,7 @@ def test_no_camera_pose_means_no_regions_and_no_choice(graph, capfd, fault):
         camera = static_camera()
         target = np.unique(expected_regions(camera, markers)['kitchen'],
                            axis=0).mean(axis=0)
-        rig.gaze(rig.rng.normal(target, 5.0, (240, 2)))
+        rig.gaze_in_round(rig.rng.normal(target, 5.0, (240, 2)))
         rig.close_window()
         assert rig.finish_round().label is None
         assert rig.published_choices() == []
@@ -242,7 +242,7 @@ def test_no_camera_pose_means_no_regions_and_no_choice(graph, capfd, fault):
 
 
 def test_camera_inside_a_marker_gives_that_marker_no_region(graph, capfd, fault):
-    rig = Pipeline(graph)
+    rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     rig.offer_rooms()
     # A 2 m box in front of the static camera; then RViz moves the camera into it.
     wardrobe = cube('wardrobe', (0.0, -4.0, 3.0), scale=(2.0, 2.0, 2.0), marker_id=7)
@@ -255,7 +255,7 @@ def test_camera_inside_a_marker_gives_that_marker_no_region(graph, capfd, fault)
         assert rig.answers('/marker_projector')
         # Gaze at a corner of the screen, "on" the box around the eye: no choice.
         rig.request()
-        rig.gaze(rig.rng.normal([100.0, 100.0], 5.0, (240, 2)))
+        rig.gaze_in_round(rig.rng.normal([100.0, 100.0], 5.0, (240, 2)))
         rig.close_window()
         assert rig.finish_round().label is None
         assert 'wardrobe' not in rig.published_choices()

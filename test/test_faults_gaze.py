@@ -134,8 +134,6 @@ def test_zero_stamps_count_as_arrival_time(graph, capfd, fault):
         assert (decision.label, new) == ('bedroom', ['bedroom']), decision.summary()
 
 
-@pytest.mark.xfail(strict=True, reason='BUG (choice_arbiter): one sample stamped far in the '
-                   'future closes the open round at once, with the evidence so far')
 def test_one_corrupt_far_future_stamp_does_not_end_the_round(graph, capfd, fault):
     """A single sample stamped an hour ahead must not close the round before the gaze comes."""
     rig = Pipeline(graph, arbiter_parameters={'window_s': 1.0})

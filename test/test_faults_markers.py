@@ -9,8 +9,8 @@ and gaze where the bad marker would be chooses nothing.
 
 import math
 
-from fault_rig import (cube, EYE, FOCUS, LogTap, Pipeline, room_markers, static_camera, UP,
-                       WAIT_S)
+from fault_rig import (cube, EYE, FOCUS, LogTap, Pipeline, room_markers, SELF_CLOSED_ROUNDS,
+                       static_camera, UP, WAIT_S)
 import numpy as np
 import pytest
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -39,17 +39,17 @@ def gaze_at_hall_chooses_nothing(rig):
     points = rig.rng.normal(hall_target(), 5.0, (240, 2))
     rig.request()
     published = len(rig.choices.messages)
-    rig.gaze(points)
+    rig.gaze_in_round(points)
     rig.close_window()
     decision = rig.finish_round()
     assert decision.label is None, decision.summary()
     assert rig.choices.messages[published:] == []
 
 
-#: Window of the mid-round cases, s: long, so the change surely comes while the round is
-#: open however loaded the machine; rounds end by :meth:`Pipeline.close_window`, not by
+#: Arbiter of the mid-round cases: a 5 s window, so the change surely comes while the round
+#: is open however loaded the machine; rounds end by :meth:`Pipeline.close_window`, not by
 #: waiting the window out.
-MID_ROUND_WINDOW_S = 5.0
+MID_ROUND_ARBITER = {**SELF_CLOSED_ROUNDS, 'window_s': 5.0}
 
 #: Gaze samples on the kitchen before the mid-round change (0.5 s at 1200 Hz).
 KITCHEN_SAMPLES = 600
@@ -62,7 +62,7 @@ def look_at_kitchen_in_a_new_round(rig) -> float:
     :returns: the stamp after the last sample, s.
     """
     rig.request()
-    return rig.gaze(rig.look_at_region('kitchen', count=KITCHEN_SAMPLES))
+    return rig.gaze_in_round(rig.look_at_region('kitchen', count=KITCHEN_SAMPLES))
 
 
 def old_window_ends_without_a_choice(rig, before, received: int):
@@ -101,7 +101,7 @@ BAD_MARKERS = {
 @pytest.mark.parametrize('name', sorted(BAD_MARKERS))
 def test_bad_marker_is_skipped_with_a_reason_and_the_others_kept(graph, capfd, fault, name):
     change, reason = BAD_MARKERS[name]
-    rig = Pipeline(graph)
+    rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     log = LogTap(capfd)
     before = rig.offer_rooms()
     fields = {'position': HALL, 'scale': HALL_SCALE, 'quaternion': (0.0, 0.0, 0.0, 1.0),
@@ -133,7 +133,7 @@ def _same_outline(first, second):
 
 
 def test_non_unit_quaternion_is_normalised(graph, capfd, fault):
-    rig = Pipeline(graph)
+    rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     rig.offer_rooms()
     turn = np.array([0.0, 0.0, np.sin(np.pi / 8), np.cos(np.pi / 8)])   # 45 deg about z
     with fault('markers', 'non-unit quaternion (x7)'):
@@ -147,7 +147,7 @@ def test_non_unit_quaternion_is_normalised(graph, capfd, fault):
 
 
 def test_zero_quaternion_is_the_identity_as_in_rviz(graph, capfd, fault):
-    rig = Pipeline(graph)
+    rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     log = LogTap(capfd)
     rig.offer_rooms()
     with fault('markers', 'all-zero quaternion'):
@@ -162,7 +162,7 @@ def test_zero_quaternion_is_the_identity_as_in_rviz(graph, capfd, fault):
 
 
 def test_markers_wholly_or_partly_behind_the_camera_get_no_region(graph, capfd, fault):
-    rig = Pipeline(graph)
+    rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     rig.offer_rooms()
     forward = np.subtract(FOCUS, EYE) / np.linalg.norm(np.subtract(FOCUS, EYE))
     behind = cube('behind', np.add(EYE, -3.0 * forward), scale=(2.0, 2.0, 2.0), marker_id=43)
@@ -185,7 +185,7 @@ def test_markers_wholly_or_partly_behind_the_camera_get_no_region(graph, capfd, 
 
 
 def test_unknown_action_and_foreign_frame_are_reported(graph, capfd, fault):
-    rig = Pipeline(graph)
+    rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     log = LogTap(capfd)
     rig.offer_rooms()
     odd = cube('hall', HALL, HALL_SCALE, 42, action=7)
@@ -203,7 +203,7 @@ def test_unknown_action_and_foreign_frame_are_reported(graph, capfd, fault):
 
 
 def test_deleteall_in_the_middle_of_a_round_gives_no_choice(graph, capfd, fault):
-    rig = Pipeline(graph, arbiter_parameters={'window_s': MID_ROUND_WINDOW_S})
+    rig = Pipeline(graph, arbiter_parameters=MID_ROUND_ARBITER)
     log = LogTap(capfd)
     rig.offer_rooms()
     with fault('markers', 'DELETEALL mid-round'):
@@ -225,7 +225,7 @@ def test_deleteall_in_the_middle_of_a_round_gives_no_choice(graph, capfd, fault)
 
 
 def test_regions_vanishing_mid_round_give_no_choice(graph, capfd, fault):
-    rig = Pipeline(graph, arbiter_parameters={'window_s': MID_ROUND_WINDOW_S})
+    rig = Pipeline(graph, arbiter_parameters=MID_ROUND_ARBITER)
     log = LogTap(capfd)
     rig.offer_rooms()
     with fault('markers', 'regions vanish mid-round (camera turned away)'):
@@ -245,7 +245,7 @@ def test_regions_vanishing_mid_round_give_no_choice(graph, capfd, fault):
 
 
 def test_looked_at_marker_deleted_mid_round_is_never_chosen(graph, capfd, fault):
-    rig = Pipeline(graph, arbiter_parameters={'window_s': MID_ROUND_WINDOW_S})
+    rig = Pipeline(graph, arbiter_parameters=MID_ROUND_ARBITER)
     log = LogTap(capfd)
     rig.offer_rooms()
     kitchen = room_markers()[0]
@@ -265,7 +265,7 @@ def test_looked_at_marker_deleted_mid_round_is_never_chosen(graph, capfd, fault)
 
 
 def test_a_hundred_thousand_markers_in_one_array(graph, capfd, fault):
-    rig = Pipeline(graph)
+    rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     rig.offer_rooms()
     # 100 000 one-centimetre cubes on a 400 x 250 grid in front of the rooms, all in view.
     xs, ys = np.meshgrid(np.linspace(-6.0, 6.0, 400), np.linspace(-6.0, -3.5, 250))
@@ -302,7 +302,7 @@ def test_marker_arrays_in_quick_succession_are_all_applied(graph, capfd, fault):
     projector takes the first must both be applied; else a choice is missing
     or, worse, a DELETE is lost and a withdrawn choice keeps its region.
     """
-    rig = Pipeline(graph)
+    rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     rig.offer_rooms()
     task = graph.node('task').create_publisher(MarkerArray, 'choices', QoSProfile(
         depth=10, reliability=ReliabilityPolicy.RELIABLE,
@@ -319,7 +319,7 @@ def test_marker_arrays_in_quick_succession_are_all_applied(graph, capfd, fault):
         kitchen_target = np.unique(
             static_camera().box_regions(*_box(kitchen))[0][0], axis=0).mean(axis=0)
         rig.request()
-        rig.gaze(rig.rng.normal(kitchen_target, 5.0, (240, 2)))
+        rig.gaze_in_round(rig.rng.normal(kitchen_target, 5.0, (240, 2)))
         rig.close_window()
         decision = rig.finish_round()
         assert 'kitchen' not in rig.published_choices(), \

@@ -182,6 +182,11 @@ class ChoiceArbiter(Node):
         return self._tracker.samples_received
 
     @property
+    def round_start(self) -> Optional[float]:
+        """Return the open round's start, s on the node clock (None when none is open)."""
+        return self._tracker.round_start
+
+    @property
     def samples_from_future(self) -> int:
         """Return the number of gaze samples dropped for a stamp after max_future_s."""
         return self._tracker.samples_from_future
