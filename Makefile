@@ -38,7 +38,7 @@ lint: $(STAMP)
 
 # colcon build into ./install, as on a ROS machine (uses the venv's colcon and rclpy).
 build: $(STAMP)
-	$(VENV)/bin/colcon build --base-paths . --build-base build --install-base install
+	$(VENV)/bin/colcon build --paths . --build-base build --install-base install
 
 clean:
 	rm -rf $(VENV) build install log demo_output bench_results.json .pytest_cache

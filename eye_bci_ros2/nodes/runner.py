@@ -4,6 +4,7 @@ import sys
 from typing import Callable, List, Optional
 
 import rclpy
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
@@ -12,8 +13,8 @@ def spin_node(make_node: Callable[[], Node], args: Optional[List[str]] = None) -
     """
     Init rclpy, spin one node until Ctrl-C or shutdown, then clean up.
 
-    A node that refuses to start (bad parameter override or file: ValueError)
-    exits with status 1 and its reason, not a traceback.
+    A node that refuses to start (a bad parameter override or file) exits with
+    status 1 and its reason, not a traceback.
 
     :param make_node: builds the node (after ``rclpy.init``).
     :param args: command-line arguments (``--ros-args ...``), default sys.argv.
@@ -26,7 +27,7 @@ def spin_node(make_node: Callable[[], Node], args: Optional[List[str]] = None) -
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except ValueError as error:
+    except (ValueError, InvalidParameterValueException, InvalidParameterTypeException) as error:
         print(f'cannot start: {error}', file=sys.stderr)
         status = 1
     finally:
