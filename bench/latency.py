@@ -66,13 +66,13 @@ from rclpy.logging import LoggingSeverity
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from std_msgs.msg import Empty, String
-from visualization_msgs.msg import Marker, MarkerArray
+from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.gaze_profiles import PROFILES
 from eye_bci_ros2.nodes import lsl_gaze_bridge
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import arrays_to_pose, marker_array_to_regions
+from eye_bci_ros2.nodes.conversions import cube_marker, marker_array_to_regions
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.qos import EVENT_QOS, LATCHED_QOS
 
@@ -204,16 +204,9 @@ class Driver(Node):
 
     def publish_menu(self) -> None:
         """Publish the cube markers of :data:`MARKERS`."""
-        markers = []
-        for index, (label, position) in enumerate(MARKERS):
-            marker = Marker()
-            marker.header.frame_id = 'map'
-            marker.ns, marker.id, marker.text = 'bench', index, label
-            marker.type, marker.action = Marker.CUBE, Marker.ADD
-            marker.pose = arrays_to_pose(position, (0.0, 0.0, 0.0, 1.0))
-            marker.scale.x, marker.scale.y, marker.scale.z = MARKER_SCALE
-            marker.color.a = 1.0
-            markers.append(marker)
+        markers = [cube_marker('bench', index, label, 'map', position, (0.0, 0.0, 0.0, 1.0),
+                               MARKER_SCALE)
+                   for index, (label, position) in enumerate(MARKERS)]
         self.choices_pub.publish(MarkerArray(markers=markers))
 
     def targets(self) -> Dict[str, Tuple[float, float]]:

@@ -56,7 +56,7 @@ from bench.timing import machine_info
 from eye_bci_ros2.camera_model import RvizCamera
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import arrays_to_pose
+from eye_bci_ros2.nodes.conversions import cube_marker
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.qos import EVENT_QOS, GAZE_QOS, LATCHED_QOS
@@ -86,12 +86,8 @@ def menu_markers(menu: Dict[str, tuple], ns: str) -> MarkerArray:
     clear.header.frame_id = 'map'
     array = MarkerArray(markers=[clear])
     for index, (label, (x, y)) in enumerate(menu.items()):
-        marker = Marker(ns=ns, id=index, type=Marker.CUBE, action=Marker.ADD, text=label)
-        marker.header.frame_id = 'map'
-        marker.pose = arrays_to_pose([x, y, 0.0], [0.0, 0.0, 0.0, 1.0])
-        marker.scale.x, marker.scale.y, marker.scale.z = 1.5, 1.5, 0.05
-        marker.color.a = 1.0
-        array.markers.append(marker)
+        array.markers.append(cube_marker(ns, index, label, 'map', [x, y, 0.0],
+                                         [0.0, 0.0, 0.0, 1.0], [1.5, 1.5, 0.05]))
     return array
 
 

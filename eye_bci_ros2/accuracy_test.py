@@ -580,7 +580,7 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
     from std_msgs.msg import Empty
     from visualization_msgs.msg import Marker, MarkerArray
 
-    from eye_bci_ros2.nodes.conversions import arrays_to_pose
+    from eye_bci_ros2.nodes.conversions import arrays_to_pose, cube_marker
     from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes
     from eye_bci_ros2.nodes.qos import EVENT_QOS, LATCHED_QOS
     from eye_bci_ros2.view_animation import optical_pose
@@ -650,16 +650,10 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
             array = MarkerArray(markers=[Marker(action=Marker.DELETEALL)])
             array.markers[0].header.frame_id = scene.frame_id
             for index, label in enumerate(scenario.labels):
-                marker = Marker(ns='rooms', id=index, type=Marker.CUBE, action=Marker.ADD,
-                                text=label)
-                marker.header.frame_id = scene.frame_id
-                marker.header.stamp = helper.get_clock().now().to_msg()
-                marker.pose = arrays_to_pose(positions[index], quaternions[index])
-                marker.scale.x, marker.scale.y, marker.scale.z = (float(v)
-                                                                  for v in scales[index])
-                (marker.color.r, marker.color.g, marker.color.b,
-                 marker.color.a) = (float(v) for v in scenario.colours[index])
-                array.markers.append(marker)
+                array.markers.append(cube_marker(
+                    'rooms', index, label, scene.frame_id, positions[index],
+                    quaternions[index], scales[index], scenario.colours[index],
+                    helper.get_clock().now().to_msg()))
             choices.publish(array)
 
         def predicate(size):

@@ -26,12 +26,10 @@ from typing import Tuple
 import numpy as np
 
 from eye_bci_ros2 import geometry
+from eye_bci_ros2.camera_model import look_at_pose, ogre_pose_from_optical
 
 #: (eye, focus, up), each shape (3,), world frame, m.
 ViewTuple = Tuple[np.ndarray, np.ndarray, np.ndarray]
-
-#: Optical -> Ogre camera axes (x kept, y and z flipped).
-OPTICAL_TO_OGRE = np.diag([1.0, -1.0, -1.0])
 
 #: An up vector whose part across the view is below this fraction of its
 #: length (sine of ~0.06 deg) is treated as parallel to the view.
@@ -121,8 +119,7 @@ def optical_pose(eye, focus, up) -> Tuple[np.ndarray, np.ndarray]:
 
     :returns: ``(position (3,), quaternion (4,) x, y, z, w)``, world frame.
     """
-    return (np.array(eye, dtype=float),
-            geometry.matrix_to_quaternion(optical_rotation(eye, focus, up)))
+    return look_at_pose(eye, focus, up)
 
 
 def ogre_pose(eye, focus, up) -> Tuple[np.ndarray, np.ndarray]:
@@ -132,8 +129,7 @@ def ogre_pose(eye, focus, up) -> Tuple[np.ndarray, np.ndarray]:
     :returns: ``(position (3,), quaternion (4,) x, y, z, w)``, world frame;
         the camera looks along its -Z axis with +Y up.
     """
-    rotation = optical_rotation(eye, focus, up) @ OPTICAL_TO_OGRE
-    return np.array(eye, dtype=float), geometry.matrix_to_quaternion(rotation)
+    return ogre_pose_from_optical(*look_at_pose(eye, focus, up))
 
 
 def view_from_optical_pose(position, quaternion_xyzw,

@@ -36,7 +36,7 @@ from rclpy.node import Node
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.nodes.conversions import arrays_to_pose
+from eye_bci_ros2.nodes.conversions import arrays_to_pose, cube_marker
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.qos import EVENT_QOS, LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
@@ -177,15 +177,9 @@ class ChoiceMenu(Node):
         clear.header.stamp = stamp
         array = MarkerArray(markers=[clear])
         for index, source in enumerate(markers):
-            marker = Marker(ns=ns, id=index, type=Marker.CUBE, action=Marker.ADD,
-                            text=source.text)
-            marker.header.frame_id = self._world_frame
-            marker.header.stamp = stamp
-            marker.pose = arrays_to_pose(source.position, source.orientation)
-            marker.scale.x, marker.scale.y, marker.scale.z = (float(v) for v in source.scale)
-            (marker.color.r, marker.color.g, marker.color.b,
-             marker.color.a) = (float(v) for v in source.color)
-            array.markers.append(marker)
+            array.markers.append(cube_marker(
+                ns, index, source.text, self._world_frame, source.position,
+                source.orientation, source.scale, source.color, stamp))
         self._choices_pub.publish(array)
         labels = tuple(marker.text for marker in markers)
         if labels and set(labels) == set(self._offered):

@@ -39,6 +39,29 @@ def arrays_to_pose(position, quaternion_xyzw) -> Pose:
     return pose
 
 
+def cube_marker(ns: str, marker_id: int, text: str, frame_id: str, position,
+                quaternion_xyzw, scale, color_rgba=(1.0, 1.0, 1.0, 1.0),
+                stamp: Time = None) -> Marker:
+    """
+    Build one choice: an ADD CUBE marker.
+
+    :param position: centre, shape (3,), m, in ``frame_id``.
+    :param quaternion_xyzw: orientation, order x, y, z, w.
+    :param scale: full side lengths (3,), m.
+    :param color_rgba: r, g, b, a in [0, 1].
+    :param stamp: header stamp (default zero: "latest" in RViz).
+    """
+    marker = Marker(ns=ns, id=int(marker_id), type=Marker.CUBE, action=Marker.ADD, text=text)
+    marker.header.frame_id = frame_id
+    if stamp is not None:
+        marker.header.stamp = stamp
+    marker.pose = arrays_to_pose(position, quaternion_xyzw)
+    marker.scale.x, marker.scale.y, marker.scale.z = (float(v) for v in scale)
+    (marker.color.r, marker.color.g, marker.color.b,
+     marker.color.a) = (float(v) for v in color_rgba)
+    return marker
+
+
 def regions_to_marker_array(
         polygons: np.ndarray, sources: Sequence[Marker], stamp: Time,
         line_width_px: float = 2.0) -> MarkerArray:
