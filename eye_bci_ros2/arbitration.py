@@ -997,11 +997,14 @@ class ChoiceTracker:
         # Checked first: only choices made before this message arrived can have missed it.
         late_by = self._final_stamp - stamp
         stamps = self._history_stamps
-        if stamps and stamp < stamps[-1]:
+        out_of_order = bool(stamps) and stamp < stamps[-1]
+        if out_of_order:
+            # DDS may deliver a latched (older) set after a newer live one: it only
+            # tells what was shown at its time, never what is offered now.
             self._on_log('warning', 'regions_order',
-                         'regions message older than the previous one: stamps of region sets '
-                         'must not go back')
-        changed = region_set.label_set != self._offered
+                         'regions message older than the previous one: used for the samples '
+                         'of its time only; the newer set stays offered')
+        changed = not out_of_order and region_set.label_set != self._offered
         index = bisect.bisect_right(stamps, stamp)
         self._history.insert(index, region_set)
         stamps.insert(index, stamp)

@@ -327,3 +327,14 @@ def test_non_finite_stamps_and_max_future_are_validated():
         ArbiterSettings(max_future_s=-0.1)
     with pytest.raises(ValueError, match='max_future_s'):
         tracker.configure(max_future_s=1e6)
+
+
+def test_an_older_regions_set_arriving_late_does_not_withdraw_the_offered_choices():
+    """DDS can deliver a latched older set after a newer one: the newer set stays offered."""
+    rec = Recorder(window_s=0.5)
+    rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    rec.tracker.add_regions(squares({}, 9.0), now=10.01)
+    assert rec.tracker.rounds_started == 1 and rec.tracker.round_open
+    assert ('warning', 'regions_order') in rec.logs
+    rec.feed(at(RIGHT, 60), 10.0)
+    assert rec.labels == ['B']
