@@ -15,11 +15,11 @@ console_scripts = [
     'choice_arbiter = eye_bci_ros2.nodes.choice_arbiter:main',
     'choice_menu = eye_bci_ros2.nodes.choice_menu:main',
     'eye_bci = eye_bci_ros2.nodes.eye_bci:main',
-    'sim_rviz_view = eye_bci_ros2.nodes.sim_rviz_view:main',
-    'sim_gaze = eye_bci_ros2.sim_gaze:main',
-    'calibrate = eye_bci_ros2.calibrate:main',
-    'accuracy_test = eye_bci_ros2.accuracy_test:main',
-    'demo = eye_bci_ros2.demo:main',
+    'sim_rviz_view = eye_bci_ros2.sim.rviz_view:main',
+    'sim_gaze = eye_bci_ros2.sim.gaze_outlet:main',
+    'calibrate = eye_bci_ros2.tools.calibrate:main',
+    'accuracy_test = eye_bci_ros2.experiments.accuracy_test:main',
+    'demo = eye_bci_ros2.experiments.demo:main',
 ]
 
 setup(

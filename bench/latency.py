@@ -74,7 +74,7 @@ from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import cube_marker, marker_array_to_regions
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.qos import EVENT_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
 
 #: Push rate of the simulated tracker, Hz.
 RATE_HZ = 1200.0

@@ -59,7 +59,7 @@ from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import cube_marker
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.qos import EVENT_QOS, GAZE_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, LATCHED_QOS
 
 #: Static RViz view of the soak (world frame ``map``, m).
 EYE, FOCUS, UP = [0.0, -8.0, 12.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]

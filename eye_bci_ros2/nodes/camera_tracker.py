@@ -25,8 +25,8 @@ from eye_bci_ros2.camera_model import look_at_pose, optical_pose_from_ogre
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
 from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.qos import LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.topics import LATCHED_QOS
 
 #: What RViz view-controller ports publish with: reliable, volatile, depth 10.
 RVIZ_POSE_QOS = QoSProfile(

@@ -20,7 +20,7 @@ window arrives, or ``stall_timeout_s`` after the window on the node clock if
 the gaze stream goes quiet, and publishes at most one ``choice`` (none when
 no sample fell in a region, or the mean fell in none).  With
 ``early_decision`` it ends as soon as the evidence passes ``confidence``
-(see :mod:`eye_bci_ros2.arbitration`).  That evidence is only *fresh* gaze:
+(see :mod:`eye_bci_ros2.rounds`).  That evidence is only *fresh* gaze:
 gaze that was on a region before the round start + ``min_reaction_s``
 (sooner than any person reacts to the new display) counts only once it has
 moved to another region, so the option that lies where the gaze rested on
@@ -55,7 +55,7 @@ message that comes later with a stamp before the decision's last sample is
 logged as a warning and does not change it.  With ``reorder_s`` > 0 a
 decision whose last sample is newer than the newest regions waits until
 regions stamped after that sample arrive, or ``reorder_s``, whichever is
-first (see :class:`eye_bci_ros2.arbitration.ChoiceTracker`).
+first (see :class:`eye_bci_ros2.rounds.RoundScheduler`).
 """
 
 import time
@@ -66,13 +66,13 @@ from rclpy.node import Node
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.arbitration import (ArbiterSettings, ChoiceTracker, Decision,
-                                      DEFAULT_MAX_FUTURE_S, MAX_FUTURE_S,
-                                      MAX_REACTION_S, METHODS, RegionSet)
+from eye_bci_ros2.evidence import Decision, MAX_REACTION_S, METHODS
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions, SCREEN_FRAME
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.qos import EVENT_QOS, GAZE_QOS, LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, LATCHED_QOS
+from eye_bci_ros2.regions import RegionSet
+from eye_bci_ros2.rounds import ArbiterSettings, DEFAULT_MAX_FUTURE_S, MAX_FUTURE_S, RoundScheduler
 
 #: Period of the timer that closes quiet rounds and releases held decisions, s.
 TICK_S = 0.02
@@ -153,7 +153,7 @@ class ChoiceArbiter(Node):
         super().__init__('choice_arbiter', **kwargs)
         self._config = declare_parameters(self, PARAMETERS, self._on_parameters)
         self._warned: Dict[str, float] = {}
-        self._tracker = ChoiceTracker(ArbiterSettings(**self._config), self._publish, self._log)
+        self._tracker = RoundScheduler(ArbiterSettings(**self._config), self._publish, self._log)
         self._publisher = self.create_publisher(String, 'choice', EVENT_QOS)
         self.create_subscription(PointStamped, 'gaze', self._on_gaze, GAZE_QOS)
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)

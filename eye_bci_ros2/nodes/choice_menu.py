@@ -38,8 +38,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, cube_marker
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.qos import EVENT_QOS, LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
 from eye_bci_ros2.scene import CubeMarker, default_scene_path, load_scene, Room, Scene, View
 from eye_bci_ros2.view_animation import optical_pose
 

@@ -65,8 +65,8 @@ from eye_bci_ros2.gaze_profiles import (
     xpath_predicate)
 from eye_bci_ros2.nodes.conversions import SCREEN_FRAME
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.qos import GAZE_QOS
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.topics import GAZE_QOS
 
 #: Inlet buffer, s of gaze; liblsl drops the oldest samples beyond it, uncounted.
 INLET_BUFFER_S = 60

@@ -34,8 +34,8 @@ from eye_bci_ros2.camera_model import parse_intrinsic, RvizCamera
 from eye_bci_ros2.geometry import external_from_pose
 from eye_bci_ros2.nodes.conversions import pose_to_arrays, regions_to_marker_array
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.qos import LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.topics import LATCHED_QOS
 
 #: Largest render panel side accepted, px.
 MAX_IMAGE_SIDE = 16384

@@ -1,0 +1,1 @@
+"""Stand-ins for what cannot run here: the person and eye tracker, the EEG, the RViz view."""
