@@ -18,7 +18,7 @@ import numpy as np
 from eye_bci_ros2.evidence import (check_hit_rate, check_min_reaction, Decision,
                                    DEFAULT_HIT_RATE, DEFAULT_MIN_REACTION_S, METHODS,
                                    RoundEvidence)
-from eye_bci_ros2.regions import RegionSet
+from eye_bci_ros2.regions import points_array, RegionSet
 
 #: Default bound on how far after its arrival a gaze sample may be stamped, s.
 DEFAULT_MAX_FUTURE_S = 1.0
@@ -62,17 +62,26 @@ class SampleLog:
 
     def append(self, stamp: float, x: float, y: float) -> None:
         """Log one sample: stamp s, point (x, y) px."""
-        if self._size == len(self._stamps):
-            self._stamps = np.concatenate([self._stamps, np.empty(self._size)])
-            self._points = np.concatenate([self._points, np.empty((self._size, 2))])
-        self._stamps[self._size] = stamp
-        self._points[self._size, 0] = x
-        self._points[self._size, 1] = y
-        self._size += 1
-        if stamp >= self.max_stamp:
-            self.max_stamp = stamp
-        else:
+        self.extend(np.array([stamp]), np.array([[x, y]]))
+
+    def extend(self, stamps: np.ndarray, points: np.ndarray) -> None:
+        """Log samples: stamps (N,) s, points (N, 2) px, in arrival order."""
+        count = len(stamps)
+        if not count:
+            return
+        if self._size + count > len(self._stamps):
+            grow = max(self._size, count)
+            self._stamps = np.concatenate([self._stamps, np.empty(grow)])
+            self._points = np.concatenate([self._points, np.empty((grow, 2))])
+        end = self._size + count
+        self._stamps[self._size:end] = stamps
+        self._points[self._size:end] = points
+        self._size = end
+        newest = float(stamps.max())
+        if self._sorted and (stamps[0] < self.max_stamp
+                             or (count > 1 and np.any(np.diff(stamps) < 0))):
             self._sorted = False
+        self.max_stamp = max(self.max_stamp, newest)
 
     def ordered(self) -> Tuple[np.ndarray, np.ndarray]:
         """Return the samples in stamp order: stamps (N,) s, points (N, 2) px (views)."""
@@ -261,6 +270,8 @@ class RoundScheduler:
         self.samples_too_old = 0
         #: Samples with a NaN or infinite coordinate (taken as in no region).
         self.samples_not_finite = 0
+        #: Samples of a batch whose stamp was NaN or infinite (dropped).
+        self.samples_bad_stamp = 0
 
     @property
     def offered(self) -> frozenset:
@@ -295,9 +306,7 @@ class RoundScheduler:
 
     def add_sample(self, stamp: float, x: float, y: float, now: float) -> Optional[Decision]:
         """
-        Take one gaze sample, in arrival order.
-
-        Samples with an implausible stamp are dropped (class doc, "Stamps").
+        Take one gaze sample (:meth:`add_samples` of one).
 
         :param stamp: acquisition time of the sample, s (finite).
         :param x: screen x, px (NaN or infinite: in no region).
@@ -305,53 +314,144 @@ class RoundScheduler:
         :param now: arrival time, s (finite).
         :returns: the decision this sample completed (also passed to
             ``on_decision``), else None.
+        :raises ValueError: a stamp or ``now`` that is not finite.
         """
         if not (math.isfinite(stamp) and math.isfinite(now)):
             raise ValueError(f'gaze sample stamp {stamp} s and arrival time {now} s must be '
                              'finite')
-        self.samples_received += 1
-        if not self._plausible(stamp, now):
+        return self.add_samples(np.array([stamp]), np.array([[x, y]]), now)
+
+    def add_samples(self, stamps, points, now: float) -> Optional[Decision]:
+        """
+        Take a batch of gaze samples (one ``gaze/samples`` message), in arrival order.
+
+        The same as taking them one by one: samples with an implausible stamp
+        are dropped (class doc, "Stamps"; a NaN or infinite stamp too,
+        counted in :attr:`samples_bad_stamp`), and the decision is the one the
+        sample completing it makes.  In the steady state (the batch in stamp
+        order after everything before it, regions older than its first
+        sample) the whole batch is classified and weighed at once.
+
+        :param stamps: shape (N,), acquisition times, s.
+        :param points: shape (N, 2), screen px (NaN or infinite: in no region).
+        :param now: arrival time of the batch, s (finite).
+        :returns: the decision a sample of the batch completed (also passed
+            to ``on_decision``), else None.
+        :raises ValueError: ``now`` not finite, or stamps and points of
+            different lengths.
+        """
+        stamps = np.asarray(stamps, dtype=float).reshape(-1)
+        points = points_array(points)
+        if len(stamps) != len(points):
+            raise ValueError(f'{len(points)} gaze points but {len(stamps)} stamps')
+        if not math.isfinite(now):
+            raise ValueError(f'arrival time {now} s must be finite')
+        if not len(stamps):
             return None
-        if not (math.isfinite(x) and math.isfinite(y)):
-            self.samples_not_finite += 1
+        self.samples_received += len(stamps)
+        keep = self._plausible(stamps, now)
+        if not keep.all():
+            stamps, points = stamps[keep], points[keep]
+            if not len(stamps):
+                return None
+        finite = np.isfinite(points).all(axis=1)
+        if not finite.all():
+            # Named: the batch's first such sample, counted up to it (as one at a time).
+            x, y = points[np.argmin(finite)]
             self._on_log('warning', 'gaze_not_finite',
                          f'gaze sample ({x}, {y}) px is NaN or infinite: taken as in no region '
-                         f'({self.samples_not_finite} such samples so far)')
+                         f'({self.samples_not_finite + 1} such samples so far)')
+            self.samples_not_finite += int(np.count_nonzero(~finite))
+        self._remember(stamps, points, now)
+        round_ = self._round
+        if round_ is None:
+            return None
+        if stamps.min() < round_.start:
+            later = stamps >= round_.start
+            stamps, points = stamps[later], points[later]
+        if not len(stamps):
+            return None
+        if self._steady(round_, stamps):
+            return self._take_batch(round_, stamps, points, now)
+        decision = None
+        for stamp, (x, y) in zip(stamps.tolist(), points.tolist()):
+            round_ = self._round
+            if round_ is None:
+                break
+            decision = self._take(round_, stamp, x, y, now) or decision
+        return decision
+
+    def _remember(self, stamps: np.ndarray, points: np.ndarray, now: float) -> None:
+        """Keep recent samples for a round that starts at a past stamp."""
         recent = self._recent
-        recent.append((stamp, x, y))
+        recent.extend(zip(stamps.tolist(), points[:, 0].tolist(), points[:, 1].tolist()))
         horizon = now - self.settings.window_s - RECENT_MARGIN_S
         while recent and recent[0][0] < horizon:
             recent.popleft()
-        round_ = self._round
-        if round_ is None or stamp < round_.start:
-            return None
-        return self._take(round_, stamp, x, y, now)
 
-    def _plausible(self, stamp: float, now: float) -> bool:
-        """Tell whether a sample's stamp can be right and of use; count and log it if not."""
+    def _plausible(self, stamps: np.ndarray, now: float) -> np.ndarray:
+        """Tell which stamps can be right and of use (N,) bool; count and log the others."""
         settings = self.settings
-        ahead = stamp - now
-        if ahead > settings.max_future_s:
-            self.samples_from_future += 1
+        with np.errstate(invalid='ignore'):
+            bad_stamp = ~np.isfinite(stamps)
+            ahead = stamps - now
+            future = (ahead > settings.max_future_s) & ~bad_stamp
+            round_ = self._round
+            # The earliest stamp a round can use: a round started by new choices begins at
+            # most window_s in the past.
+            earliest = round_.start if round_ is not None else now - settings.window_s
+            behind = earliest - stamps
+            too_old = (behind > settings.window_s) & ~bad_stamp
+        if bad_stamp.any():
+            self.samples_bad_stamp += int(np.count_nonzero(bad_stamp))
+            self._on_log('warning', 'gaze_bad_stamp',
+                         f'gaze samples with a NaN or infinite stamp dropped; '
+                         f'{self.samples_bad_stamp} dropped so far')
+        if future.any():
+            self.samples_from_future += int(np.count_nonzero(future))
             self._on_log('warning', 'gaze_future',
-                         f'gaze sample stamped {ahead:.3f} s after its arrival dropped (more '
-                         f'than max_future_s {settings.max_future_s} s: a corrupt stamp or a '
-                         f'wrong clock); {self.samples_from_future} dropped so far')
-            return False
-        round_ = self._round
-        # The earliest stamp a round can use: a round started by new choices begins at
-        # most window_s in the past.
-        earliest = round_.start if round_ is not None else now - settings.window_s
-        behind = earliest - stamp
-        if behind > settings.window_s:
-            self.samples_too_old += 1
+                         f'gaze sample stamped {ahead[future].max():.3f} s after its arrival '
+                         f'dropped (more than max_future_s {settings.max_future_s} s: a corrupt '
+                         f'stamp or a wrong clock); {self.samples_from_future} dropped so far')
+        if too_old.any():
+            self.samples_too_old += int(np.count_nonzero(too_old))
             what = 'the round start' if round_ is not None else 'any round start'
             self._on_log('warning', 'gaze_too_old',
-                         f'gaze sample stamped {behind:.3f} s before {what} dropped (more '
-                         f'than window_s {settings.window_s} s: delivered late, or a corrupt '
-                         f'stamp); {self.samples_too_old} dropped so far')
-            return False
-        return True
+                         f'gaze sample stamped {behind[too_old].max():.3f} s before {what} '
+                         f'dropped (more than window_s {settings.window_s} s: delivered late, '
+                         f'or a corrupt stamp); {self.samples_too_old} dropped so far')
+        return ~(bad_stamp | future | too_old)
+
+    def _steady(self, round_: _Round, stamps: np.ndarray) -> bool:
+        """Tell whether a batch can be weighed at once (:meth:`add_samples`)."""
+        history = self._history_stamps
+        return (round_.pending is None and not round_.window_closed
+                and stamps[0] >= round_.log.max_stamp
+                and (not history or stamps[0] >= history[-1])
+                and len(round_.log) + len(stamps) < MAX_ROUND_SAMPLES
+                and (len(stamps) == 1 or bool(np.all(np.diff(stamps) >= 0))))
+
+    def _take_batch(self, round_: _Round, stamps: np.ndarray, points: np.ndarray,
+                    now: float) -> Optional[Decision]:
+        """Add a steady batch (:meth:`_steady`) stamped at or after the round start."""
+        settings = self.settings
+        inside = int(np.searchsorted(stamps, round_.start + settings.window_s, side='left'))
+        closes = inside < len(stamps)
+        decision = None
+        if inside:
+            round_.log.extend(stamps[:inside], points[:inside])
+            decision = round_.evidence.add(
+                points[:inside], stamps[:inside], self._regions_at(stamps[0]),
+                settings.confidence if settings.early_decision else None)
+        if decision is not None:
+            decision = self._propose(round_, decision, now)
+            if closes and self._round is round_:
+                round_.window_closed = True   # held for late regions; the window is over
+            return decision
+        if closes:
+            round_.window_closed = True
+            return self._propose(round_, round_.evidence.decide(settings.method), now)
+        return None
 
     def add_regions(self, region_set: RegionSet, now: float) -> Optional[Decision]:
         """

@@ -2,8 +2,8 @@
 The whole pipeline in one process: every node on one executor.
 
 Composes lsl_gaze_bridge, camera_tracker, marker_projector, choice_arbiter
-and choice_menu (RViz and the eye tracker stay outside).  One
-SingleThreadedExecutor runs them all: every callback is short and
+and choice_menu (RViz and the eye tracker stay outside).  One executor
+(:mod:`eye_bci_ros2.nodes.runner`) runs them all: every callback is short and
 non-blocking, so one thread keeps latency low without locks or the GIL
 contention of a thread pool.  ``--ros-args`` apply to every node, so name
 the node in parameter files (``/marker_projector:``) or use ``/**``.
@@ -12,11 +12,11 @@ the node in parameter files (``/marker_projector:``) or use ``/**``.
 import importlib
 from typing import Any, Dict, List, Optional
 
-import rclpy
 from rclpy.context import Context
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+
+from eye_bci_ros2.nodes.runner import spin_nodes
 
 #: (node name, module, class) of each pipeline node, in start-up order.
 PIPELINE = (
@@ -72,21 +72,7 @@ def make_pipeline_nodes(context: Optional[Context] = None,
 
 def main(args=None):
     """Run all pipeline nodes on one executor until Ctrl-C or shutdown."""
-    rclpy.init(args=args)
-    executor = SingleThreadedExecutor()
-    nodes: List[Node] = []
-    try:
-        nodes = make_pipeline_nodes()
-        for node in nodes:
-            executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        executor.shutdown()
-        for node in nodes:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    spin_nodes(make_pipeline_nodes, args)
 
 
 if __name__ == '__main__':

@@ -1,11 +1,29 @@
-"""Quality-of-service profiles shared by publishers and subscribers (DESIGN.md)."""
+"""
+Topic names and quality-of-service profiles: the one home of the topic contract.
+
+Every name is relative, so a namespace (``--ros-args -r __ns:=/left``) moves a
+whole pipeline.  docs/DESIGN.md ("Topics") says what each carries.
+"""
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-#: Gaze samples: reliable, deep enough for a 1200 Hz tracker's chunk.
+#: Every gaze sample, batched: sensor_msgs/PointCloud2, one message per LSL chunk
+#: (see :mod:`eye_bci_ros2.nodes.conversions`, "Gaze batches").
+GAZE_SAMPLES_TOPIC = 'gaze/samples'
+#: A per-sample view for people and simple tools (``ros2 topic echo``, a gaze cursor):
+#: geometry_msgs/PointStamped, the newest sample, at most ``point_rate_hz``.
+GAZE_POINT_TOPIC = 'gaze/point'
+
+#: Gaze batches: reliable and deep; a message holds a whole chunk (up to max_chunk
+#: samples), so 1000 messages are seconds of gaze even at 2000 Hz.
 GAZE_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=1000,
     reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+#: The per-sample view: only the newest matters, so best effort and shallow.
+VIEW_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=5,
+    reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
 
 #: State that a late joiner needs at once (camera pose, regions, menu): latched.
 LATCHED_QOS = QoSProfile(

@@ -3,17 +3,17 @@
 import re
 
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import PointStamped
 import numpy as np
 import pytest
 from rclpy.parameter import Parameter
-from ros_harness import Collector
+from ros_harness import Collector, gaze_messages
+from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import regions_to_marker_array
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
 from eye_bci_ros2.rounds import ArbiterSettings
 
 pytestmark = pytest.mark.ros
@@ -44,7 +44,7 @@ class Rig:
         self.arbiter = graph.add(ChoiceArbiter, parameter_overrides=overrides)
         self.driver = graph.node('test_driver')
         self.regions = self.driver.create_publisher(MarkerArray, 'choices/regions', LATCHED_QOS)
-        self.gaze = self.driver.create_publisher(PointStamped, 'gaze', GAZE_QOS)
+        self.gaze = self.driver.create_publisher(PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)
         self.request_pub = self.driver.create_publisher(Empty, 'choice/request', EVENT_QOS)
         self.choices = Collector(self.driver, String, 'choice', EVENT_QOS)
         publishers = (self.regions, self.gaze, self.request_pub)
@@ -100,11 +100,7 @@ class Rig:
         """
         if stamps is None:
             stamps = start + (np.arange(len(points)) + 0.5) / RATE_HZ
-        for (x, y), stamp in zip(points, stamps):
-            message = PointStamped()
-            message.header.frame_id = 'screen'
-            message.header.stamp = to_time(float(stamp))
-            message.point.x, message.point.y = float(x), float(y)
+        for message in gaze_messages(points, stamps):
             self.gaze.publish(message)
 
     def wait_decision(self, rounds_done=1):

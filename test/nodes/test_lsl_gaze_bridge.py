@@ -3,17 +3,17 @@
 import gc
 import time
 
-from fault_rig import LogTap
 from geometry_msgs.msg import PointStamped
+from fault_rig import LogTap
 from lsl_outlets import bridge_parameters, make_outlet, sample_for, unique_id
 import numpy as np
 import pylsl
 import pytest
 from rclpy.parameter import Parameter
-from ros_harness import Collector
+from ros_harness import Collector, GazeCollector
 
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
-from eye_bci_ros2.nodes.topics import GAZE_QOS
+from eye_bci_ros2.nodes.topics import GAZE_POINT_TOPIC, VIEW_QOS
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 
@@ -24,11 +24,10 @@ WAIT_S = 10.0
 
 
 def start_bridge(graph, **params):
-    """Add the bridge with ``params`` and a collector on ``gaze``."""
+    """Add the bridge with ``params`` and a collector on ``gaze/samples``."""
     node = graph.add(LslGazeBridge, parameter_overrides=[
         Parameter(name, value=value) for name, value in params.items()])
-    collector = Collector(graph.node('gaze_listener'), PointStamped, 'gaze', GAZE_QOS)
-    return node, collector
+    return node, GazeCollector(graph.node('gaze_listener'))
 
 
 def connect(graph, outlet):
@@ -42,20 +41,15 @@ def ros_now_ns(graph):
 
 
 def wait_for(graph, collector, count):
-    """Spin until ``count`` gaze messages arrived; return their points (N, 2)."""
-    assert graph.spin_until(lambda: len(collector.messages) >= count, WAIT_S), \
-        f'expected {count} gaze messages, got {len(collector.messages)}'
-    return points_of(collector.messages)
+    """Spin until ``count`` gaze samples arrived; return their points (N, 2)."""
+    assert graph.spin_until(lambda: collector.count >= count, WAIT_S), \
+        f'expected {count} gaze samples, got {collector.count}'
+    return collector.samples()[1]
 
 
-def points_of(messages):
-    """Return the points of PointStamped messages as an (N, 2) array."""
-    return np.array([[m.point.x, m.point.y] for m in messages]).reshape(-1, 2)
-
-
-def stamp_ns(message):
-    """Return a message's stamp, ns."""
-    return message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
+def stamps_ns(collector):
+    """Return the stamps of every gaze sample received, ns (N,)."""
+    return collector.samples()[0] * 1e9
 
 
 def test_default_profile_scales_original_sender_pixels_with_acquisition_stamps(graph):
@@ -72,8 +66,8 @@ def test_default_profile_scales_original_sender_pixels_with_acquisition_stamps(g
                                         [140.5563689604685, 984.375]], atol=1e-9)
     for message in gaze.messages:
         assert message.header.frame_id == 'screen'
-        assert message.point.z == 0.0
-        assert abs(stamp_ns(message) - pushed_at) < STAMP_TOLERANCE_NS
+        assert [field.name for field in message.fields] == ['x', 'y', 't']
+    assert np.all(np.abs(stamps_ns(gaze) - pushed_at) < STAMP_TOLERANCE_NS)
     assert node.counters['published'] == 4
 
 
@@ -105,7 +99,7 @@ def test_profile_samples_arrive_as_exact_screen_points(graph, profile):
     # float32 apps (Tobii) quantise 0.3 etc.; the double Pupil relay is exact.
     np.testing.assert_allclose(points, expected, atol=1e-3)
     graph.spin_for(0.1)
-    assert len(gaze.messages) == len(expected)
+    assert gaze.count == len(expected)
     assert node.counters[dropped_as] == 1
     assert node.counters['received'] == len(samples)
 
@@ -149,7 +143,7 @@ def test_stamps_are_sample_times_not_arrival_times(graph):
     outlet.push_sample([1.0, 1.0], timestamp=lsl_now - 0.5)
     outlet.push_sample([2.0, 2.0], timestamp=lsl_now - 0.2)
     wait_for(graph, gaze, 2)
-    ages = [(pushed_at - stamp_ns(message)) / 1e9 for message in gaze.messages]
+    ages = (pushed_at - stamps_ns(gaze)) / 1e9
     np.testing.assert_allclose(ages, [0.5, 0.2], atol=STAMP_TOLERANCE_NS / 1e9)
 
 
@@ -185,7 +179,7 @@ def test_newest_of_two_matching_outlets_is_used(graph):
     new.push_sample([1366.0, 768.0])
     np.testing.assert_allclose(wait_for(graph, gaze, 1), [[1920, 1080]])
     graph.spin_for(0.2)
-    assert len(gaze.messages) == 1
+    assert gaze.count == 1
     assert not old.have_consumers()
     assert node.stream_uid == new_info.uid()
 
@@ -245,34 +239,56 @@ def test_quiet_stream_is_kept_while_advertised_and_replaced_once_gone(graph, cap
     np.testing.assert_allclose(wait_for(graph, gaze, 1), [[7, 8]])
 
 
-def test_a_burst_is_paced_and_arrives_whole_with_acquisition_stamps(graph, capfd):
+def test_a_burst_arrives_whole_in_batches_with_acquisition_stamps(graph):
     outlet, info = make_outlet('custom', rate=1200.0)
-    node, gaze = start_bridge(graph, **bridge_parameters('custom', info))
-    log = LogTap(capfd)
+    node, gaze = start_bridge(graph, **bridge_parameters('custom', info), max_chunk=500)
     connect(graph, outlet)
-    assert node.publish_rate_hz == 2400.0   # twice the nominal rate, at least 2400
-    result, = graph.set_parameters('/lsl_gaze_bridge', {'max_publish_rate_hz': 1000.0})
-    assert result.successful, result.reason
-    assert node.publish_rate_hz == 1000.0
     outlet.push_sample([1.0, 1.0])
     wait_for(graph, gaze, 1)   # clock offset known: samples are published as they come
 
     points = np.random.default_rng(3).uniform([0, 0], [1920, 1080], (3000, 2))
     stamps = pylsl.local_clock() - 3.0 + np.arange(3000) / 1200.0
-    mark = log.mark()
+    first_message = len(gaze.messages)
     outlet.push_chunk(points.tolist(), stamps.tolist())
-    # One poll (spin_until runs one callback per check) publishes one bucket, not the burst.
-    assert graph.spin_until(lambda: node.counters['received'] > 1, WAIT_S)
-    assert node.counters['published'] - 1 <= 32
-    assert log.wait_for(graph, 'lsl_gaze_bridge.*draining a backlog of', mark)
     received = wait_for(graph, gaze, 3001)[1:]
     np.testing.assert_allclose(received, points, atol=1e-3)   # float32 stream
-    assert log.wait_for(graph, r'lsl_gaze_bridge.*backlog drained: \d+ gaze samples', mark)
-    # Published late, stamped when they were taken.
-    offsets = np.array([stamp_ns(m) for m in gaze.messages[1:]]) * 1e-9
+    # One message per pulled chunk of at most max_chunk samples.
+    widths = [message.width for message in gaze.messages[first_message:]]
+    assert sum(widths) == 3000 and max(widths) <= 500
+    # Published at once, stamped when they were taken.
+    offsets = stamps_ns(gaze)[1:] * 1e-9
     np.testing.assert_allclose(np.diff(offsets), 1 / 1200.0, atol=1e-4)
-    age_s = (ros_now_ns(graph) - stamp_ns(gaze.messages[1])) * 1e-9
+    age_s = ros_now_ns(graph) * 1e-9 - offsets[0]
     assert age_s > 3.0
+
+
+def test_gaze_point_shows_the_newest_sample_at_most_point_rate_hz(graph):
+    outlet, info = make_outlet('custom', rate=1200.0)
+    node, gaze = start_bridge(graph, **bridge_parameters('custom', info), point_rate_hz=20.0)
+    view = Collector(graph.node('cursor'), PointStamped, GAZE_POINT_TOPIC, VIEW_QOS)
+    connect(graph, outlet)
+    outlet.push_sample([1.0, 1.0])
+    wait_for(graph, gaze, 1)
+    start = time.monotonic()
+    for k in range(600):   # 0.5 s of a 1200 Hz tracker, pushed in real time
+        outlet.push_sample([100.0 + k, 200.0])
+        graph.spin_for(1 / 1200.0)
+    wait_for(graph, gaze, 601)
+    elapsed = time.monotonic() - start
+    graph.spin_for(0.1)
+    # Every sample on gaze/samples, a few on gaze/point, each a real sample in px.
+    assert 2 <= len(view.messages) <= 20.0 * elapsed + 2
+    sent = set(100.0 + np.arange(600)) | {1.0}
+    for message in view.messages:
+        assert message.header.frame_id == 'screen' and message.point.z == 0.0
+        assert message.point.x in sent
+    result, = graph.set_parameters('/lsl_gaze_bridge', {'point_rate_hz': 0.0})
+    assert result.successful, result.reason
+    count = len(view.messages)
+    outlet.push_sample([5.0, 5.0])
+    wait_for(graph, gaze, 602)
+    graph.spin_for(0.1)
+    assert len(view.messages) == count
 
 
 def test_bad_parameter_values_are_rejected_with_a_reason(graph):

@@ -16,12 +16,13 @@ from typing import Dict, List, Optional, Sequence
 import zlib
 
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import PointStamped, Pose, PoseStamped
+from geometry_msgs.msg import Pose, PoseStamped
 import numpy as np
 import rclpy.logging
 from rclpy.logging import LoggingSeverity
 from rclpy.parameter import Parameter
-from ros_harness import Collector
+from ros_harness import Collector, gaze_messages, GazeCollector
+from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -31,7 +32,7 @@ from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, marker_array_to_regions
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
 
 #: Generous wait for anything to arrive, s (2 shared cores; never a timing assertion).
 WAIT_S = 10.0
@@ -163,12 +164,12 @@ class Pipeline:
         self.rviz_pub = driver.create_publisher(Pose, 'rviz/current_camera_pose', RVIZ_POSE_QOS)
         self.camera_pub = None if tracker else driver.create_publisher(
             PoseStamped, 'camera/pose', LATCHED_QOS)
-        self.gaze_pub = driver.create_publisher(PointStamped, 'gaze', GAZE_QOS)
+        self.gaze_pub = driver.create_publisher(PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)
         self.request_pub = driver.create_publisher(Empty, 'choice/request', EVENT_QOS)
         self.poses = Collector(driver, PoseStamped, 'camera/pose', LATCHED_QOS)
         self.regions = Collector(driver, MarkerArray, 'choices/regions', LATCHED_QOS)
         self.choices = Collector(driver, String, 'choice', EVENT_QOS)
-        self.gazes = Collector(driver, PointStamped, 'gaze', GAZE_QOS)
+        self.gazes = GazeCollector(driver)
         publishers = [self.choices_pub]
         if tracker:
             publishers.append(self.rviz_pub)
@@ -256,11 +257,7 @@ class Pipeline:
         start = self.now() if start is None else start
         if stamps is None:
             stamps = start + (np.arange(len(points)) + 0.5) / rate
-        for (x, y), stamp in zip(points.tolist(), np.asarray(stamps).tolist()):
-            message = PointStamped()
-            message.header.frame_id = frame
-            message.header.stamp = to_time(stamp)
-            message.point.x, message.point.y = x, y
+        for message in gaze_messages(points, stamps, frame):
             self.gaze_pub.publish(message)
         return start + len(points) / rate
 

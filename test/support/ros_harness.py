@@ -1,6 +1,9 @@
 """
 In-process ROS 2 test harness: private Context, own domain id, one executor.
 
+The executor is the one the executables use (:func:`eye_bci_ros2.nodes.runner.make_executor`:
+the EventsExecutor unless ``EYE_BCI_EXECUTOR=single``).
+
 Modelled on rclpy's own tests: every test gets a fresh ``Context`` on a
 domain id reserved by ``domain_coordinator`` so tests never see each other's
 traffic, and tears down executor -> nodes -> context.
@@ -8,15 +11,24 @@ traffic, and tears down executor -> nodes -> context.
 
 import contextlib
 import time
-from typing import Any, Callable, Dict, List, Optional
+from typing import Any, Callable, Dict, List, Optional, Tuple
 
 from domain_coordinator import domain_id
+import numpy as np
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
+from sensor_msgs.msg import PointCloud2
+
+from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_batch_arrays, SCREEN_FRAME
+from eye_bci_ros2.nodes.runner import make_executor
+from eye_bci_ros2.nodes.topics import GAZE_QOS, GAZE_SAMPLES_TOPIC
+
+#: Samples per gaze/samples message the test publishers send (20 ms at 1200 Hz; the
+#: bridge sends what it pulls each poll, a few samples at its default 2 ms).
+GAZE_CHUNK = 24
 
 
 class RosGraph:
@@ -25,7 +37,7 @@ class RosGraph:
     def __init__(self, context: Context, domain: int):
         self.context = context
         self.domain = domain
-        self.executor = SingleThreadedExecutor(context=context)
+        self.executor = make_executor(context=context)
         self.nodes: List[Node] = []
 
     def add(self, node_class, *args, **kwargs) -> Any:
@@ -114,6 +126,29 @@ def ros_graph():
             graph.shutdown()
 
 
+def gaze_messages(points, stamps, frame: str = SCREEN_FRAME,
+                  chunk: int = GAZE_CHUNK) -> List[PointCloud2]:
+    """
+    Split gaze samples into ``gaze/samples`` batches, as the bridge publishes them.
+
+    :param points: shape (N, 2), screen px (anything, NaN included).
+    :param stamps: shape (N,), acquisition times, s (>= 0; 0 = unstamped).
+    :param chunk: samples per message.
+    """
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    stamps_ns = np.rint(np.asarray(stamps, dtype=float).reshape(-1) * 1e9).astype(np.int64)
+    return [gaze_batch(stamps_ns[i:i + chunk], points[i:i + chunk], frame)
+            for i in range(0, len(points), chunk)]
+
+
+def gaze_samples(messages) -> Tuple[np.ndarray, np.ndarray]:
+    """Stamps (N,) s and points (N, 2) px of ``gaze/samples`` messages, in order."""
+    pairs = [gaze_batch_arrays(message) for message in messages]
+    if not pairs:
+        return np.zeros(0), np.zeros((0, 2))
+    return np.concatenate([p[0] for p in pairs]), np.concatenate([p[1] for p in pairs])
+
+
 class Collector:
     """Subscribe to a topic and keep every message received."""
 
@@ -125,3 +160,22 @@ class Collector:
     def last(self) -> Optional[Any]:
         """Return the newest message, or None."""
         return self.messages[-1] if self.messages else None
+
+
+class GazeCollector:
+    """Subscribe to ``gaze/samples`` and keep every sample received, in order."""
+
+    def __init__(self, node: Node):
+        self.messages: List[PointCloud2] = []
+        self.count = 0
+        self.subscription = node.create_subscription(
+            PointCloud2, GAZE_SAMPLES_TOPIC, self._on_batch, GAZE_QOS)
+
+    def _on_batch(self, message: PointCloud2) -> None:
+        self.messages.append(message)
+        self.count += message.width * message.height
+
+    def samples(self, first: int = 0) -> Tuple[np.ndarray, np.ndarray]:
+        """Stamps (N,) s and points (N, 2) px of the samples from number ``first`` on."""
+        stamps, points = gaze_samples(self.messages)
+        return stamps[first:], points[first:]
