@@ -61,7 +61,6 @@ import psutil
 import pylsl
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.logging import LoggingSeverity
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -74,6 +73,7 @@ from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import cube_marker, marker_array_to_regions
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
+from eye_bci_ros2.nodes.runner import make_executor
 from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
 
 #: Push rate of the simulated tracker, Hz.
@@ -168,7 +168,7 @@ def view_nodes_loop(domain: int, stop) -> None:
     """
     context = Context()
     rclpy.init(context=context, domain_id=domain)
-    executor = SingleThreadedExecutor(context=context)
+    executor = make_executor(context=context)
     nodes = [CameraTracker(context=context), MarkerProjector(context=context)]
     try:
         for node in nodes:
@@ -270,7 +270,7 @@ def measure(rounds: int, poll_period_s: Optional[float] = None, rate: float = RA
     with domain_id() as domain:
         context = Context()
         rclpy.init(context=context, domain_id=domain)
-        executor = SingleThreadedExecutor(context=context)
+        executor = make_executor(context=context)
         nodes = []
         try:
             nodes = [ChoiceArbiter(context=context, parameter_overrides=[

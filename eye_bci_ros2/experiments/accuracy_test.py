@@ -576,13 +576,13 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
     from geometry_msgs.msg import PoseStamped
     import rclpy
     from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
     from std_msgs.msg import Empty
     from visualization_msgs.msg import Marker, MarkerArray
 
     from eye_bci_ros2.nodes.conversions import arrays_to_pose, cube_marker
     from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes
+    from eye_bci_ros2.nodes.runner import make_executor
     from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
     from eye_bci_ros2.view_animation import optical_pose
 
@@ -591,7 +591,7 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
     overview = scene.overview
     context = Context()
     rclpy.init(context=context)
-    executor = SingleThreadedExecutor(context=context)
+    executor = make_executor(context=context)
     nodes = []
 
     def spin_until(predicate, timeout):

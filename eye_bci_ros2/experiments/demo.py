@@ -58,23 +58,25 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import uuid
 
 from domain_coordinator import domain_id
-from geometry_msgs.msg import PointStamped, Pose
+from geometry_msgs.msg import Pose
 import numpy as np
 import pylsl
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.camera_model import optical_pose_from_ogre, RvizCamera
 from eye_bci_ros2.evidence import Decision, METHODS
 from eye_bci_ros2.experiments import render as demo_render
-from eye_bci_ros2.nodes.conversions import marker_array_to_regions, marker_label, pose_to_arrays
+from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
+                                            marker_label, pose_to_arrays)
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.runner import make_executor
+from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.scene import default_scene_path, load_scene, Scene
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
@@ -356,7 +358,7 @@ class ExperimentDriver(Node):
         self.create_subscription(MarkerArray, 'choices', self._on_choices, LATCHED_QOS)
         self.create_subscription(Pose, 'rviz/current_camera_pose', self._on_camera, LATCHED_QOS)
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
-        self.create_subscription(PointStamped, 'gaze', self._on_gaze, GAZE_QOS)
+        self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
         self.create_subscription(String, 'choice_menu/result', self._on_result, EVENT_QOS)
 
     def now_s(self) -> float:
@@ -408,9 +410,10 @@ class ExperimentDriver(Node):
             # The arbiter starts a round at this stamp (new labels).
             self.changed_at = stamp
 
-    def _on_gaze(self, message: PointStamped) -> None:
-        self.gaze_stamps.append(_seconds(message.header.stamp))
-        self.gaze_points.append((message.point.x, message.point.y))
+    def _on_gaze(self, message: PointCloud2) -> None:
+        stamps, points = gaze_batch_arrays(message)
+        self.gaze_stamps.extend(stamps.tolist())
+        self.gaze_points.extend(map(tuple, points.tolist()))
 
     def _on_result(self, message: String) -> None:
         self.outcomes.append(message.data)
@@ -665,7 +668,7 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
     with domain_id() as domain:
         context = Context()
         rclpy.init(context=context, domain_id=domain)
-        executor = SingleThreadedExecutor(context=context)
+        executor = make_executor(context=context)
         nodes: List[Node] = []
         try:
             nodes = make_pipeline_nodes(context, overrides={

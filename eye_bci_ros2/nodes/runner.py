@@ -46,7 +46,17 @@ def make_executor(context: Optional[Context] = None, kind: Optional[str] = None)
     """
     kind = kind or executor_kind()
     if kind == 'events':
-        return EventsExecutor(context=context)
+        # It enables faulthandler on sys.stderr, which raises when stderr is no file
+        # (captured by pytest, replaced by a GUI): give it the process's own stderr then.
+        saved = sys.stderr
+        try:
+            sys.stderr.fileno()
+        except (AttributeError, OSError, ValueError):
+            sys.stderr = sys.__stderr__
+        try:
+            return EventsExecutor(context=context)
+        finally:
+            sys.stderr = saved
     if kind == 'single':
         return SingleThreadedExecutor(context=context)
     raise ValueError(f"executor '{kind}' is not one of {', '.join(EXECUTORS)}")
