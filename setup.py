@@ -20,6 +20,7 @@ console_scripts = [
     'calibrate = eye_bci_ros2.calibrate:main',
     'accuracy_test = eye_bci_ros2.accuracy_test:main',
     'demo = eye_bci_ros2.demo:main',
+    'find_panel = eye_bci_ros2.tools.find_panel:main',
 ]
 
 setup(

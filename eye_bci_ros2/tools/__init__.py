@@ -1,0 +1,1 @@
+"""Command-line tools of eye_bci_ros2 (measure, calibrate, watch)."""
