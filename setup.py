@@ -21,6 +21,7 @@ console_scripts = [
     'accuracy_test = eye_bci_ros2.accuracy_test:main',
     'demo = eye_bci_ros2.demo:main',
     'find_panel = eye_bci_ros2.tools.find_panel:main',
+    'monitor = eye_bci_ros2.tools.monitor:main',
 ]
 
 setup(
