@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import math
 import sys
 from typing import Any, Callable, Dict, Iterable, List, Optional, Tuple
+import weakref
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rcl_interfaces.msg import ParameterType, SetParametersResult
@@ -64,6 +65,8 @@ _TYPE_TEXT = {
     Parameter.Type.DOUBLE_ARRAY: 'a list of numbers',
     Parameter.Type.STRING_ARRAY: 'a list of texts',
 }
+#: The ParamSpecs of each node whose sets are converted (one pre_set callback per node).
+_COERCED: 'weakref.WeakKeyDictionary[Node, Dict[str, ParamSpec]]' = weakref.WeakKeyDictionary()
 #: First characters of a YAML value that rcl's parser cannot read unquoted
 #: (alias, anchor, tag, block scalar, directive, reserved).
 _YAML_INDICATORS = '*&!|>%@`'
@@ -195,14 +198,30 @@ def declare_parameters(
         if changed:
             on_change(changed)
 
-    def pre_set(parameters):
-        return [coerce_parameter(specs[p.name], p) if p.name in specs else p
-                for p in parameters]
-
-    node.add_pre_set_parameters_callback(pre_set)
+    _coerce_on_set(node, specs)
     node.add_on_set_parameters_callback(on_set)
     node.add_post_set_parameters_callback(post_set)
     return values
+
+
+def _coerce_on_set(node: Node, specs: Dict[str, ParamSpec]) -> None:
+    """
+    Convert every set of ``specs`` on ``node`` before rclpy checks its type.
+
+    One ``pre_set`` callback per node, whatever the number of tables declared
+    on it: rclpy concatenates the lists that pre_set callbacks return, so a
+    second callback would set every parameter twice.
+    """
+    table = _COERCED.get(node)
+    if table is None:
+        table = _COERCED[node] = {}
+
+        def pre_set(parameters):
+            return [coerce_parameter(table[p.name], p) if p.name in table else p
+                    for p in parameters]
+
+        node.add_pre_set_parameters_callback(pre_set)
+    table.update(specs)
 
 
 def coerce_parameter(spec: ParamSpec, parameter: Parameter) -> Parameter:

@@ -16,9 +16,10 @@ from geometry_msgs.msg import PoseStamped
 from lsl_outlets import unique_id
 import numpy as np
 import pytest
-from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.msg import ParameterType, SetParametersResult
 import rclpy
 from rclpy.context import Context
+from rclpy.node import Node
 from rclpy.parameter import Parameter
 from ros_harness import Collector
 from visualization_msgs.msg import Marker, MarkerArray
@@ -29,7 +30,7 @@ from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, marker_array_to_regions
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.parameters import quote_param_rules
+from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec, quote_param_rules
 from eye_bci_ros2.nodes.qos import LATCHED_QOS
 
 pytestmark = pytest.mark.ros
@@ -231,3 +232,33 @@ def test_quote_param_rules_quotes_only_values_rcl_cannot_read(typed, sent):
     assert quote_param_rules(['exe', '--ros-args'] + typed) == ['exe', '--ros-args'] + sent
     # Outside --ros-args nothing is a parameter rule.
     assert quote_param_rules(['exe'] + typed) == ['exe'] + typed
+
+
+class TwoTables(Node):
+    """A node that declares two ParamSpec tables (as a node with an optional part may)."""
+
+    def __init__(self, **kwargs):
+        super().__init__('two_tables', **kwargs)
+        self.changes = []
+        declare_parameters(self, [ParamSpec('gain', 1.0, 'a double', value_range=(0.0, 10.0))],
+                           self.changes.append)
+        declare_parameters(self, [ParamSpec('channel', '', 'a channel', integer_as_text=True)],
+                           self.changes.append)
+        self.seen = []
+        self.add_on_set_parameters_callback(self._record)
+
+    def _record(self, parameters):
+        self.seen.append([(p.name, p.value) for p in parameters])
+        return SetParametersResult(successful=True)
+
+
+def test_two_tables_on_one_node_convert_each_set_once(graph):
+    node = graph.add(TwoTables, parameter_overrides=[Parameter('gain', value=2)])
+    assert node.get_parameter('gain').value == 2.0
+    result, value = set_one(graph, '/two_tables', 'gain', 3)
+    assert result.successful and value == 3.0
+    result, value = set_one(graph, '/two_tables', 'channel', 4)
+    assert result.successful and value == '4'
+    # Each set reached the node once, converted (not once per table).
+    assert node.seen == [[('gain', 3.0)], [('channel', '4')]]
+    assert node.changes == [{'gain': 3.0}, {'channel': '4'}]
