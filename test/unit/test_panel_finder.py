@@ -234,3 +234,13 @@ def test_cli_rejects_a_bad_background_option(tmp_path, capsys):
     assert exited.value.code == 2
     assert 'R,G,B' in capsys.readouterr().err
     assert os.path.exists(path)
+
+
+def test_cli_warns_when_a_marker_may_split_the_panel(tmp_path, capsys):
+    image = rviz_screenshot(grid=None, markers=False).copy()
+    image[150:870, 1100:1180] = (200, 60, 60)
+    output = tmp_path / 'panel.yaml'
+    assert cli.main([save(tmp_path, image), '-o', str(output)]) == 0
+    err = capsys.readouterr().err
+    assert 'find_panel: warning: another background area' in err
+    assert '# warning: another background area' in output.read_text()
