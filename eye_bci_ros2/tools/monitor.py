@@ -31,7 +31,9 @@ Usage::
 import argparse
 from collections import deque
 from dataclasses import dataclass, field
+import signal
 import sys
+import threading
 import time
 from typing import Deque, List, Optional, Sequence, Tuple
 
@@ -40,6 +42,7 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import PointCloud2, PointField
 from std_msgs.msg import String
@@ -368,12 +371,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace, context=None, stream=None,
-        terminal: Optional[bool] = None) -> int:
+        terminal: Optional[bool] = None, stop: Optional[threading.Event] = None) -> int:
     """
-    Run the monitor on an initialised ``context`` until Ctrl-C or the duration.
+    Run the monitor on an initialised ``context`` until ``stop`` is set or the duration ends.
 
     :returns: the exit status (0).
     """
+    stop = stop or threading.Event()
     screen = Screen(stream or sys.stdout, terminal)
     monitor = Monitor(gap_s=args.gap, on_choice=screen.choice, context=context)
     executor = SingleThreadedExecutor(context=context)
@@ -382,7 +386,7 @@ def run(args: argparse.Namespace, context=None, stream=None,
     start = time.monotonic()
     next_show = start + (args.period if args.once else 0.0)
     try:
-        while duration is None or time.monotonic() - start < duration:
+        while not stop.is_set() and (duration is None or time.monotonic() - start < duration):
             executor.spin_once(timeout_sec=min(0.05, args.period))
             if time.monotonic() >= next_show and not args.once:
                 screen.show(monitor)
@@ -395,15 +399,25 @@ def run(args: argparse.Namespace, context=None, stream=None,
 
 
 def main(argv: Optional[List[str]] = None) -> int:
-    """Run ``monitor``; return the exit status."""
+    """
+    Run ``monitor``; return the exit status.
+
+    Ctrl-C and SIGTERM only ask the loop to stop (no KeyboardInterrupt), and
+    are ignored once it stops, so a second Ctrl-C cannot break the clean-up.
+    """
     argv = sys.argv if argv is None else argv
     args = build_parser().parse_args(remove_ros_args(argv)[1:])
-    rclpy.init(args=argv)
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     try:
-        return run(args)
-    except (KeyboardInterrupt, ExternalShutdownException):
+        return run(args, stop=stop)
+    except ExternalShutdownException:
         return 0
     finally:
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, signal.SIG_IGN)
         rclpy.try_shutdown()
 
 

@@ -9,6 +9,7 @@ publishes them; decisions are ``choice`` strings.
 
 import io
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -237,3 +238,19 @@ def test_command_line_help_and_bad_option():
                              '--duration', '-1'], capture_output=True, text=True, cwd=REPO,
                             timeout=60)
     assert result.returncode == 2 and 'positive number' in result.stderr
+
+
+@pytest.mark.parametrize('signals', [('SIGINT',), ('SIGINT', 'SIGINT'), ('SIGTERM',),
+                                     ('SIGTERM', 'SIGINT')])
+def test_ctrl_c_and_sigterm_end_it_cleanly_even_twice(graph, signals):
+    env = dict(os.environ, ROS_DOMAIN_ID=str(graph.domain), PYTHONPATH=REPO)
+    process = subprocess.Popen(
+        [sys.executable, '-m', 'eye_bci_ros2.tools.monitor', '--period', '0.2'],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=REPO)
+    assert process.stdout.readline().startswith('t=')   # running: its first status line
+    for name in signals:
+        process.send_signal(getattr(signal, name))
+        time.sleep(0.002)
+    out, err = process.communicate(timeout=60)
+    assert process.returncode == 0, err
+    assert 'Traceback' not in err
