@@ -20,6 +20,8 @@ console_scripts = [
     'calibrate = eye_bci_ros2.tools.calibrate:main',
     'accuracy_test = eye_bci_ros2.experiments.accuracy_test:main',
     'demo = eye_bci_ros2.experiments.demo:main',
+    'find_panel = eye_bci_ros2.tools.find_panel:main',
+    'monitor = eye_bci_ros2.tools.monitor:main',
 ]
 
 setup(
@@ -29,7 +31,9 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
-        (os.path.join('share', package_name, 'config'), glob('config/*.yaml')),
+        (os.path.join('share', package_name, 'config'),
+         glob('config/*.yaml') + glob('config/*.rviz')),
+        (os.path.join('share', package_name, 'launch'), glob('launch/*.launch.py')),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

@@ -112,17 +112,20 @@ PARAMETERS = (
               'eye-tracker application whose stream layout to expect; it sets the '
               'defaults of every parameter left empty/0/negative', choices=PROFILE_NAMES),
     ParamSpec('stream_type', '',
-              f"LSL stream type to accept; '' = profile default, '{ANY}' = any"),
+              f"LSL stream type to accept; '' = profile default, '{ANY}' = any",
+              integer_as_text=True),
     ParamSpec('stream_name', '',
-              f"LSL stream name to accept; '' = profile default, '{ANY}' = any"),
-    ParamSpec('source_id', '', f"LSL source_id to accept; '' or '{ANY}' = any"),
+              f"LSL stream name to accept; '' = profile default, '{ANY}' = any",
+              integer_as_text=True),
+    ParamSpec('source_id', '', f"LSL source_id to accept; '' or '{ANY}' = any",
+              integer_as_text=True),
     ParamSpec('x_channel', '',
               'channel of gaze x: label or 0-based index; several separated by commas '
               "(one per eye) are averaged over the valid eyes; '' = profile default",
-              check=_channel_text),
+              check=_channel_text, integer_as_text=True),
     ParamSpec('y_channel', '',
               'channel of gaze y, as x_channel (same number of entries); '
-              "'' = profile default", check=_channel_text),
+              "'' = profile default", check=_channel_text, integer_as_text=True),
     ParamSpec('units', '', 'units of x/y: pixels of the source screen or normalized '
               "(0..1); '' = profile default", check=_one_of_or_empty(UNITS)),
     ParamSpec('origin', '', 'corner of the source screen at x = y = 0; '
@@ -137,7 +140,8 @@ PARAMETERS = (
               value_range=(1, 16384)),
     ParamSpec('confidence_channel', '',
               f"label or index of a 0..1 confidence channel; '' = profile default, "
-              f"'{NO_CONFIDENCE}' = no confidence check", check=_channel_text),
+              f"'{NO_CONFIDENCE}' = no confidence check", check=_channel_text,
+              integer_as_text=True),
     ParamSpec('min_confidence', -1.0,
               'drop samples whose confidence is below this; negative = profile default '
               '(0.6 for pupil_capture)', value_range=(-1.0, 1.0)),

@@ -41,8 +41,9 @@ from eye_bci_ros2.nodes.topics import LATCHED_QOS
 MAX_IMAGE_SIDE = 16384
 
 #: Where the default 1280x720 render panel sits: centred on a 1920x1080 screen,
-#: as in the default scene (config/scene.yaml).  Measure it for a real RViz.
-DEFAULT_SCREEN_OFFSET = (320, 180)
+#: as in the default scene (config/scene.yaml).  Measure it for a real RViz
+#: (``find_panel``); px, fractional on a scaled (HiDPI) screen.
+DEFAULT_SCREEN_OFFSET = (320.0, 180.0)
 
 #: How often the same warning about bad input may be logged, s.
 WARN_PERIOD_S = 5.0
@@ -191,10 +192,12 @@ PARAMETERS: List[ParamSpec] = [
               'ty, 0, 0, 1, 0]; empty = analytic RViz intrinsic (image size, fov_y_deg).',
               check=_intrinsic_values, array_type='double_array'),
     ParamSpec('screen_offset_x', DEFAULT_SCREEN_OFFSET[0],
-              "X0: screen x of the render panel's left edge, px (screen = image + X0).",
+              "X0: screen x of the render panel's left edge, px (screen = image + X0); "
+              'may be fractional (a scaled screen).',
               value_range=(-MAX_IMAGE_SIDE, MAX_IMAGE_SIDE)),
     ParamSpec('screen_offset_y', DEFAULT_SCREEN_OFFSET[1],
-              "Y0: screen y of the render panel's top edge, px (screen = image + Y0).",
+              "Y0: screen y of the render panel's top edge, px (screen = image + Y0); "
+              'may be fractional (a scaled screen).',
               value_range=(-MAX_IMAGE_SIDE, MAX_IMAGE_SIDE)),
     ParamSpec('clip_to_image', True,
               'Cut regions to the render panel (a marker wholly off the panel gets no '

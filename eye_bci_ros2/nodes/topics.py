@@ -25,6 +25,12 @@ VIEW_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=5,
     reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
 
+#: Tools that watch a topic (the monitor): best effort, so it matches reliable and
+#: best-effort publishers alike, as deep as the gaze queue.
+LISTENER_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=GAZE_QOS.depth,
+    reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+
 #: State that a late joiner needs at once (camera pose, regions, menu): latched.
 LATCHED_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=1,

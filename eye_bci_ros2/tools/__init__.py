@@ -1,1 +1,1 @@
-"""Command-line tools: calibration fitting and parameter documentation."""
+"""Command-line tools: calibrate, describe the parameters, find the panel, watch the graph."""

@@ -4,7 +4,7 @@ Describe every node's parameters from the nodes themselves.
 Creates each node on a private context, reads what it declared (value,
 description, range) and prints either the README's parameter tables
 (``--markdown``) or the defaults file ``config/eye_bci.yaml`` (``--yaml``), so
-neither can drift from the code.  ``test/test_describe.py`` checks both.
+neither can drift from the code.  ``test/system/test_describe.py`` checks both.
 
 Usage::
 

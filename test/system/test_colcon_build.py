@@ -22,7 +22,8 @@ import pytest
 PACKAGE = 'eye_bci_ros2'
 
 #: What an ament_python package needs to build; the rest (tests, bench, docs) is not installed.
-PACKAGE_FILES = ['setup.py', 'setup.cfg', 'package.xml', 'resource', 'config', PACKAGE]
+PACKAGE_FILES = ['setup.py', 'setup.cfg', 'package.xml', 'resource', 'config', 'launch',
+                 PACKAGE]
 
 #: The executable the test starts; `--help` must work without a ROS graph.
 STARTED_EXECUTABLE = 'calibrate'
@@ -147,11 +148,16 @@ def test_every_console_script_is_an_installed_executable(workspace, installed):
 
 @pytest.mark.slow
 def test_config_files_are_installed(workspace, installed):
-    sources = sorted((REPO / 'config').glob('*.yaml'))
+    sources = sorted((REPO / 'config').glob('*.yaml')) + sorted((REPO / 'config').glob('*.rviz'))
     assert REPO / 'config' / 'eye_bci.yaml' in sources
     config = Path(installed['share']) / 'config'
     for source in sources:
         assert (config / source.name).read_bytes() == source.read_bytes(), source.name
+    launch_files = sorted((REPO / 'launch').glob('*.launch.py'))
+    assert REPO / 'launch' / 'pipeline.launch.py' in launch_files
+    for source in launch_files:   # `ros2 launch eye_bci_ros2 <file>` looks in share/<pkg>/launch
+        installed_file = Path(installed['share']) / 'launch' / source.name
+        assert installed_file.read_bytes() == source.read_bytes(), source.name
     assert (Path(installed['share']) / 'package.xml').is_file()
 
 
