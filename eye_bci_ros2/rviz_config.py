@@ -234,8 +234,9 @@ def parse_rviz_config(text: str, source: str = '<rviz config>') -> RvizView:
         hint = ''
         if isinstance(controller, str) and controller.startswith('rviz/'):
             hint = ' (a ROS 1 RViz config? RViz2 names it rviz_default_plugins/...)'
-        raise ValueError(f"{source}: unknown view controller class {controller!r}{hint}; "
-                         f"known: {', '.join(VIEW_CONTROLLERS)}")
+        known = ', '.join(VIEW_CONTROLLERS)
+        raise ValueError(f'{source}: unknown view controller class {controller!r}{hint}; '
+                         f'known: {known}')
     where = f'{source}: Views: Current ({controller})'
     target = str(current.get('Target Frame', FIXED_FRAME_STRING))
     if controller != ANIMATED and target != FIXED_FRAME_STRING and \

@@ -5,7 +5,7 @@ import pytest
 
 from eye_bci_ros2 import geometry
 from eye_bci_ros2.camera_model import (
-    look_at_pose, optical_pose_from, optical_pose_from_ogre, pose_from_optical, POSE_CONVENTIONS)
+    look_at_pose, optical_pose_from, optical_pose_from_ogre, POSE_CONVENTIONS, pose_from_optical)
 
 
 def quaternion_product(a, b):
@@ -69,8 +69,8 @@ def test_round_trip_through_each_convention(convention):
 def test_optical_convention_is_the_identity_and_ogre_the_half_turn():
     q = random_quaternions(1, seed=11)[0]
     same_rotation(optical_pose_from('optical', [0, 0, 0], q)[1], q)
-    same_rotation(optical_pose_from('ogre', [0, 0, 0], q)[1], optical_pose_from_ogre([0, 0, 0],
-                                                                                        q)[1])
+    ogre = optical_pose_from_ogre([0, 0, 0], q)[1]
+    same_rotation(optical_pose_from('ogre', [0, 0, 0], q)[1], ogre)
 
 
 def test_unknown_convention_and_bad_numbers_are_refused():

@@ -17,7 +17,7 @@ W, H = 1280, 720
 
 
 def rviz_file(view: str, fixed_frame: str = 'map', state: str = '') -> str:
-    """An .rviz document with ``view`` (YAML lines) as the current view."""
+    """Return an .rviz document with ``view`` (YAML lines) as the current view."""
     geometry_block = f'Window Geometry:\n  QMainWindow State: {state}\n' if state else ''
     return (f'Visualization Manager:\n  Global Options:\n    Fixed Frame: {fixed_frame}\n'
             f'  Views:\n    Current:\n{textwrap.indent(textwrap.dedent(view), " " * 6)}'
@@ -38,14 +38,14 @@ def optical_rotation(view):
 
 
 def test_orbit_view_is_the_orbit_around_the_focal_point():
-    view = parse_rviz_config(rviz_file('''\
+    view = parse_rviz_config(rviz_file("""\
         Class: rviz_default_plugins/Orbit
         Distance: 10
         Focal Point: {X: 1, Y: 2, Z: 0.5}
         Pitch: 0.5
         Yaw: 2.0
         Target Frame: <Fixed Frame>
-        '''))
+        """))
     assert view.projection == 'perspective' and view.fixed_frame == 'map'
     offset = view.eye - [1.0, 2.0, 0.5]
     assert np.linalg.norm(offset) == pytest.approx(10.0)
@@ -73,14 +73,14 @@ def test_orbit_defaults_clamps_and_invert_z():
 
 @pytest.mark.parametrize('controller', ['XYOrbit', 'ThirdPersonFollower'])
 def test_xy_orbit_lifts_the_eye_so_the_focal_point_sits_below_the_centre(controller):
-    view = parse_rviz_config(rviz_file(f'''\
+    view = parse_rviz_config(rviz_file(f"""\
         Class: rviz_default_plugins/{controller}
         Distance: 8
         Focal Point: {{X: 3, Y: -1, Z: 0}}
         Pitch: 0.6
         Yaw: 1.0
         Target Frame: <Fixed Frame>
-        '''))
+        """))
     camera = RvizCamera.from_look_at(view.eye, view.focus, view.up, (W, H))
     (u, v), = camera.project([[3.0, -1.0, 0.0]])[0]
     focal_px = camera.intrinsic[1, 1]
@@ -96,18 +96,19 @@ def test_xy_orbit_lifts_the_eye_so_the_focal_point_sits_below_the_centre(control
 
 
 def test_fps_view_matches_rvizs_yaw_pitch_robot_to_camera_rotation():
-    view = parse_rviz_config(rviz_file('''\
+    view = parse_rviz_config(rviz_file("""\
         Class: rviz_default_plugins/FPS
         Position: {X: 1, Y: 2, Z: 3}
         Pitch: 0.3
         Yaw: 1.2
         Target Frame: <Fixed Frame>
-        '''))
+        """))
     np.testing.assert_allclose(view.eye, [1, 2, 3])
     forward = view.focus - view.eye
     np.testing.assert_allclose(forward, [math.cos(1.2) * math.cos(0.3),
                                          math.sin(1.2) * math.cos(0.3), -math.sin(0.3)])
     # Independent: Ogre quaternion Rz(yaw) Ry(pitch) Ry(-pi/2) Rz(-pi/2), as a matrix product.
+
     def rot(axis, angle):
         c, s = math.cos(angle), math.sin(angle)
         return {'y': np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
@@ -119,14 +120,14 @@ def test_fps_view_matches_rvizs_yaw_pitch_robot_to_camera_rotation():
 
 
 def test_top_down_ortho_view_is_orthographic_from_500_m():
-    view = parse_rviz_config(rviz_file('''\
+    view = parse_rviz_config(rviz_file("""\
         Angle: 0.5
         Class: rviz_default_plugins/TopDownOrtho
         Scale: 37.5
         Target Frame: <Fixed Frame>
         X: 4
         Y: -3
-        '''))
+        """))
     assert view.projection == 'orthographic' and view.ortho_scale == 37.5
     np.testing.assert_allclose(view.eye, [4, -3, 500])
     np.testing.assert_allclose(view.up, [-math.sin(0.5), math.cos(0.5), 0], atol=1e-12)
@@ -136,13 +137,13 @@ def test_top_down_ortho_view_is_orthographic_from_500_m():
 
 
 def test_animated_port_view_uses_its_fixed_eye_focus_up():
-    view = parse_rviz_config(rviz_file('''\
+    view = parse_rviz_config(rviz_file("""\
         Class: Animated (rviz_plugin_view_animated)
         Eye (Fixed): {X: 0, Y: -8, Z: 12}
         Focus (Fixed): {X: 1, Y: 2, Z: 0}
         Up Axis (Fixed): {X: 0, Y: 0, Z: 1}
         Mode: ORBIT
-        '''))
+        """))
     np.testing.assert_allclose(view.eye, [0, -8, 12])
     np.testing.assert_allclose(view.focus, [1, 2, 0])
 
@@ -161,7 +162,8 @@ def test_leading_slash_fixed_frame_and_named_target_frame():
     (rviz_file('Class: rviz_default_plugins/Orbit\nDistance: far\n'),
      'Distance must be a finite number'),
     (rviz_file('Class: rviz_default_plugins/Orbit\nFocal Point: 3\n'), 'Focal Point must hold'),
-    (rviz_file('Class: rviz_default_plugins/TopDownOrtho\nScale: 0\n'), 'Scale must be a positive number'),
+    (rviz_file('Class: rviz_default_plugins/TopDownOrtho\nScale: 0\n'),
+     'Scale must be a positive number'),
     ('Visualization Manager: [1, 2\n', 'not a valid .rviz'),
     ('Panels: []\n', "no 'Visualization Manager:'"),
     ('Visualization Manager:\n  Displays: []\n', "no 'Views:'"),
