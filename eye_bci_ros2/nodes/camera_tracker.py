@@ -29,7 +29,6 @@ what the screen shows; changing ``eye``/``focus``/``up`` then only updates the
 stored fallback.
 """
 
-from functools import lru_cache
 from typing import Any, Dict, List, Optional, Tuple
 
 from geometry_msgs.msg import Pose, PoseStamped
@@ -43,8 +42,8 @@ from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
 from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.qos import LATCHED_QOS
+from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.rviz_config import read_rviz_config, RvizView
 
 #: What RViz view-controller ports publish with: reliable, volatile, depth 10.
 RVIZ_POSE_QOS = QoSProfile(
@@ -77,12 +76,6 @@ WATCH_PERIOD_S = 1.0
 WARN_PERIOD_S = 5.0
 
 
-@lru_cache(maxsize=16)
-def _rviz_view(path: str) -> RvizView:
-    """Read an .rviz file once per path (``rviz_config`` is read-only)."""
-    return read_rviz_config(path)
-
-
 def static_view(values: Dict[str, Any]) -> Tuple[List[float], List[float], List[float], str]:
     """
     Return the static view camera_tracker publishes until a live pose arrives.
@@ -91,8 +84,7 @@ def static_view(values: Dict[str, Any]) -> Tuple[List[float], List[float], List[
     from its built-in default (set on the command line, in a params file or by
     ``ros2 param set``), the three parameters are the view.  Otherwise, if
     ``rviz_config`` names a file, its current view is the view.  Otherwise the
-    built-in default view.  (So config/eye_bci.yaml, which holds the defaults,
-    does not hide an ``rviz_config``.)
+    built-in default view (see :mod:`eye_bci_ros2.nodes.rviz_file`).
 
     :param values: the node's parameter values.
     :returns: ``(eye, focus, up, source)`` where source says where it came from.
@@ -100,14 +92,9 @@ def static_view(values: Dict[str, Any]) -> Tuple[List[float], List[float], List[
         :func:`eye_bci_ros2.rviz_config.read_rviz_config`), or one whose fixed
         frame is not ``world_frame``.
     """
-    given = [values['eye'], values['focus'], values['up']]
-    if given != [DEFAULT_EYE, DEFAULT_FOCUS, DEFAULT_UP] or not values['rviz_config']:
-        return (*given, 'parameters eye/focus/up')
-    view = _rviz_view(values['rviz_config'])
-    if view.fixed_frame != values['world_frame']:
-        raise ValueError(f"rviz_config '{values['rviz_config']}' has Fixed Frame "
-                         f"'{view.fixed_frame}' but world_frame is '{values['world_frame']}': "
-                         f'set world_frame:={view.fixed_frame}')
+    view = rviz_view(values)
+    if view is None or not at_default(values, PARAMETERS, 'eye', 'focus', 'up'):
+        return values['eye'], values['focus'], values['up'], 'parameters eye/focus/up'
     return (view.eye.tolist(), view.focus.tolist(), view.up.tolist(),
             f"rviz_config ({view.controller.split('/')[-1]} view)")
 
@@ -158,10 +145,8 @@ PARAMETERS: List[ParamSpec] = [
               'Static view: world direction that appears up on the screen; not '
               'parallel to focus - eye.',
               check=check_vector3, array_type='double_array'),
-    ParamSpec('rviz_config', '',
-              'Path of an .rviz file whose current view is the static view while eye/focus/up '
-              "are at their defaults ('' = none; read once at start-up).",
-              read_only=True),
+    rviz_config_spec('its current view is the static view while eye, focus and up are all at '
+                     'their defaults'),
 ]
 
 
