@@ -42,8 +42,8 @@ from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
 from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.qos import LATCHED_QOS
-from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
 
 #: What RViz view-controller ports publish with: reliable, volatile, depth 10.
 RVIZ_POSE_QOS = QoSProfile(
@@ -127,7 +127,8 @@ PARAMETERS: List[ParamSpec] = [
     ParamSpec('pose_topic', ROS1_POSE_TOPIC,
               'Where the RViz camera pose comes from (Pose or PoseStamped, type taken from '
               f'the graph): {ROS1_POSE_TOPIC} (ROS 1 controller, simulated RViz) or '
-              f'/{PORT_POSE_TOPIC} (Jazzy rviz_plugin_view_animated, N = its instance).',
+              '/rviz_plugin_view_animated_<N>/pose (Jazzy rviz_plugin_view_animated; N counts '
+              'its instances from 1).',
               check=_check_topic),
     ParamSpec('pose_convention', 'ogre',
               'Camera axes of the incoming pose: ogre (forward -Z, up +Y), x_forward (x = view '

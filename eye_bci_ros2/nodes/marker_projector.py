@@ -47,8 +47,8 @@ from eye_bci_ros2.geometry import external_from_pose
 from eye_bci_ros2.nodes.conversions import pose_to_arrays, regions_to_marker_array
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.qos import LATCHED_QOS
-from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
 
 #: Largest render panel side accepted, px.
 MAX_IMAGE_SIDE = 16384
@@ -249,7 +249,7 @@ PARAMETERS: List[ParamSpec] = [
               'Cut regions to the render panel (a marker wholly off the panel gets no '
               'region); false = whole silhouettes even where RViz does not draw them.'),
     ParamSpec('projection', 'auto',
-              "RViz camera projection: perspective (Orbit, XYOrbit, FPS, ...), orthographic "
+              'RViz camera projection: perspective (Orbit, XYOrbit, FPS, ...), orthographic '
               "(TopDownOrtho) or auto (rviz_config's view controller; perspective without one).",
               choices=('auto', 'perspective', 'orthographic')),
     ParamSpec('ortho_scale', DEFAULT_ORTHO_SCALE,

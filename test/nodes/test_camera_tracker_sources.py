@@ -159,3 +159,17 @@ def test_rviz_config_is_read_only(graph):
     start(graph)
     result = graph.set_parameters('/camera_tracker', {'rviz_config': str(CONFIG)})[0]
     assert not result.successful
+
+
+def test_view_parameters_at_their_defaults_do_not_hide_rviz_config(graph, tmp_path):
+    # As with --params-file config/eye_bci.yaml, which spells out every default.
+    config = tmp_path / 'fps.rviz'
+    config.write_text('Visualization Manager:\n  Global Options:\n    Fixed Frame: map\n'
+                      '  Views:\n    Current:\n      Class: rviz_default_plugins/FPS\n'
+                      '      Position: {X: 1, Y: 2, Z: 3}\n      Pitch: 0.2\n      Yaw: 0\n')
+    _, poses = start(graph, rviz_config=str(config), eye=DEFAULT_EYE, focus=DEFAULT_FOCUS,
+                     up=[0.0, 0.0, 1.0])
+    position, quaternion = pose_to_arrays(poses.last.pose)
+    np.testing.assert_allclose(position, [1, 2, 3])
+    forward = geometry.quaternion_to_matrix(quaternion)[:, 2]
+    np.testing.assert_allclose(forward, [np.cos(0.2), 0, -np.sin(0.2)], atol=1e-12)
