@@ -41,7 +41,3 @@ def test_displays_show_what_the_person_must_see():
     classes = [d['Class'] for d in document['Visualization Manager']['Displays']]
     assert 'rviz_default_plugins/Grid' in classes
 
-
-def test_installed_with_the_package():
-    setup = (CONFIG.parents[1] / 'setup.py').read_text()
-    assert "glob('config/*.rviz')" in setup
