@@ -40,4 +40,3 @@ def test_displays_show_what_the_person_must_see():
     assert displays['/choices/regions']['Enabled'] is False   # a check display only
     classes = [d['Class'] for d in document['Visualization Manager']['Displays']]
     assert 'rviz_default_plugins/Grid' in classes
-
