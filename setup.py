@@ -16,6 +16,7 @@ console_scripts = [
     'choice_menu = eye_bci_ros2.nodes.choice_menu:main',
     'eye_bci = eye_bci_ros2.nodes.eye_bci:main',
     'sim_rviz_view = eye_bci_ros2.nodes.sim_rviz_view:main',
+    'view_animated_bridge = eye_bci_ros2.nodes.view_animated_bridge:main',
     'sim_gaze = eye_bci_ros2.sim_gaze:main',
     'calibrate = eye_bci_ros2.calibrate:main',
     'accuracy_test = eye_bci_ros2.accuracy_test:main',
