@@ -294,9 +294,7 @@ def camera_from_parameters(values: Dict[str, Any], external=None):
         if view is not None and view.ortho_scale and at_default(values, PARAMETERS,
                                                                 'ortho_scale'):
             scale = view.ortho_scale
-        if external is None:
-            return OrthographicCamera(scale, size, offset, np.eye(4))
-        return OrthographicCamera(scale, size, offset, external)
+        return OrthographicCamera(scale, size, offset, np.eye(4) if external is None else external)
     if values['intrinsic_matrix']:
         intrinsic = parse_intrinsic(values['intrinsic_matrix'])
     else:
