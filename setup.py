@@ -22,6 +22,7 @@ console_scripts = [
     'demo = eye_bci_ros2.experiments.demo:main',
     'find_panel = eye_bci_ros2.tools.find_panel:main',
     'monitor = eye_bci_ros2.tools.monitor:main',
+    'view_animated_bridge = eye_bci_ros2.nodes.view_animated_bridge:main',
 ]
 
 setup(

@@ -282,6 +282,32 @@ def fit_intrinsic(points, pixels, external, model: str = 'rviz') -> np.ndarray:
     return np.array([[fx, skew, cx, 0.0], [0.0, fy, cy, 0.0], [0.0, 0.0, 1.0, 0.0]])
 
 
+def fit_orthographic(points, pixels, external) -> np.ndarray:
+    """
+    Fit an orthographic (TopDownOrtho) intrinsic, the External being known.
+
+    The model of :func:`eye_bci_ros2.geometry.orthographic_intrinsic`:
+    ``u = s X + cx``, ``v = s Y + cy`` with camera-frame ``(X, Y)`` in m, linear
+    in (s, cx, cy); the residuals are pixel distances.  ``s @ external`` is
+    then a 3x4 affine camera that :func:`residuals` reports on.
+
+    :param points: world points, shape (N >= 3, 3), m.
+    :param pixels: their image pixels, shape (N, 2), px.
+    :param external: shape (4, 4), world -> camera, rigid.
+    :returns: shape (3, 4), ``[[s, 0, 0, cx], [0, s, 0, cy], [0, 0, 0, 1]]``.
+    :raises ValueError: fewer than 3 points, all points on one line along the
+        view, NaN, mismatched shapes or duplicated points.
+    """
+    points, pixels = _correspondences(points, pixels, MIN_POINTS['rviz'],
+                                      'the orthographic fit')
+    x, y = camera_points(points, external)[:, :2].T
+    ones, zeros = np.ones_like(x), np.zeros_like(x)
+    design = np.block([[np.column_stack([x, ones, zeros])], [np.column_stack([y, zeros, ones])]])
+    scale, cx, cy = _solve(design, np.concatenate(pixels.T),
+                           'all points lie on one line along the view direction')
+    return np.array([[scale, 0.0, 0.0, cx], [0.0, scale, 0.0, cy], [0.0, 0.0, 0.0, 1.0]])
+
+
 def _solve(design: np.ndarray, target: np.ndarray, degenerate: str) -> np.ndarray:
     """Least-squares solve with a rank check (columns are normalised coordinates or 1: O(1))."""
     singular = np.linalg.svd(design, compute_uv=False)

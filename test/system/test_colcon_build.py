@@ -150,6 +150,7 @@ def test_every_console_script_is_an_installed_executable(workspace, installed):
 def test_config_files_are_installed(workspace, installed):
     sources = sorted((REPO / 'config').glob('*.yaml')) + sorted((REPO / 'config').glob('*.rviz'))
     assert REPO / 'config' / 'eye_bci.yaml' in sources
+    assert REPO / 'config' / 'eye_bci.rviz' in sources
     config = Path(installed['share']) / 'config'
     for source in sources:
         assert (config / source.name).read_bytes() == source.read_bytes(), source.name
