@@ -15,10 +15,10 @@ A movement also sets the port's properties (``UpdateViewPose``): this bridge
 keeps "Pose Publish Enabled" and mouse control on, so camera_tracker keeps
 following the camera while it moves.
 
-The message package is not part of ROS 2 Jazzy's binaries: build it
-(scripts/build_view_animated_msgs.sh for the PyPI set-up, or colcon on a clone of
-ias_rviz_plugins) and source it first; without it the node refuses to start
-with that reason.
+The message package is not part of ROS 2 Jazzy's binaries: build
+``rviz_plugin_view_animated_msgs`` with colcon in a workspace (README, "A moving
+camera") and source it first; without it the node refuses to start with that
+reason.
 """
 
 import importlib
@@ -73,8 +73,8 @@ def load_messages():
     except ImportError as error:
         raise ValueError(
             f'rviz_plugin_view_animated_msgs is not available ({error}): build it with '
-            'scripts/build_view_animated_msgs.sh <ias_rviz_plugins clone> (PyPI set-up) or '
-            'colcon, and export the paths it prints') from None
+            'colcon in a workspace and source its install/setup.bash (README, "A moving '
+            'camera")') from None
     return module.ViewTrajectory, module.ViewMovement
 
 

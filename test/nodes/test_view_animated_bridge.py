@@ -21,7 +21,7 @@ TOPIC = '/rviz_plugin_view_animated_1/trajectory'
 
 
 def port_messages():
-    """Return the port's message classes, or skip (scripts/build_view_animated_msgs.sh)."""
+    """Return the port's message classes, or skip (built with colcon, README)."""
     try:
         return view_animated_bridge.load_messages()
     except ValueError as error:
@@ -38,7 +38,7 @@ def test_without_the_message_package_the_bridge_says_how_to_build_it(monkeypatch
     def missing(name, *args):
         raise ImportError(f'No module named {name!r}')
     monkeypatch.setattr(importlib, 'import_module', missing)
-    with pytest.raises(ValueError, match='scripts/build_view_animated_msgs.sh'):
+    with pytest.raises(ValueError, match='build it with colcon'):
         view_animated_bridge.load_messages()
 
 
