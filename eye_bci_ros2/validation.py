@@ -68,7 +68,7 @@ class CorrectionRefused(ValueError):
 def target_layout(count: int = 9, width_px: int = 1920, height_px: int = 1080,
                   margin: float = 0.1) -> np.ndarray:
     """
-    Validation targets on the screen.
+    Return the validation targets on the screen.
 
     :param count: 5 (centre and four corners) or 9 (3 x 3 grid).
     :param width_px: screen width, px.
