@@ -266,6 +266,14 @@ class MenuProtocol:
         self._look_away = None
         return self._offer_rooms(now)
 
+    def reoffer(self, now: float) -> List[Action]:
+        """Offer the current step again (e.g. in a new world frame); the question is asked anew."""
+        if self.finished:
+            return []
+        if self.room is None:
+            return self._offer_rooms(now)
+        return self._offer_tables(self.room, now)
+
     def on_camera_pose(self, position, quaternion, now: float) -> List[Action]:
         """Take a ``camera/pose`` (optical convention; position m, quaternion x, y, z, w)."""
         position = np.asarray(position, dtype=float).reshape(3)

@@ -32,7 +32,7 @@ def arrive(menu, view, now):
 
 
 def asked_menu(**settings):
-    """A menu that offered the rooms with the camera already at the overview and asked."""
+    """Return a menu that offered the rooms, saw the camera arrive and asked."""
     menu = MenuProtocol(SCENE, ProtocolSettings(**settings))
     menu.start(0.0)
     assert menu.state == WAITING_FOR_CAMERA
