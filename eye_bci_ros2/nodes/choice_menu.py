@@ -119,11 +119,14 @@ class ChoiceMenu(Node):
                       'Scene YAML with rooms, tables and views (empty = the installed '
                       'config/scene.yaml); setting it reloads and starts over',
                       check=self._check_scene_file),
+            ParamSpec('repeat', defaults.repeat, _PROTOCOL_PARAMETERS['repeat'][0]),
             ParamSpec('world_frame', 'map',
                       "Frame of the markers and camera goals; must match the scene's "
                       'frame_id', check=check_frame_id),
         ]
         for name, (description, value_range) in _PROTOCOL_PARAMETERS.items():
+            if name == 'repeat':
+                continue
             default = getattr(defaults, name)
             parameters.append(ParamSpec(name, float(default) if value_range else default,
                                         description, value_range=value_range))
