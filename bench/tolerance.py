@@ -53,6 +53,8 @@ from eye_bci_ros2.gaze_model import (CONSUMER_TRACKER, GazeParams, GazeSimulator
                                      ORIGINAL_TOBII_4C, ScreenGeometry)
 from eye_bci_ros2.scene import default_scene_path, load_scene
 from eye_bci_ros2.tolerance import DEFAULT_RATIO, extend_to_nearby, GazeErrorModel
+from eye_bci_ros2.validation import (apply_correction, fit_correction, samples_per_target,
+                                     target_layout)
 
 #: The gaze-error model of the tolerant rule (defaults: 0.8 deg, 0.3 deg, k = 2).
 MODEL = GazeErrorModel()
@@ -61,19 +63,24 @@ RATIO = DEFAULT_RATIO
 #: Rules measured: name -> (window rule or 'early', tolerant, ratio, share).  ``share``: a
 #: choice needs at least this fraction of the samples it weighed on its label (see
 #: :func:`_decide`; 0 = today's decision code).  ``/s``: the strict variant proposed for
-#: the midway goal (ratio 0.2, share 0.5).
+#: the midway goal (ratio 0.2, share 0.5); ``size_``: the size-aware tolerance
+#: (:func:`eye_bci_ros2.tolerance.classify_tolerant` ``size_aware``), ratio 0.5.
 RULES = {
-    'mean': ('mean', False, RATIO, 0.0),
-    'vote': ('vote', False, RATIO, 0.0),
-    'early': ('early', False, RATIO, 0.0),
-    'tol_mean': ('mean', True, RATIO, 0.0),
-    'tol_vote': ('vote', True, RATIO, 0.0),
-    'tol_early': ('early', True, RATIO, 0.0),
-    'mean/s': ('mean', False, RATIO, 0.5),
-    'early/s': ('early', False, RATIO, 0.5),
-    'tol_mean/s': ('mean', True, 0.2, 0.5),
-    'tol_vote/s': ('vote', True, 0.2, 0.5),
-    'tol_early/s': ('early', True, 0.2, 0.5),
+    'mean': ('mean', False, RATIO, 0.0, False),
+    'vote': ('vote', False, RATIO, 0.0, False),
+    'early': ('early', False, RATIO, 0.0, False),
+    'tol_mean': ('mean', True, RATIO, 0.0, False),
+    'tol_vote': ('vote', True, RATIO, 0.0, False),
+    'tol_early': ('early', True, RATIO, 0.0, False),
+    'mean/s': ('mean', False, RATIO, 0.5, False),
+    'early/s': ('early', False, RATIO, 0.5, False),
+    'tol_mean/s': ('mean', True, 0.2, 0.5, False),
+    'tol_early/s': ('early', True, 0.2, 0.5, False),
+    'size_mean': ('mean', True, RATIO, 0.0, True),
+    'size_early': ('early', True, RATIO, 0.0, True),
+    'size_mean/s': ('mean', True, RATIO, 0.5, True),
+    'size_vote/s': ('vote', True, RATIO, 0.5, True),
+    'size_early/s': ('early', True, RATIO, 0.5, True),
 }
 #: The issue's goals.
 GOAL_SMALLEST_PX = 12.0
@@ -93,14 +100,17 @@ class TolerantRegions(RegionSet):
     :param model: gaze-error model, degrees.
     :param ratio: nearest / second-nearest distance ratio, (0, 1].
     :param screen: the person's screen, for degrees -> px at each sample.
+    :param size_aware: the tolerance counts from the option's centre.
     """
 
     def __init__(self, labels, polygons, stamp: float = 0.0, model: GazeErrorModel = MODEL,
-                 ratio: float = RATIO, screen: Optional[ScreenGeometry] = None):
+                 ratio: float = RATIO, screen: Optional[ScreenGeometry] = None,
+                 size_aware: bool = False):
         """Prepare the regions and the rule."""
         super().__init__(labels, polygons, stamp)
         self.model = model
         self.ratio = ratio
+        self.size_aware = size_aware
         self.screen = screen if screen is not None else ScreenGeometry()
 
     @classmethod
@@ -113,27 +123,40 @@ class TolerantRegions(RegionSet):
         points = np.asarray(points, dtype=float).reshape(-1, 2)
         inside = super().classify(points)
         return extend_to_nearby(inside, points, self.polygons,
-                                self.model.tolerance_px(points, self.screen), self.ratio)
+                                self.model.tolerance_px(points, self.screen), self.ratio,
+                                size_aware=self.size_aware)
 
     def classify_one(self, x: float, y: float) -> int:
         """Region index of one point, tolerant rule."""
         return int(self.classify(np.array([[x, y]]))[0])
 
 
+def model_for(params: GazeParams) -> GazeErrorModel:
+    """
+    Return the gaze-error model a validation of this person would give.
+
+    Accuracy = the person's offset, precision = the jitter per axis; k as :data:`MODEL`.
+    """
+    person = params.person
+    return GazeErrorModel(accuracy_deg=person.offset_deg, precision_deg=person.jitter_deg,
+                          k_sigma=MODEL.k_sigma)
+
+
 def _decide(rule: str, points, stamps, regions: RegionSet, config: decision.EarlyConfig,
-            screen: ScreenGeometry) -> Optional[str]:
+            params: GazeParams) -> Optional[str]:
     """
     Label chosen by a rule of :data:`RULES` for one trial (window 0..config.window_s).
 
     Share test (``share`` > 0), a change of the decision code simulated here:
     a window-end choice needs ``counts[label] >= share * samples_used`` (all
     valid samples of the window, in and out of regions); an early choice needs
-    that share over the samples since the chosen label's current run began
-    (:func:`_run_share`), else the round goes on to the window end.
+    :data:`EARLY_SHARE` of the samples of the last :data:`EARLY_SHARE_S`
+    before it (:func:`_recent_share`), else the round goes on to the window end.
     """
-    base, tolerant, ratio, share = RULES[rule]
+    base, tolerant, ratio, share, size_aware = RULES[rule]
     if tolerant:
-        regions = TolerantRegions.of(regions, screen=screen, ratio=ratio)
+        regions = TolerantRegions.of(regions, screen=params.person.screen, ratio=ratio,
+                                     size_aware=size_aware, model=model_for(params))
     keep = stamps < config.window_s
     points, stamps = points[keep], stamps[keep]
 
@@ -142,9 +165,8 @@ def _decide(rule: str, points, stamps, regions: RegionSet, config: decision.Earl
                              dwell_s=config.dwell_s, min_reaction_s=config.min_reaction_s)
 
     if base == 'early':
-        early = evidence()
-        made = early.add(points, stamps, regions, config.confidence)
-        if made is not None and _run_share(made, points, stamps, regions) >= share:
+        made = _early(points, stamps, regions, config, share > 0)
+        if made is not None:
             return made.label
         base = config.method
     window = evidence()
@@ -155,37 +177,79 @@ def _decide(rule: str, points, stamps, regions: RegionSet, config: decision.Earl
     return made.label
 
 
-def _run_share(made, points, stamps, regions: RegionSet) -> float:
-    """
-    Share of the samples since the chosen label's current run began that count for it.
+#: The early decision's share test: over the samples of the last EARLY_SHARE_S before it.
+EARLY_SHARE_S = 0.1
+#: ... the chosen label must hold at least this fraction (when the rule's share is > 0).
+EARLY_SHARE = 0.8
 
-    The run (``RoundEvidence``'s: in-region samples on one label, outside
-    samples not interrupting it) starts after the last sample on another
-    label before the decision; the share is over every sample (in and out of
-    regions) from its first sample to the deciding one.
+
+def _early(points, stamps, regions: RegionSet, config: decision.EarlyConfig,
+           share_test: bool):
     """
-    upto = stamps <= made.time_to_decision + 1e-12
-    region = regions.classify(points[upto])
-    labels = np.array(list(regions.labels) + [''], dtype=object)[region]
-    on = labels == made.label
-    other = (region >= 0) & ~on
-    last_other = np.flatnonzero(other)
-    begin = last_other[-1] + 1 if last_other.size else 0
-    first_on = np.flatnonzero(on[begin:])
-    if not first_on.size:
+    Run the node's early decision, optionally with the share test at every sample (_decide).
+
+    Without the share test this is ``RoundEvidence.add(..., confidence)``;
+    with it the early test (:meth:`RoundEvidence.early`) is made at each
+    sample that passes the share test (its label holds :data:`EARLY_SHARE` of
+    the samples of the last :data:`EARLY_SHARE_S`) until one passes both
+    (what a change in ``RoundEvidence._first_confident`` would do).
+    """
+    evidence = RoundEvidence(0.0, hit_rate=config.hit_rate, min_samples=config.min_samples,
+                             dwell_s=config.dwell_s, min_reaction_s=config.min_reaction_s)
+    if not share_test:
+        return evidence.add(points, stamps, regions, config.confidence)
+    # The share of each sample's own label over the samples of the last EARLY_SHARE_S.
+    region = regions.classify(points)
+    label_ids = np.array([sorted(regions.label_set).index(label) for label in regions.labels]
+                         + [-1])[region]
+    first = np.searchsorted(stamps, stamps - EARLY_SHARE_S, side='right')
+    share = np.zeros(len(stamps))
+    for label in np.unique(label_ids[label_ids >= 0]):
+        on = np.concatenate([[0], np.cumsum(label_ids == label)])
+        here = label_ids == label
+        share[here] = ((on[1:] - on[first])[here] / (np.arange(len(stamps)) + 1 - first)[here])
+    done = 0
+    for k in np.flatnonzero(share >= EARLY_SHARE):
+        evidence.add(points[done:k + 1], stamps[done:k + 1], regions)
+        done = k + 1
+        made = evidence.early(config.confidence)
+        if made is not None:
+            return made
+    return None
+
+
+def _recent_share(made, points, stamps, regions: RegionSet,
+                  window_s: float = EARLY_SHARE_S) -> float:
+    """
+    Share of the samples of the last ``window_s`` before an early decision that count for it.
+
+    Every sample stamped in ``(decision - window_s, decision]`` counts, in and
+    out of regions (at least the deciding one).
+    """
+    decided = made.time_to_decision
+    recent = (stamps <= decided + 1e-12) & (stamps > decided - window_s)
+    if not recent.any():
         return 0.0
-    window = on[begin + first_on[0]:]
-    return float(window.mean())
+    labels = np.array(list(regions.labels) + [''], dtype=object)[regions.classify(
+        points[recent])]
+    return float(np.mean(labels == made.label))
 
 
 def smallest(rules: Sequence[str] = tuple(RULES), trials: int = SEARCH_TRIALS,
-             params: GazeParams = ORIGINAL_TOBII_4C, seed: int = 0) -> Dict[str, Dict]:
+             params: GazeParams = ORIGINAL_TOBII_4C, seed: int = 0,
+             corrected: bool = False) -> Dict[str, Dict]:
     """
     Smallest marker chosen right in every trial, per rule (px), by the accuracy test's search.
 
     The trials are :func:`eye_bci_ros2.accuracy_test.run_trials`'s (same
     persons, targets, start point and window; checked: ``mean`` gives the
     accuracy test's figure), decided by :func:`_decide`.
+
+    :param corrected: each person first does a 9-target validation (same
+        person: same simulator seed, 1.5 s per target), the correction
+        :func:`eye_bci_ros2.validation.fit_correction` fits is applied to the
+        trial's samples (as the bridge will), and the error model is that
+        validation's measured accuracy and precision.
     """
     scenario = accuracy_test.RoomScenario(load_scene(default_scene_path()))
     settings = accuracy_test.TrialSettings(params=params)
@@ -196,12 +260,19 @@ def smallest(rules: Sequence[str] = tuple(RULES), trials: int = SEARCH_TRIALS,
         simulator = GazeSimulator(params, seed=accuracy_test.trial_seed(seed, trial))
         trace = simulator.simulate(settings.window_s, [(0.0, scenario.targets[target])],
                                    initial_xy=scenario.start_xy)
-        data.append((scenario.labels[target], trace.t[trace.valid], trace.xy[trace.valid]))
+        points = trace.xy[trace.valid]
+        if corrected:
+            points = apply_correction(points, _validated(params, trial_seed=accuracy_test
+                                                         .trial_seed(seed, trial)))
+        data.append((scenario.labels[target], trace.t[trace.valid], points))
+    if corrected:
+        # The residual error after correction is what the tolerance must cover.
+        params = params.with_changes(offset_deg=CORRECTED_ACCURACY_DEG)
     out = {}
     for rule in rules:
         def predicate(size, rule=rule):
             regions = scenario.regions(size)
-            return all(_decide(rule, points, stamps, regions, config, params.person.screen)
+            return all(_decide(rule, points, stamps, regions, config, params)
                        == label for label, stamps, points in data)
         try:
             found, note = float(accuracy_test.binary_search_threshold(predicate, 1, 300)), ''
@@ -212,6 +283,23 @@ def smallest(rules: Sequence[str] = tuple(RULES), trials: int = SEARCH_TRIALS,
                 note = 'right at 1 px already (the lower bound)'
         out[rule] = {'threshold_px': found, 'note': note}
     return out
+
+
+#: Error model accuracy after validation and correction, degrees (the residual the
+#: validation test measures is ~0.07 deg; 0.2 deg is the issue's bound).
+CORRECTED_ACCURACY_DEG = 0.2
+
+
+def _validated(params: GazeParams, trial_seed: int) -> list:
+    """Validate one simulated person (9 targets, 1.5 s each) and return the fitted correction."""
+    targets = target_layout(9, params.person.screen.width_px, params.person.screen.height_px)
+    # 20 s before the trial (the drift moves on meanwhile).
+    onsets = -20.0 - 1.5 * len(targets) + 1.5 * np.arange(len(targets))
+    trace = GazeSimulator(params, seed=trial_seed).simulate(
+        1.5 * len(targets), [(float(t), tuple(xy)) for t, xy in zip(onsets, targets)],
+        start_s=float(onsets[0]))
+    samples = samples_per_target(trace.t, trace.xy, onsets, onsets + 1.5)
+    return fit_correction(targets, samples, screen=params.person.screen).values
 
 
 def _midway_trials(count: int, size: float, seeds, params: GazeParams):
@@ -235,7 +323,6 @@ def midway(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
            sizes=decision.SIZES) -> Dict[str, Dict]:
     """Wrong choices (any choice) with the gaze midway between two options, per rule and cell."""
     config = decision.EarlyConfig()
-    screen = params.person.screen
     table: Dict[str, Dict] = {rule: {} for rule in rules}
     seeds = range(MIDWAY_SEED, MIDWAY_SEED + trials)
     for count in counts:
@@ -243,7 +330,7 @@ def midway(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
             regions = decision.region_set(count, size)
             data = _midway_trials(count, size, seeds, params)
             for rule in rules:
-                wrong = [_decide(rule, points, stamps, regions, config, screen) is not None
+                wrong = [_decide(rule, points, stamps, regions, config, params) is not None
                          for stamps, points in data]
                 table[rule][f'{count}x{size}'] = float(np.mean(wrong))
     for rule in rules:
@@ -256,7 +343,6 @@ def other_target(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
                  sizes=decision.SIZES) -> Dict[str, Dict]:
     """Accuracy and wrong fraction in bench/decision.py's stress scenario, per rule."""
     config = decision.EarlyConfig()
-    screen = params.person.screen
     out: Dict[str, Dict] = {rule: {'wrong': 0, 'correct': 0, 'trials': 0} for rule in rules}
     seeds = range(decision.TEST_SEED, decision.TEST_SEED + trials)
     for count in counts:
@@ -264,7 +350,7 @@ def other_target(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
             regions = decision.region_set(count, size)
             data = decision.simulate_trials(count, size, seeds, 'other_target', params)
             for rule in rules:
-                labels = [_decide(rule, t.points, t.stamps, regions, config, screen)
+                labels = [_decide(rule, t.points, t.stamps, regions, config, params)
                           for t in data]
                 row = out[rule]
                 row['trials'] += len(data)
@@ -285,7 +371,8 @@ def hit_rate(trials: int = TRIALS, params: GazeParams = CONSUMER_TRACKER, counts
     for count in counts:
         for size in sizes:
             regions = decision.region_set(count, size)
-            tolerant = TolerantRegions.of(regions, screen=screen)
+            tolerant = TolerantRegions.of(regions, screen=screen,
+                                          model=model_for(params))
             for t in decision.simulate_trials(count, size, seeds, 'new_menu', params):
                 after = t.stamps >= t.onset
                 points = t.points[after]
@@ -300,6 +387,40 @@ def hit_rate(trials: int = TRIALS, params: GazeParams = CONSUMER_TRACKER, counts
             'inside_samples': int(tallies[0, 1]), 'near_samples': int(tallies[1, 1])}
 
 
+def speed(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
+          params: GazeParams = CONSUMER_TRACKER, counts=(3, 4, 9),
+          sizes=decision.SIZES) -> Dict[str, Dict[str, float]]:
+    """
+    Accuracy and median decision time from fixation onset (ms), bench/decision.py main scenario.
+
+    The decision time is the deciding sample's stamp for an early decision,
+    the window end otherwise (as ``bench/decision.py`` counts it).
+    """
+    config = decision.EarlyConfig()
+    seeds = range(decision.TEST_SEED, decision.TEST_SEED + trials)
+    out: Dict[str, Dict[str, list]] = {rule: {'correct': [], 'ms': []} for rule in rules}
+    for count in counts:
+        for size in sizes:
+            regions = decision.region_set(count, size)
+            data = decision.simulate_trials(count, size, seeds, 'new_menu', params)
+            for rule in rules:
+                base, tolerant, ratio, share, size_aware = RULES[rule]
+                shown = TolerantRegions.of(regions, screen=params.person.screen, ratio=ratio,
+                                           size_aware=size_aware, model=model_for(params)) \
+                    if tolerant else regions
+                for trial in data:
+                    label = _decide(rule, trial.points, trial.stamps, regions, config, params)
+                    out[rule]['correct'].append(label == str(trial.goal))
+                    when = config.window_s
+                    if base == 'early':
+                        made = _early(trial.points, trial.stamps, shown, config, share > 0)
+                        when = made.time_to_decision if made is not None else when
+                    if math.isfinite(trial.onset):
+                        out[rule]['ms'].append(1e3 * (when - trial.onset))
+    return {rule: {'accuracy': float(np.mean(v['correct'])),
+                   'median_ms': float(np.median(v['ms']))} for rule, v in out.items()}
+
+
 def run(quick: bool = False) -> Dict:
     """Run every measurement (module doc); return the section."""
     started = time.perf_counter()
@@ -310,6 +431,9 @@ def run(quick: bool = False) -> Dict:
                          for p in (CONSUMER_TRACKER, ORIGINAL_TOBII_4C)},
         'other_target': other_target(trials=trials),
         'hit_rate': hit_rate(trials=max(trials // 4, 5)),
+        'main': speed(trials=max(trials // 4, 5)),
+        'smallest_px_corrected': smallest(trials=5 if quick else SEARCH_TRIALS,
+                                          corrected=True),
         'setup': {'model': {'accuracy_deg': MODEL.accuracy_deg,
                             'precision_deg': MODEL.precision_deg, 'k_sigma': MODEL.k_sigma,
                             'tolerance_deg': MODEL.tolerance_deg},
@@ -328,13 +452,17 @@ def format_lines(section: Dict) -> list:
              f"{model['k_sigma']}), ratio {setup['ratio']}; {setup['trials']} trials per cell",
              '', f"{'rule':>12} {'smallest px':>11} " + ' '.join(
                  f'{"midway " + name[:16] + " %":>25}' for name in section['midway_wrong'])
-             + f" {'other_target wrong%':>20}"]
+             + f" {'other_target wrong%':>20} {'main acc%':>9} {'main ms':>7}"
+             + f" {'corrected px':>12}"]
     for rule in RULES:
         px = section['smallest_px'][rule]['threshold_px']
         mids = ' '.join(f"{100 * table[rule]['all']:>25.2f}"
                         for table in section['midway_wrong'].values())
+        main = section['main'][rule]
         lines.append(f'{rule:>12} {px:>11g} {mids} '
-                     f"{100 * section['other_target'][rule]['wrong']:>20.2f}")
+                     f"{100 * section['other_target'][rule]['wrong']:>20.2f} "
+                     f"{100 * main['accuracy']:>9.1f} {main['median_ms']:>7.0f} "
+                     f"{section['smallest_px_corrected'][rule]['threshold_px']:>12g}")
     lines.append('')
     for name, table in section['midway_wrong'].items():
         cells = [cell for cell in table[next(iter(RULES))] if cell != 'all']

@@ -18,6 +18,14 @@ Rule (:func:`classify_tolerant`), per sample:
    ``d1 <= ratio * d2``; otherwise for none.  A sample midway between two
    options has ``d1 ~ d2`` and counts for neither.
 
+Size-aware variant (``size_aware=True``): the error model says where the
+measured gaze falls around the point looked at, and a person looks at the
+middle of a small option; so the tolerance is counted from the option's
+centre: a sample outside counts when ``d1 <= tolerance - half_size`` of the
+nearest option (``sqrt(area) / 2``).  A large option (half size above the
+tolerance) gets no tolerance (the original inside rule), a tiny one the whole
+tolerance around it; gaze between large options stays neutral.
+
 The tolerance comes from a model of the tracker's error in degrees
 (:class:`GazeErrorModel`: ``k`` standard deviations of the radial error of a
 tracker with accuracy ``accuracy_deg`` and precision ``precision_deg``)
@@ -38,12 +46,12 @@ since a gaze resting between two options yields near samples too.
 
 from dataclasses import dataclass
 import math
-from typing import Tuple, Union
+from typing import Optional, Tuple, Union
 
 import numpy as np
 
 from eye_bci_ros2.gaze_model import ScreenGeometry
-from eye_bci_ros2.geometry import PolygonSet
+from eye_bci_ros2.geometry import polygon_signed_area, PolygonSet
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, px_per_degree_at
 
 #: Default ratio of nearest to second-nearest distance below which a near sample counts.
@@ -194,13 +202,15 @@ def _check_rule(tolerance_px, ratio: float, count: int) -> np.ndarray:
 
 
 def nearby(distance: np.ndarray, tolerance_px: Union[float, np.ndarray],
-           ratio: float) -> np.ndarray:
+           ratio: float, shrink_px: Optional[np.ndarray] = None) -> np.ndarray:
     """
     Apply the rule's outside part to a distance matrix (module doc, step 2).
 
     :param distance: shape (N, R), px (NaN rows: no region).
     :param tolerance_px: px, scalar or shape (N,).
     :param ratio: in (0, 1].
+    :param shrink_px: per region (R,), px subtracted from the tolerance when
+        that region is the nearest (the size-aware rule), or None.
     :returns: shape (N,) int, the nearest region when the sample counts for
         it, else -1 (inside samples, distance 0, always count).
     """
@@ -215,9 +225,23 @@ def nearby(distance: np.ndarray, tolerance_px: Union[float, np.ndarray],
         first, second = two[:, 0], two[:, 1]
     else:
         first, second = clean[:, 0], np.full(count, np.inf)
+    if shrink_px is not None:
+        tolerance = tolerance - np.asarray(shrink_px, dtype=float)[nearest]
     with np.errstate(invalid='ignore'):
         counts = np.isfinite(first) & (first <= tolerance) & (first <= ratio * second)
     return np.where(counts, nearest, -1).astype(np.intp)
+
+
+def half_sizes(polygons) -> np.ndarray:
+    """
+    Half the size of each region, px: ``sqrt(area) / 2`` (the half side of a square of equal area).
+
+    :param polygons: shape (R, K, 2), px (module doc); an empty polygon gives 0.
+    :returns: shape (R,).
+    """
+    filled, valid = fill_padding(polygons)
+    area = np.abs(polygon_signed_area(np.where(valid[:, None, None], filled, 0.0)))
+    return np.sqrt(area) / 2.0
 
 
 def _area_centroids(filled: np.ndarray) -> np.ndarray:
@@ -235,7 +259,7 @@ def _area_centroids(filled: np.ndarray) -> np.ndarray:
 
 
 def classify_tolerant(points, polygons, tolerance_px: Union[float, np.ndarray],
-                      ratio: float = DEFAULT_RATIO) -> np.ndarray:
+                      ratio: float = DEFAULT_RATIO, *, size_aware: bool = False) -> np.ndarray:
     """
     Region of each gaze sample under the tolerant rule (module doc).
 
@@ -246,11 +270,13 @@ def classify_tolerant(points, polygons, tolerance_px: Union[float, np.ndarray],
         0 gives the inside-only rule.
     :param ratio: the nearest region must be at most ``ratio`` times as far as
         the second nearest, in (0, 1].
+    :param size_aware: the tolerance counts from the region's centre, not its
+        edge (module doc): reduced by the nearest region's :func:`half_sizes`.
     :returns: shape (N,) int, region index, -1 = none.
     """
     points = _points(points)
     distance = polygon_distances(points, polygons)
-    region = nearby(distance, tolerance_px, ratio)
+    region = nearby(distance, tolerance_px, ratio, half_sizes(polygons) if size_aware else None)
     inside = distance == 0.0
     several = np.flatnonzero(inside.sum(axis=1) > 1)
     if several.size:
@@ -263,7 +289,7 @@ def classify_tolerant(points, polygons, tolerance_px: Union[float, np.ndarray],
 
 
 def extend_to_nearby(region, points, polygons, tolerance_px: Union[float, np.ndarray],
-                     ratio: float = DEFAULT_RATIO) -> np.ndarray:
+                     ratio: float = DEFAULT_RATIO, *, size_aware: bool = False) -> np.ndarray:
     """
     Add the near samples to an inside-only classification (the arbiter's hook).
 
@@ -273,6 +299,7 @@ def extend_to_nearby(region, points, polygons, tolerance_px: Union[float, np.nda
     :param polygons: shape (R, K, 2), the polygons ``region`` indexes.
     :param tolerance_px: px, scalar or shape (N,).
     :param ratio: in (0, 1].
+    :param size_aware: see :func:`classify_tolerant`.
     :returns: shape (N,) int: ``region`` where it is >= 0, else the tolerant
         rule's region for the sample or -1.
     """
@@ -285,5 +312,6 @@ def extend_to_nearby(region, points, polygons, tolerance_px: Union[float, np.nda
     outside = np.flatnonzero(region < 0)
     if outside.size:
         sub = tolerance[outside] if tolerance.ndim == 1 else tolerance
-        out[outside] = nearby(polygon_distances(points[outside], polygons), sub, ratio)
+        shrink = half_sizes(polygons) if size_aware else None
+        out[outside] = nearby(polygon_distances(points[outside], polygons), sub, ratio, shrink)
     return out

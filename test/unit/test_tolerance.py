@@ -163,3 +163,20 @@ def test_many_points_match_one_by_one():
               for p in points[:200]]
     np.testing.assert_array_equal(batch[:200], single)
     assert {-1, 0, 1} == set(batch.tolist())
+
+
+def test_size_aware_tolerance_counts_from_the_centre():
+    # A is 100 px: half size 50.  With 60 px tolerance only 10 px beyond its edge count.
+    points = [[95, 150], [85, 150]]
+    np.testing.assert_array_equal(
+        classify_tolerant(points, TWO, tolerance_px=60.0, ratio=0.5, size_aware=True), [0, -1])
+    np.testing.assert_array_equal(
+        classify_tolerant(points, TWO, tolerance_px=60.0, ratio=0.5), [0, 0])
+    # A 4 px option gets almost the whole tolerance.
+    tiny = square(150, 150, side=4.0)[None]
+    np.testing.assert_array_equal(
+        classify_tolerant([[150, 200]], tiny, tolerance_px=60.0, ratio=0.5, size_aware=True),
+        [0])
+    out = extend_to_nearby(np.array([-1, -1]), np.array(points, dtype=float), TWO, 60.0, 0.5,
+                           size_aware=True)
+    np.testing.assert_array_equal(out, [0, -1])
