@@ -38,6 +38,7 @@ import numpy as np
 import yaml
 
 from eye_bci_ros2.gaze_model import ScreenGeometry
+from eye_bci_ros2.tolerance import GazeErrorModel
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
 
 #: The correction that changes nothing: row-major 2 x 3 affine.
@@ -159,6 +160,22 @@ class ValidationReport:
         out.append(f'overall: accuracy {self.accuracy_deg:.2f} deg ({self.accuracy_px:.1f} px), '
                    f'precision {self.precision_deg:.2f} deg RMS ({self.precision_px:.1f} px)')
         return out
+
+
+def error_model(report: ValidationReport, k_sigma: float = 2.0) -> GazeErrorModel:
+    """
+    Return the tolerant decision rule's gaze-error model measured by a validation.
+
+    Accuracy = the overall accuracy; precision (standard deviation per axis)
+    = the RMS sample-to-sample angle / 2 (the difference of two independent
+    samples has sqrt(2) sigma per axis, so 2 sigma over both axes).
+
+    :raises ValueError: the report has no overall figures (no target had gaze).
+    """
+    if not (math.isfinite(report.accuracy_deg) and math.isfinite(report.precision_deg)):
+        raise ValueError('the validation measured nothing: no target had gaze')
+    return GazeErrorModel(accuracy_deg=report.accuracy_deg,
+                          precision_deg=report.precision_deg / 2.0, k_sigma=k_sigma)
 
 
 def _targets(targets) -> np.ndarray:

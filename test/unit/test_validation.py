@@ -5,9 +5,9 @@ import pytest
 
 from eye_bci_ros2.gaze_model import GazeSimulator, ORIGINAL_TOBII_4C
 from eye_bci_ros2.validation import (apply_correction, correction_yaml, CorrectionRefused,
-                                     fit_correction, IDENTITY, implausibility, load_correction,
-                                     measure, samples_per_target, save_correction,
-                                     target_layout, validate_and_correct)
+                                     error_model, fit_correction, IDENTITY, implausibility,
+                                     load_correction, measure, samples_per_target,
+                                     save_correction, target_layout, validate_and_correct)
 
 #: The 0.8 deg person of the original set-up, without drift (a constant offset, the same
 #: direction for every seed, so a second validation sees the same person with new noise).
@@ -48,7 +48,7 @@ def test_measure_reports_the_simulated_offset_and_jitter_in_degrees():
     targets = target_layout(9)
     report = measure(targets, run_validation(targets), SCREEN)
     assert report.accuracy_deg == pytest.approx(0.8, abs=0.1)
-    # Successive samples differ by sqrt(2) x 0.3 deg per axis: RMS 0.6 deg.
+    # Successive samples differ by sqrt(2) x 0.3 deg per axis: RMS over both axes 0.6 deg.
     assert report.precision_deg == pytest.approx(0.6, abs=0.08)
     assert report.accuracy_px == pytest.approx(0.8 * SCREEN.px_per_degree(), rel=0.2)
     assert not report.missing
@@ -129,3 +129,13 @@ def test_parameter_file_round_trip(tmp_path):
     (tmp_path / 'bad.yaml').write_text('just text\n')
     with pytest.raises(ValueError, match='parameter file'):
         load_correction(str(tmp_path / 'bad.yaml'))
+
+
+def test_error_model_for_the_tolerant_rule_from_a_validation():
+    targets = target_layout(9)
+    model = error_model(measure(targets, run_validation(targets), SCREEN))
+    assert model.accuracy_deg == pytest.approx(0.8, abs=0.1)
+    assert model.precision_deg == pytest.approx(0.3, abs=0.05)
+    empty = measure(targets, [np.zeros((0, 2))] * 9, SCREEN)
+    with pytest.raises(ValueError, match='no target had gaze'):
+        error_model(empty)
