@@ -16,8 +16,8 @@ Measured, and written to ``soak_results.json``:
   run, MB/min);
 * CPU: this process's CPU use over each sample period (100 % = one core);
 * samples: pushed into LSL (from the moment the bridge connected) vs samples
-  in the ``gaze/samples`` batches received on the ROS side (a subscriber on the same executor): none
-  may be lost;
+  in the ``gaze/samples`` batches received on the ROS side (a subscriber on
+  the same executor): none may be lost;
 * rounds: every round had gaze on a region, so each must end in exactly one
   ``choice``, the looked-at label: rounds without a choice and wrong choices
   are counted; decision latency = choice arrival minus the round's window end.

@@ -30,8 +30,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from eye_bci_ros2.nodes.conversions import pose_to_arrays
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.topics import LATCHED_QOS
 from eye_bci_ros2.view_animation import view_from_optical_pose
 
 #: The port's speed profiles (ViewMovement.msg constants), by name.

@@ -65,6 +65,7 @@ DECISIONS_SHOWN = 3
 #: Options named in the status (the rest are counted).
 OPTIONS_SHOWN = 8
 
+
 @dataclass
 class GazeStats:
     """

@@ -3,8 +3,8 @@
 import gc
 import time
 
-from geometry_msgs.msg import PointStamped
 from fault_rig import LogTap
+from geometry_msgs.msg import PointStamped
 from lsl_outlets import bridge_parameters, make_outlet, sample_for, unique_id
 import numpy as np
 import pylsl

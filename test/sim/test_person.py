@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from eye_bci_ros2.sim.person import (
-    CONSUMER_TRACKER, DEFAULT_SCREEN, GazeParams, GazeSimulator, ORIGINAL_TOBII_4C,
-    PersonParams, px_per_degree, ScreenGeometry, TrackerParams, visual_angle_px)
+    CONSUMER_TRACKER, GazeParams, GazeSimulator, ORIGINAL_TOBII_4C, PersonParams, TrackerParams)
+from eye_bci_ros2.visual_angle import (DEFAULT_SCREEN, px_per_degree, ScreenGeometry,
+                                       visual_angle_px)
 
 SCREEN = DEFAULT_SCREEN
 #: Two places far apart on the 1920x1080 screen, px.
