@@ -661,7 +661,8 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
     log(streamer.describe())
 
     # Logger levels are process-wide: quiet the nodes for the run, then put them back.
-    quiet = () if options.verbose else NODE_NAMES + ('sim_rviz_view', 'demo_experiment')
+    quiet = () if options.verbose else NODE_NAMES + ('choice_menu', 'sim_rviz_view',
+                                                     'demo_experiment')
     levels = {name: rclpy.logging.get_logger_level(name) for name in quiet}
     for name in quiet:
         rclpy.logging.set_logger_level(name, rclpy.logging.LoggingSeverity.WARN)
@@ -680,7 +681,7 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                 'choice_arbiter': {'method': options.method, 'window_s': options.window_s,
                                    'early_decision': options.early},
                 'choice_menu': {'scene_file': scene_path, 'repeat': True},
-            })
+            }, with_menu=True)
             named = dict(zip(NODE_NAMES, nodes))
             view = SimRvizView(context=context, parameter_overrides=[
                 Parameter('transition_time_s', value=float(options.transition_s))])

@@ -285,7 +285,7 @@ class CameraTracker(Node):
 
 def main(args=None):
     """Run the camera_tracker node."""
-    spin_node(lambda: CameraTracker(), args)
+    spin_node(CameraTracker, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':

@@ -234,7 +234,7 @@ class ChoiceArbiter(Node):
 
 def main(args=None):
     """Run the choice_arbiter node."""
-    spin_node(lambda: ChoiceArbiter(), args)
+    spin_node(ChoiceArbiter, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':

@@ -306,7 +306,7 @@ class ChoiceMenu(Node):
 
 def main(args=None):
     """Run the choice menu."""
-    spin_node(lambda: ChoiceMenu(), args)
+    spin_node(ChoiceMenu, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':

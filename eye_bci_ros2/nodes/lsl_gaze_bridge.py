@@ -659,7 +659,7 @@ class LslGazeBridge(Node):
 
 def main(args=None):
     """Run the bridge until Ctrl-C."""
-    spin_node(lambda: LslGazeBridge(), args)
+    spin_node(LslGazeBridge, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':

@@ -473,7 +473,7 @@ class MarkerProjector(Node):
 
 def main(args=None):
     """Run the marker_projector node."""
-    spin_node(lambda: MarkerProjector(), args)
+    spin_node(MarkerProjector, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':

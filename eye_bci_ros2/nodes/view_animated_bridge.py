@@ -137,7 +137,7 @@ class ViewAnimatedBridge(Node):
 
 def main(args=None):
     """Run the view_animated_bridge node."""
-    spin_node(lambda: ViewAnimatedBridge(), args)
+    spin_node(ViewAnimatedBridge, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':

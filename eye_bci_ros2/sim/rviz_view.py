@@ -182,7 +182,7 @@ class SimRvizView(Node):
 
 def main(args=None):
     """Run the simulated RViz view."""
-    spin_node(lambda: SimRvizView(), args)
+    spin_node(SimRvizView, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':
