@@ -58,7 +58,7 @@ from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import cube_marker
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.runner import executor_kind, make_executor
+from eye_bci_ros2.nodes.runner import executor_kind, make_executor, spin_until
 from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
 
 #: Static RViz view of the soak (world frame ``map``, m).
@@ -200,12 +200,7 @@ class Soak:
 
     def spin_until(self, predicate, timeout: float) -> bool:
         """Spin until ``predicate()`` holds; return whether it did."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if predicate():
-                return True
-            self.executor.spin_once(timeout_sec=0.01)
-        return predicate()
+        return spin_until(self.executor, predicate, timeout)
 
     def offer(self, index: int) -> None:
         """Offer the next menu and look at one of its choices."""

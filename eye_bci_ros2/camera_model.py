@@ -15,12 +15,12 @@ renders the scene with.  Conventions (DESIGN.md):
 * Quaternions are ordered x, y, z, w.
 """
 
+import math
 from typing import Sequence, Tuple
 
 import numpy as np
 
 from eye_bci_ros2 import geometry
-from eye_bci_ros2.calibration import rviz_intrinsic
 
 #: Render panel used when nothing else is known: 1280x720 px, the render panel
 #: of an RViz window on a 1920x1080 screen (side panels and toolbars take the rest).
@@ -42,6 +42,28 @@ _X_FORWARD_TO_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0,
 
 #: Tolerance on the last row [0, 0, 1, 0] of a user-supplied intrinsic.
 _LAST_ROW_TOLERANCE = 1e-2
+
+
+def rviz_intrinsic(width, height, fov_y_deg: float = 45.0) -> np.ndarray:
+    """
+    Analytic intrinsic of an RViz2 render panel (Ogre: square pixels, centred principal point).
+
+    :param width: render panel width W, px (> 0).
+    :param height: render panel height H, px (> 0).
+    :param fov_y_deg: vertical field of view, degrees, in (0, 180); RViz uses 45.
+    :returns: shape (3, 4), ``fx = fy = (H / 2) / tan(FOVy / 2)``, ``cx = W / 2``,
+        ``cy = H / 2``.
+    :raises ValueError: non-positive size or a field of view outside (0, 180).
+    """
+    width, height, fov_y_deg = float(width), float(height), float(fov_y_deg)
+    if not (math.isfinite(width) and math.isfinite(height) and width > 0 and height > 0):
+        raise ValueError(f'render panel size must be positive, got {width} x {height} px')
+    if not (math.isfinite(fov_y_deg) and 0.0 < fov_y_deg < 180.0):
+        raise ValueError(f'fov_y_deg must be in (0, 180) degrees, got {fov_y_deg}')
+    focal = (height / 2.0) / math.tan(math.radians(fov_y_deg) / 2.0)
+    return np.array([[focal, 0.0, width / 2.0, 0.0],
+                     [0.0, focal, height / 2.0, 0.0],
+                     [0.0, 0.0, 1.0, 0.0]])
 
 
 def parse_intrinsic(values) -> np.ndarray:

@@ -53,9 +53,9 @@ from typing import List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from eye_bci_ros2 import geometry
+from eye_bci_ros2.camera_model import look_at_pose
 from eye_bci_ros2.scene import CubeMarker, Room, Scene, View
 from eye_bci_ros2.tolerance import polygon_distances
-from eye_bci_ros2.view_animation import optical_pose
 
 #: Label of the option that goes back from the tables to the rooms.
 BACK_LABEL = 'back'
@@ -179,7 +179,7 @@ def back_marker(view: View, fov_y_deg: float = 45.0, aspect: float = 16.0 / 9.0,
     position = (np.asarray(view.focus, dtype=float) - 0.8 * half_width * rotation[0]
                 + 0.75 * half_height * rotation[1])
     side = 0.12 * half_height
-    _, quaternion = optical_pose(view.eye, view.focus, view.up)
+    _, quaternion = look_at_pose(view.eye, view.focus, view.up)
     return CubeMarker(text=BACK_LABEL, position=position, orientation=quaternion,
                       scale=np.array([side, side, 0.02 * side]),
                       color=np.asarray(colour, dtype=float))
@@ -397,7 +397,7 @@ class MenuProtocol:
         same = bool(labels) and set(labels) == set(self.offered)
         self.offered = labels
         self._asked_at = None
-        position, quaternion = optical_pose(*view.as_tuple())
+        position, quaternion = look_at_pose(*view.as_tuple())
         self._goal = _Goal(position, quaternion, now, now)
         if self._pose is not None and poses_close(
                 *self._pose, position, quaternion, self.settings.arrive_tolerance_m,

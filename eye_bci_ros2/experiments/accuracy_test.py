@@ -582,9 +582,9 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
 
     from eye_bci_ros2.nodes.conversions import arrays_to_pose, cube_marker
     from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes
-    from eye_bci_ros2.nodes.runner import make_executor
+    from eye_bci_ros2.nodes.runner import make_executor, spin_until as spin
     from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
-    from eye_bci_ros2.view_animation import optical_pose
+    from eye_bci_ros2.camera_model import look_at_pose
 
     scenario = RoomScenario(scene, image_size=args.image_size, screen_offset=args.screen_offset)
     method = methods[0]
@@ -595,10 +595,7 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
     nodes = []
 
     def spin_until(predicate, timeout):
-        end = time.monotonic() + timeout
-        while time.monotonic() < end and not predicate():
-            executor.spin_once(timeout_sec=0.02)
-        return predicate()
+        return spin(executor, predicate, timeout)
 
     try:
         nodes = make_pipeline_nodes(context, overrides={
@@ -637,7 +634,7 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
         print(f'gaze from {bridge.stream}', flush=True)
         message = PoseStamped()
         message.header.frame_id = scene.frame_id
-        message.pose = arrays_to_pose(*optical_pose(*overview.as_tuple()))
+        message.pose = arrays_to_pose(*look_at_pose(*overview.as_tuple()))
         goal.publish(message)
         print(f'show RViz with the overview view (eye {overview.eye.tolist()}, focus '
               f'{overview.focus.tolist()}); its render panel {args.image_size[0]}x'

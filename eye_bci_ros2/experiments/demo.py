@@ -75,7 +75,7 @@ from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
                                             marker_label, pose_to_arrays)
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
-from eye_bci_ros2.nodes.runner import make_executor
+from eye_bci_ros2.nodes.runner import make_executor, spin_until as _spin_until
 from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.scene import default_scene_path, load_scene, Scene
@@ -708,18 +708,6 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                 rclpy.logging.set_logger_level(name, level)
 
     return _summarise(options, person, source_id, script, driver, log)
-
-
-def _spin_until(executor, predicate, timeout: float, poll=None) -> bool:
-    """Spin until ``predicate()``; call ``poll()`` after every callback; False on timeout."""
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        executor.spin_once(timeout_sec=0.01)
-        if poll is not None:
-            poll()
-    return predicate()
 
 
 def _experiment(executor, driver: ExperimentDriver, streamer: GazeStreamer, bridge,

@@ -43,12 +43,7 @@ from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
-
-#: What RViz view-controller ports publish with: reliable, volatile, depth 10.
-RVIZ_POSE_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=10,
-    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+from eye_bci_ros2.nodes.topics import LATCHED_QOS, RVIZ_POSE_QOS
 
 #: Default static view: the overview of the default scene (config/scene.yaml,
 #: a 20 m x 12 m map), from 17 m up and 8 m south of the map centre (10, 6, 0),

@@ -56,6 +56,7 @@ from rclpy.node import Node
 from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
+from eye_bci_ros2.camera_model import look_at_pose
 from eye_bci_ros2.menu import (Action, Log, MenuProtocol, Offer, ProtocolSettings, Request,
                                Result, ROOMS_NS, TABLES_NS)
 from eye_bci_ros2.nodes.conversions import (arrays_to_pose, cube_marker,
@@ -64,7 +65,6 @@ from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, Pa
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_POINT_TOPIC, LATCHED_QOS, VIEW_QOS
 from eye_bci_ros2.scene import CubeMarker, default_scene_path, load_scene, Scene, View
-from eye_bci_ros2.view_animation import optical_pose
 
 __all__ = ['ChoiceMenu', 'main', 'resolve_scene_path', 'ROOMS_NS', 'TABLES_NS']
 
@@ -243,7 +243,7 @@ class ChoiceMenu(Node):
         goal = PoseStamped()
         goal.header.frame_id = self._world_frame
         goal.header.stamp = self.get_clock().now().to_msg()
-        goal.pose = arrays_to_pose(*optical_pose(*view.as_tuple()))
+        goal.pose = arrays_to_pose(*look_at_pose(*view.as_tuple()))
         self._goal_pub.publish(goal)
 
     def _publish_choices(self, markers: Sequence[CubeMarker], ns: str) -> None:

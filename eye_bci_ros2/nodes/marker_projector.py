@@ -37,18 +37,17 @@ from geometry_msgs.msg import PoseStamped
 import numpy as np
 from rclpy.duration import Duration
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.calibration import rviz_intrinsic
-from eye_bci_ros2.camera_model import OrthographicCamera, parse_intrinsic, RvizCamera
+from eye_bci_ros2.camera_model import (OrthographicCamera, parse_intrinsic, rviz_intrinsic,
+                                       RvizCamera)
 from eye_bci_ros2.geometry import external_from_pose
 from eye_bci_ros2.nodes.conversions import pose_to_arrays, regions_to_marker_array
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
+from eye_bci_ros2.nodes.topics import CHOICES_QOS, LATCHED_QOS
 
 #: Largest render panel side accepted, px.
 MAX_IMAGE_SIDE = 16384
@@ -73,14 +72,6 @@ EXPIRY_CHECK_S = 0.05
 
 #: Default ``ortho_scale``: TopDownOrtho's default Scale, px per m.
 DEFAULT_ORTHO_SCALE = 10.0
-
-#: ``choices``: latched like LATCHED_QOS, but deep, because MarkerArrays are
-#: incremental (RViz semantics): with depth 1, an array that arrives before the
-#: previous one is taken replaces it, and a lost DELETE leaves a withdrawn
-#: choice selectable.
-CHOICES_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=100,
-    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 Key = Tuple[str, int]
 

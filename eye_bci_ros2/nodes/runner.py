@@ -28,6 +28,7 @@ import os
 import signal
 import sys
 import threading
+import time
 from typing import Callable, List, Optional, Sequence
 
 import rclpy
@@ -90,6 +91,31 @@ def make_executor(context: Optional[Context] = None, kind: Optional[str] = None)
     raise ValueError(f"executor '{kind}' is not one of {', '.join(EXECUTORS)}")
 
 
+def spin_until(executor: Executor, predicate: Callable[[], bool], timeout: float,
+               poll: Optional[Callable[[], None]] = None, step_s: float = 0.01) -> bool:
+    """
+    Spin ``executor`` until ``predicate()`` holds or ``timeout`` s pass; return whether it held.
+
+    :param poll: called after every spin step (e.g. to feed a simulated sender).
+    :param step_s: longest wait of one step, s.
+    """
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        executor.spin_once(timeout_sec=step_s)
+        if poll is not None:
+            poll()
+    return predicate()
+
+
+def spin_for(executor: Executor, seconds: float, step_s: float = 0.01) -> None:
+    """Spin ``executor`` for ``seconds`` of wall time."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=min(step_s, max(0.0, end - time.monotonic())))
+
+
 def _stop_on_signals(stop: threading.Event) -> None:
     """Make SIGINT and SIGTERM only ask the spin loop to stop (module doc, "Stopping")."""
     for signum in STOP_SIGNALS:
@@ -103,7 +129,7 @@ def _ignore_signals() -> None:
 
 
 def _first_line(error: BaseException) -> str:
-    """The first line of an error's text (rcl's errors carry their C call stack)."""
+    """Return the first line of an error's text (rcl's errors carry their C call stack)."""
     text = str(error).strip().splitlines()
     return text[0] if text else type(error).__name__
 

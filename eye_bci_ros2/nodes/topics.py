@@ -40,3 +40,16 @@ LATCHED_QOS = QoSProfile(
 EVENT_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=10,
     reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+#: ``choices``: latched like LATCHED_QOS, but deep, because MarkerArrays are
+#: incremental (RViz semantics): with depth 1, an array that arrives before the
+#: previous one is taken replaces it, and a lost DELETE leaves a withdrawn
+#: choice selectable.
+CHOICES_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=100,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+#: What RViz view-controller ports publish with: reliable, volatile, depth 10.
+RVIZ_POSE_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=10,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)

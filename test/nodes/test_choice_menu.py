@@ -8,12 +8,12 @@ from ros_harness import Collector
 from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
+from eye_bci_ros2.camera_model import look_at_pose
 from eye_bci_ros2.nodes.choice_menu import ChoiceMenu
 from eye_bci_ros2.nodes.conversions import (arrays_to_pose, pose_to_arrays,
                                             regions_to_marker_array)
 from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS, VIEW_QOS
 from eye_bci_ros2.scene import default_scene_path, load_scene
-from eye_bci_ros2.view_animation import optical_pose
 
 pytestmark = pytest.mark.ros
 
@@ -83,7 +83,7 @@ class Probe:
         """Publish camera/pose at a view (what the camera_tracker does when RViz got there)."""
         message = PoseStamped()
         message.header.frame_id = 'map'
-        message.pose = arrays_to_pose(*optical_pose(*view.as_tuple()))
+        message.pose = arrays_to_pose(*look_at_pose(*view.as_tuple()))
         self.pose.publish(message)
 
     def look(self, x, y):
@@ -103,7 +103,7 @@ class Probe:
 
 def goal_is(message, view):
     position, quaternion = pose_to_arrays(message.pose)
-    expected_position, expected_quaternion = optical_pose(*view.as_tuple())
+    expected_position, expected_quaternion = look_at_pose(*view.as_tuple())
     return bool(np.allclose(position, expected_position, atol=1e-9) and np.allclose(
         quaternion, expected_quaternion, atol=1e-9))
 

@@ -9,10 +9,11 @@ from rclpy.time import Time
 from ros_harness import Collector
 
 from eye_bci_ros2 import geometry
+from eye_bci_ros2.camera_model import look_at_pose
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
 from eye_bci_ros2.nodes.topics import LATCHED_QOS
 from eye_bci_ros2.sim.rviz_view import SimRvizView
-from eye_bci_ros2.view_animation import as_view, ogre_pose, optical_pose
+from eye_bci_ros2.view_animation import as_view, ogre_pose
 
 pytestmark = pytest.mark.ros
 
@@ -33,7 +34,7 @@ class ManualClock:
 def goal_message(view, frame='map') -> PoseStamped:
     message = PoseStamped()
     message.header.frame_id = frame
-    message.pose = arrays_to_pose(*optical_pose(*view))
+    message.pose = arrays_to_pose(*look_at_pose(*view))
     return message
 
 

@@ -27,7 +27,7 @@ from std_msgs.msg import Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.camera_model import RvizCamera
-from eye_bci_ros2.nodes.camera_tracker import CameraTracker, RVIZ_POSE_QOS
+from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, marker_array_to_regions
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
@@ -161,7 +161,7 @@ class Pipeline:
         self.driver = graph.node('fault_driver')
         driver = self.driver
         self.choices_pub = driver.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
-        self.rviz_pub = driver.create_publisher(Pose, 'rviz/current_camera_pose', RVIZ_POSE_QOS)
+        self.rviz_pub = driver.create_publisher(Pose, 'rviz/current_camera_pose')
         self.camera_pub = None if tracker else driver.create_publisher(
             PoseStamped, 'camera/pose', LATCHED_QOS)
         self.gaze_pub = driver.create_publisher(PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)

@@ -10,7 +10,6 @@ traffic, and tears down executor -> nodes -> context.
 """
 
 import contextlib
-import time
 from typing import Any, Callable, Dict, List, Optional, Tuple
 
 from domain_coordinator import domain_id
@@ -23,7 +22,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from sensor_msgs.msg import PointCloud2
 
 from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_batch_arrays, SCREEN_FRAME
-from eye_bci_ros2.nodes.runner import make_executor
+from eye_bci_ros2.nodes.runner import make_executor, spin_for, spin_until
 from eye_bci_ros2.nodes.topics import GAZE_QOS, GAZE_SAMPLES_TOPIC
 
 #: Samples per gaze/samples message the test publishers send (20 ms at 1200 Hz; the
@@ -53,18 +52,11 @@ class RosGraph:
 
     def spin_for(self, seconds: float) -> None:
         """Spin the executor for ``seconds`` of wall time."""
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            self.executor.spin_once(timeout_sec=min(0.01, max(0.0, end - time.monotonic())))
+        spin_for(self.executor, seconds)
 
     def spin_until(self, predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
         """Spin until ``predicate()`` is true; return whether it became true."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if predicate():
-                return True
-            self.executor.spin_once(timeout_sec=0.01)
-        return predicate()
+        return spin_until(self.executor, predicate, timeout)
 
     def wait_future(self, future, timeout: float = 5.0):
         """Spin until ``future`` is done and return its result."""

@@ -10,7 +10,7 @@ from paths import REPO
 import pytest
 import yaml
 
-from eye_bci_ros2.calibration import rviz_intrinsic
+from eye_bci_ros2.camera_model import rviz_intrinsic
 from eye_bci_ros2.geometry import look_at, project_points
 from eye_bci_ros2.tools.calibrate import main
 

@@ -19,7 +19,7 @@ from ros_harness import Collector
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.calibration import rviz_intrinsic
+from eye_bci_ros2.camera_model import rviz_intrinsic
 from eye_bci_ros2.geometry import look_at, project_points
 from eye_bci_ros2.nodes.camera_tracker import (CameraTracker, DEFAULT_EYE, DEFAULT_FOCUS,
                                                DEFAULT_UP)

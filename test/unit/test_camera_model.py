@@ -4,10 +4,9 @@ import numpy as np
 import pytest
 
 from eye_bci_ros2 import geometry
-from eye_bci_ros2.calibration import rviz_intrinsic
-from eye_bci_ros2.camera_model import (
-    clip_polygons, look_at_pose, ogre_pose_from_optical, optical_pose_from_ogre,
-    parse_intrinsic, RvizCamera)
+from eye_bci_ros2.camera_model import (clip_polygons, look_at_pose, ogre_pose_from_optical,
+                                       optical_pose_from_ogre, parse_intrinsic, rviz_intrinsic,
+                                       RvizCamera)
 
 #: Focal length of a 720 px high panel at RViz's 45 degree vertical FOV, px.
 F_720 = 360.0 / np.tan(np.radians(22.5))

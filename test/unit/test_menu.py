@@ -3,13 +3,12 @@
 import numpy as np
 import pytest
 
-from eye_bci_ros2.calibration import rviz_intrinsic
+from eye_bci_ros2.camera_model import look_at_pose, rviz_intrinsic
 from eye_bci_ros2.geometry import project_points
 from eye_bci_ros2.menu import (ASKING, BACK_LABEL, back_marker, FINISHED, LOOK_AWAY,
                                MenuProtocol, Offer, PAUSED, ProtocolSettings, READY, Request,
                                Result, WAITING_FOR_CAMERA)
 from eye_bci_ros2.scene import default_scene_path, load_scene
-from eye_bci_ros2.view_animation import optical_pose
 
 SCENE = load_scene(default_scene_path())
 ROOMS = ('kitchen', 'living_room', 'bedroom', 'office')
@@ -24,7 +23,7 @@ def kinds(actions, kind):
 
 def at(view):
     """camera/pose of a view: position, quaternion (optical)."""
-    return optical_pose(*view.as_tuple())
+    return look_at_pose(*view.as_tuple())
 
 
 def arrive(menu, view, now):

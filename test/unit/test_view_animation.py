@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from eye_bci_ros2 import geometry
+from eye_bci_ros2.camera_model import look_at_pose
 from eye_bci_ros2.view_animation import (
-    as_view, ease_progress, interpolate_view, ogre_pose, optical_pose, view_from_optical_pose,
+    as_view, ease_progress, interpolate_view, ogre_pose, view_from_optical_pose,
     ViewAnimation)
 
 OVERVIEW = as_view([10.0, -2.0, 17.0], [10.0, 6.0, 0.0], [0.0, 0.0, 1.0])
@@ -120,14 +121,14 @@ def test_ogre_pose_looks_along_minus_z_with_y_up():
     assert abs(np.dot(up, forward)) < 1e-12 and up[2] > 0  # world +z shows as up
     right = rotation @ [1, 0, 0]
     np.testing.assert_allclose(right, [1, 0, 0], atol=1e-12)  # looking north: east is right
-    _, optical = optical_pose(*KITCHEN)
+    _, optical = look_at_pose(*KITCHEN)
     np.testing.assert_allclose(geometry.quaternion_to_matrix(optical),
                                rotation @ np.diag([1, -1, -1]), atol=1e-12)
 
 
 def test_optical_pose_round_trip_recovers_a_floor_focus():
     for view in (OVERVIEW, KITCHEN):
-        eye, focus, up = view_from_optical_pose(*optical_pose(*view))
+        eye, focus, up = view_from_optical_pose(*look_at_pose(*view))
         np.testing.assert_allclose(eye, view[0], atol=1e-12)
         np.testing.assert_allclose(focus, view[1], atol=1e-9)
         np.testing.assert_allclose(geometry.look_at(eye, focus, up), geometry.look_at(*view),
@@ -136,7 +137,7 @@ def test_optical_pose_round_trip_recovers_a_floor_focus():
 
 def test_pose_that_misses_the_floor_uses_the_fallback_distance():
     looking_up = as_view([0, 0, 1], [0, 3, 2], [0, 0, 1])
-    _, focus, _ = view_from_optical_pose(*optical_pose(*looking_up), fallback_distance=2.0)
+    _, focus, _ = view_from_optical_pose(*look_at_pose(*looking_up), fallback_distance=2.0)
     direction = np.array([0, 3, 1]) / np.sqrt(10)
     np.testing.assert_allclose(focus, [0, 0, 1] + 2.0 * direction, atol=1e-12)
     with pytest.raises(ValueError, match='zero length'):
