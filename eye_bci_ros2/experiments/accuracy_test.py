@@ -613,8 +613,6 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
                                'early_decision': method == 'early',
                                'window_s': args.window_s},
         })
-        # The test shows its own markers: no menu.
-        nodes.pop().destroy_node()
         bridge, arbiter = nodes[0], nodes[3]
         helper = Node('accuracy_test', context=context)
         nodes.append(helper)
