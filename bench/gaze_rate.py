@@ -53,7 +53,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from bench.latency import MARKER_SCALE, MARKERS
+from bench.latency import default_poll_period, MARKER_SCALE, MARKERS
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import cube_marker, marker_array_to_regions
@@ -205,7 +205,8 @@ def _processes_cpu(executor, driver, processes: Dict[str, subprocess.Popen], rou
     return section
 
 
-def pipeline(rate: float, rounds: int, reference: bool = False) -> Dict[str, object]:
+def pipeline(rate: float, rounds: int, reference: bool = False,
+             poll_period_s: Optional[float] = None) -> Dict[str, object]:
     """Measure the four node processes (or the reference path) at ``rate`` Hz."""
     name, source_id = f'gaze-rate-{uuid.uuid4().hex}', f'gaze-rate-{uuid.uuid4().hex}'
     with domain_id() as domain:
@@ -229,6 +230,8 @@ def pipeline(rate: float, rounds: int, reference: bool = False) -> Dict[str, obj
                     if node == 'lsl_gaze_bridge':
                         command += ['-p', 'profile:=custom', '-p', f'stream_name:={name}',
                                     '-p', f'source_id:={source_id}', '-p', 'stats_period_s:=0.0']
+                        if poll_period_s is not None:
+                            command += ['-p', f'poll_period_s:={poll_period_s!r}']
                     command += ['--log-level', 'warn']
                 processes[node] = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL,
                                                    stderr=subprocess.DEVNULL)
@@ -250,6 +253,7 @@ def pipeline(rate: float, rounds: int, reference: bool = False) -> Dict[str, obj
                 return {'cpu_percent': cpu, 'rate_hz': rate}
             section = _processes_cpu(executor, driver, dict(processes), rounds, label)
             section['rate_hz'] = rate
+            section['bridge_poll_period_s'] = poll_period_s or default_poll_period()
             return section
         finally:
             here.send(None)
@@ -337,12 +341,13 @@ def burst(samples: int = BURST_SAMPLES) -> Dict[str, object]:
 
 
 def run(quick: bool = False, rates: Sequence[float] = (1200.0, 2000.0),
-        rounds: int = 0) -> Dict[str, object]:
+        rounds: int = 0, poll_period_s: Optional[float] = None,
+        with_burst: bool = True) -> Dict[str, object]:
     """Run the three parts; return the ``gaze_rate`` section (module doc)."""
     rounds = rounds or (QUICK_ROUNDS if quick else ROUNDS)
     section: Dict[str, object] = {'pipeline': {}}
     for rate in rates:
-        section['pipeline'][f'{rate:g}'] = pipeline(rate, rounds)
+        section['pipeline'][f'{rate:g}'] = pipeline(rate, rounds, poll_period_s=poll_period_s)
     reference = pipeline(1200.0, rounds, reference=True)
     section['reference_per_sample_1200'] = reference
     at_1200 = section['pipeline'].get('1200')
@@ -358,11 +363,12 @@ def run(quick: bool = False, rates: Sequence[float] = (1200.0, 2000.0),
     section['meets_goal_outside_p99'] = all(
         row['window_end_to_choice_p99_ms'] <= GOAL_OUTSIDE_P99_MS and row['rounds_wrong'] == 0
         and row['rounds_lost'] == 0 for row in section['pipeline'].values())
-    section['burst'] = burst()
-    row = section['burst']
-    section['meets_goal_burst'] = (row['samples_decided_on'] == row['samples_pushed']
-                                   and row['choice'] == row['expected']
-                                   and row['next_choice'] == row['next_expected'])
+    if with_burst:
+        section['burst'] = burst()
+        row = section['burst']
+        section['meets_goal_burst'] = (row['samples_decided_on'] == row['samples_pushed']
+                                       and row['choice'] == row['expected']
+                                       and row['next_choice'] == row['next_expected'])
     return section
 
 
@@ -373,8 +379,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument('--quick', action='store_true', help=f'{QUICK_ROUNDS} rounds per rate')
     parser.add_argument('--rounds', type=int, default=0, help=f'rounds (default {ROUNDS})')
     parser.add_argument('--rates', type=float, nargs='+', default=[1200.0, 2000.0])
+    parser.add_argument('--poll-period', type=float, default=None, metavar='S',
+                        help="the bridge's poll_period_s (default: its default)")
+    parser.add_argument('--no-burst', action='store_true', help='skip the burst part')
     args = parser.parse_args(argv)
-    section = run(args.quick, args.rates, args.rounds)
+    section = run(args.quick, args.rates, args.rounds, args.poll_period, not args.no_burst)
     print(json.dumps({'gaze_rate': section}, indent=2))
     return 0 if all(v for k, v in section.items() if k.startswith('meets_goal')) else 1
 

@@ -38,6 +38,7 @@ REGISTRY: Dict[str, str] = {
     'projection': 'bench.projection',
     'arbitration': 'bench.arbitration',
     'latency': 'bench.latency',
+    'gaze_rate': 'bench.gaze_rate',
     'decision': 'bench.decision',
     'calibration': 'bench.calibration_protocol',
 }

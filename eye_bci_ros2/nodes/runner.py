@@ -192,8 +192,14 @@ def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] =
         nodes = make_nodes()
         for node in nodes:
             executor.add_node(node)
-        while not stop.is_set() and rclpy.ok():
+        # rclpy.ok() takes a lock: asked every STOP_POLL_S, not once per event.
+        checked = time.monotonic()
+        while not stop.is_set():
             executor.spin_once(timeout_sec=STOP_POLL_S)
+            if time.monotonic() - checked >= STOP_POLL_S:
+                checked = time.monotonic()
+                if not rclpy.ok():
+                    break
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except (ValueError, InvalidParameterValueException, InvalidParameterTypeException,
