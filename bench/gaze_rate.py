@@ -220,7 +220,8 @@ def pipeline(rate: float, rounds: int, reference: bool = False,
         processes: Dict[str, subprocess.Popen] = {}
         try:
             view = ('camera_tracker', 'marker_projector')
-            wanted = view + (('reference_bridge', 'reference_arbiter') if reference else NODES[::3])
+            measured_nodes = ('reference_bridge', 'reference_arbiter') if reference else NODES[::3]
+            wanted = view + measured_nodes
             for node in wanted:
                 if node.startswith('reference_'):
                     command = [sys.executable, '-m', 'bench.reference_per_sample',
