@@ -1,0 +1,1 @@
+"""Experiments: demo, accuracy test, pictures and the metrics they report."""

@@ -1,0 +1,1 @@
+"""Stand-ins for hardware: simulated person, eye tracker, EEG amplifier, RViz."""
