@@ -42,6 +42,7 @@ Streaming use (times on one steady clock, e.g. ``pylsl.local_clock()``)::
     times, chunk = sim.next_chunk(later)
 """
 
+import bisect
 from dataclasses import dataclass
 import re
 from typing import List, Optional, Sequence, Tuple
@@ -217,7 +218,7 @@ class EegSimulator:
 
     def set_attended(self, label: Optional[str], now: float) -> None:
         """Attend the stimulus of option ``label`` (None = none) from ``now`` on."""
-        self._schedule.append((float(now), label))
+        bisect.insort(self._schedule, (float(now), label), key=lambda item: item[0])
 
     @property
     def sample_count(self) -> int:

@@ -3,7 +3,10 @@ When a growing / sliding window of SSVEP scores is strong enough to choose.
 
 Posterior: ``softmax(gain * s / max(s))`` of the K scores s, i.e. scores
 relative to the best, so the same gain fits FBCCA (sum of rho^2) and TRCA
-(sum of r) scores; all scores <= 0 give a uniform posterior.  Margin:
+(sum of r) scores; all scores <= 0 give a uniform posterior.  A "rest" score
+(FBCCA: the best score at decoy frequencies between the stimuli) joins the
+softmax as a (K+1)-th class "nothing attended", which keeps noise from
+looking confident when few options are offered.  Margin:
 ``(s_best - s_second) / s_best``.  A choice is made once the window is at
 least ``min_window_s`` long and the rule's value reaches ``threshold``;
 never from fewer than 2 options.
@@ -17,7 +20,7 @@ import numpy as np
 RULES = ('posterior', 'margin')
 
 
-def posterior(scores: np.ndarray, gain: float = 20.0) -> np.ndarray:
+def posterior(scores: np.ndarray, gain: float = 8.0) -> np.ndarray:
     """
     Turn K scores into probabilities that each option is attended.
 
@@ -56,9 +59,9 @@ class DecisionRule:
     """
 
     rule: str = 'posterior'
-    threshold: float = 0.9
+    threshold: float = 0.95
     min_window_s: float = 1.0
-    gain: float = 20.0
+    gain: float = 8.0
 
     def __post_init__(self):
         """Reject a rule that cannot work, with a reason."""
@@ -69,18 +72,35 @@ class DecisionRule:
         if self.min_window_s < 0:
             raise ValueError(f'min_window_s must be >= 0, got {self.min_window_s}')
 
-    def evidence(self, scores: np.ndarray) -> float:
-        """Return the rule's value for these scores."""
+    def probabilities(self, scores: np.ndarray, rest: Optional[float] = None) -> np.ndarray:
+        """
+        Posterior of each option, (K,).
+
+        :param rest: score of "no stimulus attended" (e.g. the best score at
+            decoy frequencies no option uses); it takes its share of the
+            probability, so the options' posteriors then sum to less than 1.
+        """
+        scores = np.asarray(scores, dtype=float)
+        if rest is None:
+            return posterior(scores, self.gain)
+        return posterior(np.append(scores, rest), self.gain)[:-1]
+
+    def evidence(self, scores: np.ndarray, rest: Optional[float] = None) -> float:
+        """Return the rule's value for these scores (and the rest score, if any)."""
+        scores = np.asarray(scores, dtype=float)
         if self.rule == 'margin':
-            return margin(scores)
-        probabilities = posterior(scores, self.gain)
+            return margin(scores if rest is None else np.append(scores, rest))
+        probabilities = self.probabilities(scores, rest)
         return float(probabilities.max()) if probabilities.size else 0.0
 
-    def decide(self, scores: np.ndarray, window_s: float) -> Optional[int]:
+    def decide(self, scores: np.ndarray, window_s: float,
+               rest: Optional[float] = None) -> Optional[int]:
         """Return the chosen option's index, or None while the evidence is too weak."""
         scores = np.asarray(scores, dtype=float)
         if scores.size < 2 or window_s < self.min_window_s or not np.all(np.isfinite(scores)):
             return None
-        if self.evidence(scores) < self.threshold:
+        if rest is not None and not rest < scores.max():
+            return None
+        if self.evidence(scores, rest) < self.threshold:
             return None
         return int(np.argmax(scores))

@@ -26,3 +26,12 @@ def test_decision_needs_the_window_and_the_evidence():
     assert DecisionRule('margin', 0.3, 0.5).decide(np.array([0.6, 1.0]), 1.0) == 1
     with pytest.raises(ValueError, match='rule'):
         DecisionRule('vote')
+
+
+def test_a_rest_score_takes_its_share_and_vetoes():
+    rule = DecisionRule('posterior', threshold=0.9, min_window_s=0.5, gain=10.0)
+    scores = np.array([1.0, 0.3])
+    assert rule.decide(scores, 1.0) == 0
+    assert rule.decide(scores, 1.0, rest=1.2) is None  # a decoy scores higher: nothing seen
+    p = rule.probabilities(scores, rest=0.9)
+    assert p.sum() < 1.0 and rule.decide(scores, 1.0, rest=0.9) is None
