@@ -20,6 +20,9 @@ console_scripts = [
     'calibrate = eye_bci_ros2.calibrate:main',
     'accuracy_test = eye_bci_ros2.accuracy_test:main',
     'demo = eye_bci_ros2.demo:main',
+    'ssvep_decoder = eye_bci_ros2.nodes.ssvep_decoder:main',
+    'sim_eeg = eye_bci_ros2.sim.eeg_outlet:main',
+    'ssvep_calibrate = eye_bci_ros2.tools.ssvep_calibrate:main',
 ]
 
 setup(

@@ -294,8 +294,9 @@ class OnlineDecoder:
             return np.zeros((self._bank.bands, 0, len(self.channels))), np.zeros(0)
         end = self._written % self._capacity + self._capacity
         times = self._times[end - held:end]
-        keep = (times >= start_s) & (times > times[-1] - self.settings.window_s)
+        keep = times >= start_s
         first = int(np.argmax(keep)) if keep.any() else held
+        first = max(first, held - int(round(self.settings.window_s * self.rate)))
         return self._data[:, end - held + first:end], times[first:]
 
     def step(self) -> Optional[OnlineResult]:
