@@ -52,12 +52,24 @@ def canonical_correlations(x: np.ndarray, references: np.ndarray) -> np.ndarray:
     :param references: shape (K, n, R).
     :returns: rho, shape (B, K), in [0, 1].
     """
-    x = x - x.mean(axis=1, keepdims=True)
+    return _correlations_with_basis(x, reference_basis(references))
+
+
+def reference_basis(references: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of each centred reference set, (K, n, R) (cacheable)."""
     y = references - references.mean(axis=1, keepdims=True)
+    return np.linalg.qr(y)[0]
+
+
+def _correlations_with_basis(x: np.ndarray, qy: np.ndarray) -> np.ndarray:
+    """Canonical correlations of x (B, n, C) with orthonormal bases qy (K, n, R)."""
+    x = x - x.mean(axis=1, keepdims=True)
     qx, _ = np.linalg.qr(x)
-    qy, _ = np.linalg.qr(y)
-    product = np.einsum('bnc,knr->bkcr', qx, qy)
-    rho = np.linalg.svd(product, compute_uv=False)[..., 0]
+    k, n, r = qy.shape
+    # (B, C, n) @ (n, K R): one BLAS product instead of an einsum.
+    flat = np.moveaxis(qy, 1, 0).reshape(n, k * r)
+    product = (np.swapaxes(qx, 1, 2) @ flat).reshape(qx.shape[0], qx.shape[2], k, r)
+    rho = np.linalg.svd(np.moveaxis(product, 2, 1), compute_uv=False)[..., 0]
     return np.clip(rho, 0.0, 1.0)
 
 
@@ -76,13 +88,19 @@ class FbccaDecoder:
     rate: float
     bands: int = 5
     harmonics: int = 5
+    _basis: dict = field(default_factory=dict, init=False, repr=False)
 
     def scores(self, window: np.ndarray, start_s: float = 0.0) -> np.ndarray:
         """Return the K scores of a window (B, n, C); ``start_s`` is unused (no phase)."""
         window = _check_window(window, self.bands)
-        references = sine_cosine_references(self.frequencies, self.rate, window.shape[1],
-                                            self.harmonics)
-        rho = canonical_correlations(window, references)
+        n = window.shape[1]
+        basis = self._basis.get(n)
+        if basis is None:
+            if len(self._basis) > 8:  # a sliding window has one length; keep a few
+                self._basis.clear()
+            basis = self._basis[n] = reference_basis(sine_cosine_references(
+                self.frequencies, self.rate, n, self.harmonics))
+        rho = _correlations_with_basis(window, basis)
         return filter_bank_weights(self.bands) @ (rho ** 2)
 
 

@@ -185,6 +185,8 @@ class OnlineDecoder:
         self._rate_known = False
         #: The filters start from rest: the first settle_s are left out.
         self._settling = True
+        self._fbcca_key = None
+        self._fbcca_decoder: Optional[FbccaDecoder] = None
         self._round: Optional[Tuple[float, Tuple[str, ...], Optional[StimulusMap]]] = None
         self._done = False
         #: Counts of zeroed samples by reason since start.
@@ -340,9 +342,7 @@ class OnlineDecoder:
         frequencies = np.array([stimuli.stimulus(label)[0] for label in labels])
         rest = None
         if self.model is None:
-            decoys = decoy_frequencies(frequencies)
-            decoder = FbccaDecoder(np.append(frequencies, decoys), self.rate,
-                                   self._bank.bands, self.settings.harmonics)
+            decoder = self._fbcca(frequencies)
             all_scores = decoder.scores(window[:, :, good])
             scores, rest = all_scores[:len(labels)], float(all_scores[len(labels):].max())
         else:
@@ -364,6 +364,16 @@ class OnlineDecoder:
             result.choice = labels[index]
             self._done = True
         return result
+
+    def _fbcca(self, frequencies: np.ndarray) -> FbccaDecoder:
+        """FBCCA of these stimuli plus their decoys (kept while the stimuli stay)."""
+        key = tuple(frequencies.tolist())
+        if self._fbcca_key != key:
+            self._fbcca_key = key
+            self._fbcca_decoder = FbccaDecoder(
+                np.append(frequencies, decoy_frequencies(frequencies)), self.rate,
+                self._bank.bands, self.settings.harmonics)
+        return self._fbcca_decoder
 
     def _model_problem(self, labels: Sequence[str], stimuli: StimulusMap) -> Optional[str]:
         """Say why the TRCA model cannot score these options, or None."""
