@@ -40,6 +40,7 @@ REGISTRY: Dict[str, str] = {
     'latency': 'bench.latency',
     'decision': 'bench.decision',
     'calibration': 'bench.calibration_protocol',
+    'ssvep': 'bench.ssvep',
 }
 
 #: Default output: bench_results.json at the repository root.

@@ -8,7 +8,9 @@ Input modes of an experiment: gaze, SSVEP, or both (hybrid), and how they make a
   *candidate*; it becomes the choice when SSVEP confirms it: the decoder
   chose the same option, or its posterior for that option (``ssvep/scores``)
   reached ``confirm_threshold``, within ``max_lag_s`` of the gaze candidate
-  (either may come first).  Gaze narrows the options and SSVEP, which needs
+  (either may come first).  A gaze decision is a candidate only when the gaze
+  stayed on it: its margin (leader's share of the in-region gaze minus the
+  runner-up's) is at least ``min_gaze_margin``.  Gaze narrows the options and SSVEP, which needs
   sustained attention to a flickering option, supplies the intent: looking
   over the options (the "Midas touch") nominates candidates but never
   confirms one.  (Sequential gaze-then-SSVEP confirmation as in Stawicki et
@@ -33,11 +35,13 @@ class FusionSettings:
     :param confirm_threshold: SSVEP posterior of the gaze candidate that confirms it.
     :param max_lag_s: longest time between the gaze candidate and the SSVEP
         evidence that confirms it, s.
+    :param min_gaze_margin: gaze margin a decision needs to be a candidate.
     """
 
     mode: str = 'gaze'
-    confirm_threshold: float = 0.8
-    max_lag_s: float = 3.0
+    confirm_threshold: float = 0.9
+    max_lag_s: float = 5.0
+    min_gaze_margin: float = 0.5
 
     def __post_init__(self):
         """Reject settings that cannot work, with a reason."""
@@ -48,6 +52,8 @@ class FusionSettings:
                              f'{self.confirm_threshold}')
         if self.max_lag_s < 0:
             raise ValueError(f'max_lag_s must be >= 0, got {self.max_lag_s}')
+        if not 0.0 <= self.min_gaze_margin <= 1.0:
+            raise ValueError(f'min_gaze_margin must be in [0, 1], got {self.min_gaze_margin}')
 
 
 class ChoiceFusion:
@@ -86,14 +92,20 @@ class ChoiceFusion:
         self._posterior: Dict[str, Tuple[float, float]] = {}
         self._chosen = False
 
-    def gaze(self, label: Optional[str], t: float) -> Optional[str]:
-        """Take the gaze decision of a round (None = no choice) at time ``t``."""
+    def gaze(self, label: Optional[str], t: float, margin: float = 1.0) -> Optional[str]:
+        """
+        Take the gaze decision of a round (None = no choice) at time ``t``.
+
+        :param margin: the decision's gaze margin (hybrid: below
+            ``min_gaze_margin`` it nominates no candidate).
+        """
         mode = self.settings.mode
         if mode == 'gaze':
             return self._choose(label)
         if mode == 'ssvep' or self._chosen:
             return None
-        self._candidate = (label, t) if label in self._options else None
+        steady = margin >= self.settings.min_gaze_margin
+        self._candidate = (label, t) if label in self._options and steady else None
         return self._confirm()
 
     def ssvep_choice(self, label: str, t: float) -> Optional[str]:

@@ -61,10 +61,11 @@ Input modes (parameter ``input_mode``, :mod:`eye_bci_ros2.fusion`).  ``gaze``
 (default): as above.  ``ssvep``: ``choice`` is the ``ssvep/choice`` of the
 ssvep_decoder (std_msgs/String) when it names an offered option, once per
 round; the gaze decision is not published.  ``hybrid``: gaze alone never
-chooses: a round's gaze decision is a candidate, published as ``choice``
-only when SSVEP confirms it within ``max_lag_s`` (``ssvep/choice`` of the
-same label, or ``ssvep/scores`` (sensor_msgs/JointState, position =
-posterior) of at least ``confirm_threshold`` for it).
+chooses: a round's gaze decision with a margin of at least
+``min_gaze_margin`` is a candidate, published as ``choice`` only when SSVEP
+confirms it within ``max_lag_s`` (``ssvep/choice`` of the same label, or
+``ssvep/scores`` (sensor_msgs/JointState, position = posterior) of at least
+``confirm_threshold`` for it).
 """
 
 import time
@@ -157,12 +158,16 @@ FUSION_PARAMETERS = (
               'What chooses: gaze (the gaze decision), ssvep (ssvep/choice of the '
               'ssvep_decoder) or hybrid (a gaze decision is only a candidate; it is chosen '
               'when SSVEP confirms it, see eye_bci_ros2.fusion)', choices=INPUT_MODES),
-    ParamSpec('confirm_threshold', 0.8,
+    ParamSpec('confirm_threshold', 0.9,
               'hybrid: SSVEP posterior (ssvep/scores) of the gaze candidate that confirms it',
               value_range=(0.01, 1.0)),
-    ParamSpec('max_lag_s', 3.0,
+    ParamSpec('max_lag_s', 5.0,
               'hybrid: longest time between the gaze candidate and the SSVEP evidence that '
               'confirms it, s', value_range=(0.0, 60.0)),
+    ParamSpec('min_gaze_margin', 0.5,
+              'hybrid: a gaze decision is a candidate only with at least this margin (share '
+              'of in-region gaze on it minus the runner-up\'s): the gaze stayed on it',
+              value_range=(0.0, 1.0)),
 )
 
 
@@ -283,7 +288,8 @@ class ChoiceArbiter(Node):
     # -- outputs ----------------------------------------------------------------------------
 
     def _publish(self, decision: Decision) -> None:
-        label = self._fusion.gaze(decision.label, self._now())  # gaze mode: unchanged
+        # Input mode 'gaze' (default): the decision's label, as before.
+        label = self._fusion.gaze(decision.label, self._now(), decision.margin)
         if label is not None:
             self._publisher.publish(String(data=label))
 
@@ -305,8 +311,7 @@ class ChoiceArbiter(Node):
         values = declare_parameters(self, FUSION_PARAMETERS, self._on_fusion_parameters,
                                     self._check_fusion)
         self._fusion_values = dict(values)
-        self._fusion = ChoiceFusion(FusionSettings(
-            values['input_mode'], values['confirm_threshold'], values['max_lag_s']))
+        self._fusion = ChoiceFusion(self._fusion_settings(values))
         self._fusion_labels = None
         self.create_subscription(String, 'ssvep/choice', self._on_ssvep_choice, EVENT_QOS)
         self.create_subscription(JointState, 'ssvep/scores', self._on_ssvep_scores, 10)
@@ -316,19 +321,20 @@ class ChoiceArbiter(Node):
                                       'ssvep' else 'gaze candidates need SSVEP confirmation'))
 
     @staticmethod
-    def _check_fusion(values: dict) -> Optional[str]:
+    def _fusion_settings(values: dict) -> FusionSettings:
+        return FusionSettings(values['input_mode'], values['confirm_threshold'],
+                              values['max_lag_s'], values['min_gaze_margin'])
+
+    def _check_fusion(self, values: dict) -> Optional[str]:
         try:
-            FusionSettings(values['input_mode'], values['confirm_threshold'],
-                           values['max_lag_s'])
+            self._fusion_settings(values)
         except ValueError as error:
             return str(error)
         return None
 
     def _on_fusion_parameters(self, changed: dict) -> None:
         self._fusion_values.update(changed)
-        self._fusion.configure(FusionSettings(
-            self._fusion_values['input_mode'], self._fusion_values['confirm_threshold'],
-            self._fusion_values['max_lag_s']))
+        self._fusion.configure(self._fusion_settings(self._fusion_values))
 
     def _fusion_options(self, labels) -> None:
         """Start a new fusion round when the set of offered labels changes."""

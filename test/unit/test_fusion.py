@@ -64,6 +64,13 @@ def test_hybrid_confirmed_by_the_ssvep_posterior():
     assert fusion.ssvep_scores(OPTIONS, [0.05, 0.85, 0.05], 1.2) == 'bedroom'
 
 
+def test_hybrid_a_wandering_gaze_nominates_no_candidate():
+    fusion = _fusion('hybrid', min_gaze_margin=0.5)
+    assert fusion.ssvep_scores(OPTIONS, [0.0, 0.99, 0.0], 1.0) is None
+    assert fusion.gaze('bedroom', 1.1, margin=0.2) is None and fusion.candidate is None
+    assert fusion.gaze('bedroom', 1.2, margin=0.9) == 'bedroom'
+
+
 def test_bad_settings_say_why():
     with pytest.raises(ValueError, match='input mode'):
         FusionSettings('eeg')
