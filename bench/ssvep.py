@@ -104,7 +104,7 @@ def _accuracy(full: bool) -> Dict[str, Dict]:
 
 
 def _scan(rng, labels, duration_s) -> List:
-    """A look over the options without intent: (t, label) glances of 0.25-0.5 s."""
+    """Look over the options without intent: (t, label) glances of 0.25-0.5 s."""
     glances, t, last = [], 0.0, None
     while t < duration_s:
         label = rng.choice([lb for lb in labels if lb != last])
@@ -127,7 +127,7 @@ def _round(subject, seed, labels, intent: bool):
     else:
         target = None
         schedule = [(2.0 + t, label) for t, label in _scan(rng, labels, ROUND_S)]
-        dwell = {label: 0.0 for label in labels}
+        dwell = dict.fromkeys(labels, 0.0)
         times = [t for t, _ in schedule] + [2.0 + ROUND_S]
         for (t, label), end in zip(schedule, times[1:]):
             dwell[label] += max(0.0, min(end, 2.0 + GAZE_WINDOW_S) - t)

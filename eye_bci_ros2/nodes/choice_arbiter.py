@@ -166,7 +166,7 @@ FUSION_PARAMETERS = (
               'confirms it, s', value_range=(0.0, 60.0)),
     ParamSpec('min_gaze_margin', 0.5,
               'hybrid: a gaze decision is a candidate only with at least this margin (share '
-              'of in-region gaze on it minus the runner-up\'s): the gaze stayed on it',
+              "of in-region gaze on it minus the runner-up's): the gaze stayed on it",
               value_range=(0.0, 1.0)),
 )
 
