@@ -23,6 +23,7 @@ console_scripts = [
     'ssvep_decoder = eye_bci_ros2.nodes.ssvep_decoder:main',
     'sim_eeg = eye_bci_ros2.sim.eeg_outlet:main',
     'ssvep_calibrate = eye_bci_ros2.tools.ssvep_calibrate:main',
+    'ssvep_stimulus = eye_bci_ros2.nodes.ssvep_stimulus:main',
 ]
 
 setup(

@@ -1,42 +1,16 @@
 """The SSVEP stimulus window under Xvfb: each patch's gray level per frame, patch places."""
 
-import os
-import shutil
-import subprocess
-import time
-
 import numpy as np
 import pytest
 
 from eye_bci_ros2.ssvep.stimuli import assign_stimuli, luminance
 
-pytestmark = pytest.mark.skipif(shutil.which('Xvfb') is None,
-                                reason='needs Xvfb (apt package xvfb)')
 
 WIDTH, HEIGHT = 640, 360
 
 
-@pytest.fixture(scope='module')
-def display():
-    """Run a private Xvfb server for this module (a real X server, no monitor)."""
-    number = 100 + os.getpid() % 400
-    server = subprocess.Popen(['Xvfb', f':{number}', '-screen', '0', f'{WIDTH}x{HEIGHT}x24',
-                               '-nolisten', 'tcp'], stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL)
-    time.sleep(1.0)
-    previous = os.environ.get('DISPLAY')
-    os.environ['DISPLAY'] = f':{number}'
-    yield f':{number}'
-    if previous is None:
-        os.environ.pop('DISPLAY', None)
-    else:
-        os.environ['DISPLAY'] = previous
-    server.terminate()
-    server.wait(5)
-
-
 @pytest.fixture
-def window(display):
+def window(xvfb):
     from eye_bci_ros2.display.stimulus_window import StimulusWindow
     win = StimulusWindow(WIDTH, HEIGHT, refresh_hz=60.0, origin=(100.0, 50.0), vsync=False)
     yield win
