@@ -24,6 +24,7 @@ console_scripts = [
     'sim_eeg = eye_bci_ros2.sim.eeg_outlet:main',
     'ssvep_calibrate = eye_bci_ros2.tools.ssvep_calibrate:main',
     'ssvep_stimulus = eye_bci_ros2.nodes.ssvep_stimulus:main',
+    'ssvep_stimulus_map = eye_bci_ros2.nodes.ssvep_stimulus_map:main',
 ]
 
 setup(
