@@ -7,8 +7,9 @@ SSVEP benchmarks on the simulated subjects: accuracy / ITR, Midas touch, decoder
    :data:`eye_bci_ros2.sim.eeg.SUBJECTS`; Wolpaw ITR with a selection time
    of window + :data:`GAZE_SHIFT_S` (Nakanishi 2018's 0.5 s cue / gaze shift).
 2. ``rounds``: the room -> table task (4 then 3 options) through the online
-   decoder (:class:`eye_bci_ros2.ssvep.online.OnlineDecoder`, default
-   settings) and the hybrid fusion (:class:`eye_bci_ros2.fusion.ChoiceFusion`,
+   decoder (:class:`eye_bci_ros2.ssvep.online.OnlineDecoder`: FBCCA with the
+   default settings, and ensemble TRCA fitted on 5 trials per option with
+   ``min_window_s`` 0.5) and the hybrid fusion (:class:`eye_bci_ros2.fusion.ChoiceFusion`,
    default settings), in *intent* rounds (the person looks at and attends one
    option) and *Midas-touch* rounds (the person looks over the options for
    :data:`ROUND_S` s, 0.25-0.5 s per glance, attending whatever the gaze is on,
@@ -114,7 +115,7 @@ def _scan(rng, labels, duration_s) -> List:
     return glances
 
 
-def _round(subject, seed, labels, intent: bool):
+def _round(subject, seed, labels, intent: bool, model=None):
     """One online round; returns what SSVEP alone and hybrid chose and when."""
     rng = np.random.default_rng(seed)
     stimuli = assign_stimuli(labels, epoch_s=2.0)
@@ -136,7 +137,9 @@ def _round(subject, seed, labels, intent: bool):
         margin = (shares[0] - shares[1]) / sum(shares)
     for t, label in schedule:
         simulator.set_attended(label, t)
-    decoder = OnlineDecoder(simulator.rate, simulator.labels, OnlineSettings())
+    settings = OnlineSettings() if model is None else OnlineSettings(
+        decoder='ensemble_trca', min_window_s=0.5)
+    decoder = OnlineDecoder(simulator.rate, simulator.labels, settings, model)
     fusion = ChoiceFusion(FusionSettings('hybrid'))
     fusion.new_round(labels)
     decoder.add(*simulator.next_chunk(2.0))  # the stream ran before the round
@@ -164,19 +167,29 @@ def _round(subject, seed, labels, intent: bool):
     return target, ssvep, hybrid
 
 
-def _rounds(full: bool) -> Dict[str, Dict]:
-    """Intent and Midas-touch rounds: SSVEP alone vs hybrid."""
+def _rounds(full: bool, decoder: str = 'fbcca') -> Dict[str, Dict]:
+    """Intent and Midas-touch rounds: SSVEP alone vs hybrid, with one decoder."""
     per_subject = 12 if full else 2
     outcome = {key: [] for key in ('ssvep intent', 'hybrid intent', 'ssvep midas',
                                    'hybrid midas')}
     for index, subject in enumerate(SUBJECTS):
+        models = {}
+        if decoder != 'fbcca':
+            for labels in (ROOMS, TABLES):
+                calibration = EegSimulator(subject, seed=5000 + index)
+                stimuli = assign_stimuli(labels)
+                t, x, trials = calibration_session(calibration, stimuli, 5, 2.0, 1.0,
+                                                   seed=index)
+                models[labels] = fit_trca(x, t, trials, stimuli, calibration.rate,
+                                          calibration.labels)
         for k in range(per_subject):
             labels = ROOMS if k % 2 == 0 else TABLES
             seed = 10_000 + 100 * index + k
-            target, ssvep, hybrid = _round(subject, seed, labels, intent=True)
+            model = models.get(labels)
+            target, ssvep, hybrid = _round(subject, seed, labels, True, model)
             outcome['ssvep intent'].append((target, ssvep, len(labels)))
             outcome['hybrid intent'].append((target, hybrid, len(labels)))
-            target, ssvep, hybrid = _round(subject, seed + 50, labels, intent=False)
+            target, ssvep, hybrid = _round(subject, seed + 50, labels, False, model)
             outcome['ssvep midas'].append((None, ssvep, len(labels)))
             outcome['hybrid midas'].append((None, hybrid, len(labels)))
     section = {}
@@ -247,7 +260,9 @@ def run(quick: bool = False, full: bool = False) -> Dict[str, Dict]:
     results = {}
     if not quick:
         results.update({f'accuracy: {k}': v for k, v in _accuracy(full).items()})
-        results.update({f'rounds: {k}': v for k, v in _rounds(full).items()})
+        for decoder in ('fbcca', 'ensemble_trca'):
+            results.update({f'rounds {decoder}: {k}': v
+                            for k, v in _rounds(full, decoder).items()})
     results.update({f'cpu: {k}': v for k, v in _cpu(full).items()})
     return results
 
