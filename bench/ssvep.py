@@ -137,8 +137,8 @@ def _round(subject, seed, labels, intent: bool, model=None):
         margin = (shares[0] - shares[1]) / sum(shares)
     for t, label in schedule:
         simulator.set_attended(label, t)
-    settings = OnlineSettings() if model is None else OnlineSettings(
-        decoder='ensemble_trca', min_window_s=0.5)
+    settings = OnlineSettings(keep_scoring=True) if model is None else OnlineSettings(
+        decoder='ensemble_trca', min_window_s=0.5, keep_scoring=True)
     decoder = OnlineDecoder(simulator.rate, simulator.labels, settings, model)
     fusion = ChoiceFusion(FusionSettings('hybrid'))
     fusion.new_round(labels)

@@ -7,7 +7,8 @@ offered options' labels, the marker's text else ``ns/id``), ``ssvep/stimuli``
 :mod:`eye_bci_ros2.nodes.ssvep_messages`) and ``choice/request``
 (std_msgs/Empty); reads an EEG stream from LSL (:mod:`eye_bci_ros2.ssvep.layouts`);
 publishes ``ssvep/scores`` (sensor_msgs/JointState, every ``decide_period_s``
-while a round is open: per-option posterior and score) and ``ssvep/choice``
+while a round is open, and after its choice with ``keep_scoring``: per-option
+posterior and score) and ``ssvep/choice``
 (std_msgs/String, the chosen label, at most once per round).
 
 Rounds: a round starts when the set of offered labels changes, when a new
@@ -115,6 +116,9 @@ PARAMETERS = (
               value_range=(0.0, 1e9)),
     ParamSpec('flat_uv', 0.1, 'filtered std below which a channel is flat, uV',
               value_range=(0.0, 1000.0)),
+    ParamSpec('keep_scoring', False,
+              "after the round's choice keep publishing ssvep/scores (no further choice); "
+              "set it for the arbiter's hybrid input mode"),
     ParamSpec('decide_period_s', 0.1, 'period of scoring the window, s',
               value_range=(0.01, 5.0)),
     ParamSpec('poll_period_s', 0.02, 'period of pulling EEG from LSL, s',
@@ -137,7 +141,7 @@ def _settings(values: Dict[str, Any]) -> OnlineSettings:
         harmonics=values['harmonics'], band=tuple(values['band']),
         notch_hz=values['notch_hz'],
         rail_uv=values['rail_uv'] or LAYOUTS[values['layout']].rail_uv,
-        flat_uv=values['flat_uv'])
+        flat_uv=values['flat_uv'], keep_scoring=values['keep_scoring'])
 
 
 def _load_model(values: Dict[str, Any]) -> Optional[TrcaModel]:
@@ -465,11 +469,13 @@ class SsvepDecoder(Node):
         try:
             if self._decoder is None or not self._options:
                 return
+            done = not self._decoder.round_open
             result = self._decoder.step()
             if result is None:
                 return
             if result.problem:
-                self._warn(result.problem[:30], f'no SSVEP choice: {result.problem}')
+                if not done:
+                    self._warn(result.problem[:30], f'no SSVEP choice: {result.problem}')
                 return
             if result.excluded:
                 self._warn('excluded', f"EEG channels left out: {', '.join(result.excluded)}")

@@ -10,7 +10,8 @@ whether the evidence is enough for a choice (:mod:`eye_bci_ros2.ssvep.decision`)
 Rounds.  A round starts at a time (the stimulus epoch, a change of offered
 options, a request); its window grows from the round start up to
 ``window_s`` and then slides (the newest ``window_s``).  At most one choice
-per round.
+per round; with ``keep_scoring`` the window is still scored after it (the
+hybrid mode confirms a gaze candidate with these scores).
 
 Junk never chooses:
 
@@ -67,6 +68,8 @@ class OnlineSettings:
     :param flat_uv: filtered standard deviation below which a channel is flat, uV.
     :param settle_s: how long a channel stays out after a bad sample, s.
     :param rate_tolerance: largest relative error of the measured rate.
+    :param keep_scoring: after the round's choice keep scoring its window
+        (no further choice): the hybrid mode's SSVEP evidence.
     """
 
     decoder: str = 'fbcca'
@@ -83,6 +86,7 @@ class OnlineSettings:
     flat_uv: float = 0.1
     settle_s: float = 1.0
     rate_tolerance: float = 0.05
+    keep_scoring: bool = False
 
     def __post_init__(self):
         """Reject settings that cannot work, with a reason."""
@@ -303,7 +307,7 @@ class OnlineDecoder:
 
     def step(self) -> Optional[OnlineResult]:
         """Score the open round's window; None when no round is open."""
-        if not self.round_open:
+        if self._round is None or (self._done and not self.settings.keep_scoring):
             return None
         start_s, labels, stimuli = self._round
         result = OnlineResult(labels)
@@ -360,7 +364,7 @@ class OnlineDecoder:
         result.rest = rest
         result.posterior = self.rule.probabilities(scores, rest)
         index = self.rule.decide(scores, result.window_s, rest)
-        if index is not None:
+        if index is not None and not self._done:
             result.choice = labels[index]
             self._done = True
         return result

@@ -157,3 +157,14 @@ def test_ensemble_trca_from_a_calibration_file(graph, rig_factory, tmp_path):
     rig.offer(('garden', 'garage'), attend='garage')
     assert rig.log.wait_for(graph, r"TRCA model has no template for 'garden'")
     assert len(rig.choices.messages) == 1
+
+
+def test_keep_scoring_goes_on_after_the_choice(graph, rig_factory):
+    rig = rig_factory(keep_scoring=True)
+    graph.spin_for(1.5)
+    rig.offer(attend='kitchen')
+    assert graph.spin_until(lambda: rig.choices.messages, WAIT_S)
+    count = len(rig.scores.messages)
+    graph.spin_for(1.0)
+    assert len(rig.scores.messages) >= count + 3  # still scored ...
+    assert [m.data for m in rig.choices.messages] == ['kitchen']  # ... but chosen once
