@@ -89,5 +89,8 @@ class Rig:
         return now
 
     def stop(self):
-        """Stop the outlet (the stream disappears)."""
+        """Close the decoder's inlet, then stop the outlet (the stream disappears)."""
+        # liblsl can crash when an outlet is destroyed under a connected inlet: the
+        # lost-stream test does that on purpose, teardown does not.
+        self.node.close_stream()
         self.streamer.stop()

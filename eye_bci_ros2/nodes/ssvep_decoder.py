@@ -231,10 +231,21 @@ class SsvepDecoder(Node):
         """Return the decoded channel names, or None until a stream fits the parameters."""
         return self._decoder.channels if self._decoder is not None else None
 
-    def destroy_node(self):
-        """Close the inlet, then destroy the node."""
+    def close_stream(self) -> None:
+        """Close the inlet and stop looking for streams (before its outlet goes away)."""
         self._disconnect()
         self._resolver = None
+        for key in ('poll_period_s', 'resolve_period_s'):
+            timer = self._my_timers.pop(key, None)
+            if timer is not None:
+                self.destroy_timer(timer)
+
+    def destroy_node(self):
+        """Close the inlet, then destroy the node (a second call does nothing more)."""
+        if self._my_timers.get('decide_period_s') is None:
+            return None
+        self.close_stream()
+        self._my_timers.pop('decide_period_s', None)
         return super().destroy_node()
 
     # -- parameters --------------------------------------------------------------------------
