@@ -19,7 +19,7 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(PY) -m eye_bci_ros2.demo $(ARGS)
+	$(PY) -m eye_bci_ros2.experiments.demo $(ARGS)
 
 test: $(STAMP)
 	$(PY) -m pytest test $(ARGS)
@@ -31,7 +31,7 @@ soak: $(STAMP)
 	$(PY) -m bench.soak $(ARGS)
 
 accuracy: $(STAMP)
-	$(PY) -m eye_bci_ros2.accuracy_test $(ARGS)
+	$(PY) -m eye_bci_ros2.experiments.accuracy_test $(ARGS)
 
 lint: $(STAMP)
 	$(PY) -m pytest test/test_flake8.py test/test_pep257.py

@@ -7,10 +7,10 @@ These paths are measured against R = 3, 10 and 100 regions:
   of samples in chunks of :data:`CHUNK` (bounded memory: the (chunk, R * K)
   edge-value matrix stays in cache), reduced to one region index per sample;
 * per message: one sample at a time through the per-sample classification
-  of the arbiter's core (:meth:`eye_bci_ros2.arbitration.RegionSet.classify_one`,
+  of the arbiter's core (:meth:`eye_bci_ros2.rounds.RegionSet.classify_one`,
   or :class:`~eye_bci_ros2.geometry.PolygonSet` on a (1, 2) array while that
   module does not exist); and, as ``per_message_tracker_samples_per_s``, one
-  sample per :meth:`eye_bci_ros2.arbitration.ChoiceTracker.add_sample` call,
+  sample per :meth:`eye_bci_ros2.rounds.RoundScheduler.add_sample` call,
   the choice_arbiter node's work per gaze message without ROS (classification
   plus the round's bookkeeping);
 * reference: the original way, a Python loop over samples and regions
@@ -30,12 +30,8 @@ from bench import reference_original
 from bench.timing import measure
 from eye_bci_ros2 import geometry
 
-try:
-    from eye_bci_ros2 import arbitration
-except ModuleNotFoundError as error:  # not written yet: fall back to the geometry API
-    if error.name != 'eye_bci_ros2.arbitration':
-        raise
-    arbitration = None
+from eye_bci_ros2.regions import RegionSet
+from eye_bci_ros2.rounds import ArbiterSettings, RoundScheduler
 
 #: Metrics shown in the printed table (the JSON has them all).
 TABLE_COLUMNS = ('samples_per_s', 'per_message_samples_per_s',
@@ -136,20 +132,8 @@ def per_message_classifier(polygons: np.ndarray) -> Tuple[str, Callable[[float, 
 
     :returns: ``(api_name, f)``; ``f`` gives the region index or -1.
     """
-    if arbitration is not None and hasattr(arbitration, 'RegionSet'):
-        region_set = arbitration.RegionSet([str(i) for i in range(len(polygons))], polygons)
-        if hasattr(region_set, 'classify_one'):
-            return 'arbitration.RegionSet.classify_one', region_set.classify_one
-
-        def classify(x: float, y: float) -> int:
-            return int(region_set.classify(np.array([[x, y]]))[0])
-        return 'arbitration.RegionSet.classify', classify
-    polygon_set = geometry.PolygonSet(polygons)
-
-    def classify_polygon_set(x: float, y: float) -> int:
-        inside = polygon_set.contains(np.array([[x, y]]))[0]
-        return int(inside.argmax()) if inside.any() else -1
-    return 'geometry.PolygonSet.contains', classify_polygon_set
+    region_set = RegionSet([str(i) for i in range(len(polygons))], polygons)
+    return 'regions.RegionSet.classify_one', region_set.classify_one
 
 
 def per_message_tracker(polygons: np.ndarray) -> Optional[Callable[[list], object]]:
@@ -157,19 +141,17 @@ def per_message_tracker(polygons: np.ndarray) -> Optional[Callable[[list], objec
     Return ``f(points)`` feeding samples one by one to the arbiter's core, or None without it.
 
     ``f`` opens a round on ``polygons`` in a fresh
-    :class:`eye_bci_ros2.arbitration.ChoiceTracker` (window long enough for
+    :class:`eye_bci_ros2.rounds.RoundScheduler` (window long enough for
     every sample, no early decision), passes each sample to
-    :meth:`~eye_bci_ros2.arbitration.ChoiceTracker.add_sample` as the
+    :meth:`~eye_bci_ros2.rounds.RoundScheduler.add_sample` as the
     choice_arbiter node does per gaze message (stamps 1 ms apart), then closes
     the round and returns its decision.
     """
-    if arbitration is None or not hasattr(arbitration, 'ChoiceTracker'):
-        return None
-    region_set = arbitration.RegionSet([str(i) for i in range(len(polygons))], polygons, 0.0)
+    region_set = RegionSet([str(i) for i in range(len(polygons))], polygons, 0.0)
 
     def feed(points: list) -> object:
         window_s = len(points) * 1e-3 + 1.0
-        tracker = arbitration.ChoiceTracker(arbitration.ArbiterSettings(window_s=window_s))
+        tracker = RoundScheduler(ArbiterSettings(window_s=window_s))
         tracker.add_regions(region_set, now=0.0)  # new labels: a round starts at stamp 0
         for index, (x, y) in enumerate(points):
             stamp = index * 1e-3

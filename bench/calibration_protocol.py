@@ -27,7 +27,8 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 
 from eye_bci_ros2.calibration import fit_intrinsic, fit_projection, intrinsic_from_projection
-from eye_bci_ros2.calibration import pixel_errors, rviz_intrinsic
+from eye_bci_ros2.calibration import pixel_errors
+from eye_bci_ros2.camera_model import rviz_intrinsic
 from eye_bci_ros2.geometry import look_at
 
 #: Case name -> largest point height above the map, m.

@@ -1,12 +1,12 @@
 """
 Benchmark: how fast and how well a person's choice is decided from gaze.
 
-A simulated person (:data:`eye_bci_ros2.gaze_model.CONSUMER_TRACKER`: 90 Hz,
+A simulated person (:data:`eye_bci_ros2.sim.person.CONSUMER_TRACKER`: 90 Hz,
 0.5 deg offset in a direction drawn per person, 0.3 deg jitter per axis,
 blinks and 1 % lost samples) chooses one of 3, 4 or 9 square targets of
 60, 100, 150 or 200 px on a 1920x1080 screen (23.8 inch at 600 mm, 38 px per
 degree at the centre).  The decisions are made by
-:class:`eye_bci_ros2.arbitration.RoundEvidence`, the object the
+:class:`eye_bci_ros2.rounds.RoundEvidence`, the object the
 ``choice_arbiter`` node uses, fed the valid samples in stamp order (lost
 samples are NaN and dropped, as the LSL bridge does): this is the node's
 decision logic on simulated time, without ROS.
@@ -44,7 +44,7 @@ Rules:
 * ``vote``: majority of the in-region samples of the same window.
 * ``node_default``: the node with ``early_decision: true`` and every other
   parameter at its default (:class:`EarlyConfig` defaults are
-  :class:`~eye_bci_ros2.arbitration.ArbiterSettings` defaults, the node's).
+  :class:`~eye_bci_ros2.rounds.ArbiterSettings` defaults, the node's).
 * ``best``: early decision with the configuration (confidence, min_samples,
   dwell_s, min_reaction_s, hit_rate) picked by a grid search on separate
   tuning persons (seeds disjoint from the test seeds; the test set is never
@@ -84,8 +84,10 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.arbitration import ArbiterSettings, RegionSet, RoundEvidence
-from eye_bci_ros2.gaze_model import CONSUMER_TRACKER, GazeParams, GazeSimulator
+from eye_bci_ros2.evidence import RoundEvidence
+from eye_bci_ros2.regions import RegionSet
+from eye_bci_ros2.rounds import ArbiterSettings
+from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeParams, GazeSimulator
 
 #: The simulated person and tracker.
 PARAMS: GazeParams = CONSUMER_TRACKER
@@ -281,7 +283,7 @@ def decide_early(trial: Trial, regions: RegionSet, config: EarlyConfig,
 
     :param chunk: feed the samples in chunks of this many (the node feeds
         them one by one as they arrive, through
-        :class:`~eye_bci_ros2.arbitration.ChoiceTracker`); None = all at
+        :class:`~eye_bci_ros2.rounds.RoundScheduler`); None = all at
         once, which gives the same decision because :meth:`RoundEvidence.add`
         stops at the first sample that passes.
     :returns: (label or None, decision time s: the deciding sample's stamp,
@@ -544,7 +546,7 @@ def run(quick: bool = False, trials: Optional[int] = None, tuning_trials: Option
                 if name in ('original', 'node_default', 'best')}
     section['node_default_is_best'] = node_default == config
     section['setup'] = {
-        'decision_logic': 'eye_bci_ros2.arbitration.RoundEvidence (the choice_arbiter node '
+        'decision_logic': 'eye_bci_ros2.rounds.RoundEvidence (the choice_arbiter node '
                           'logic) on simulated time, valid samples in stamp order',
         'person': PARAMS.name, 'rate_hz': PARAMS.tracker.rate_hz,
         'fast_rate_hz': FAST_PARAMS.tracker.rate_hz,

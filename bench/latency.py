@@ -61,7 +61,6 @@ import psutil
 import pylsl
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.logging import LoggingSeverity
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -74,7 +73,8 @@ from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import cube_marker, marker_array_to_regions
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.qos import EVENT_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.runner import make_executor, spin_for, spin_until
+from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
 
 #: Push rate of the simulated tracker, Hz.
 RATE_HZ = 1200.0
@@ -168,7 +168,7 @@ def view_nodes_loop(domain: int, stop) -> None:
     """
     context = Context()
     rclpy.init(context=context, domain_id=domain)
-    executor = SingleThreadedExecutor(context=context)
+    executor = make_executor(context=context)
     nodes = [CameraTracker(context=context), MarkerProjector(context=context)]
     try:
         for node in nodes:
@@ -215,21 +215,6 @@ class Driver(Node):
         return {label: tuple(polygon.mean(axis=0)) for label, polygon in zip(labels, polygons)}
 
 
-def _spin_until(executor, predicate, timeout: float) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        executor.spin_once(timeout_sec=0.005)
-    return predicate()
-
-
-def _spin_for(executor, seconds: float) -> None:
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        executor.spin_once(timeout_sec=min(0.005, max(0.0, end - time.monotonic())))
-
-
 def _cpu_seconds(process: psutil.Process) -> float:
     times = process.cpu_times()
     return times.user + times.system
@@ -270,7 +255,7 @@ def measure(rounds: int, poll_period_s: Optional[float] = None, rate: float = RA
     with domain_id() as domain:
         context = Context()
         rclpy.init(context=context, domain_id=domain)
-        executor = SingleThreadedExecutor(context=context)
+        executor = make_executor(context=context)
         nodes = []
         try:
             nodes = [ChoiceArbiter(context=context, parameter_overrides=[
@@ -285,9 +270,9 @@ def measure(rounds: int, poll_period_s: Optional[float] = None, rate: float = RA
                 node.get_logger().set_level(LoggingSeverity.WARN)
                 executor.add_node(node)
             driver.publish_menu()
-            if not _spin_until(executor, lambda: driver.regions is not None
-                               and len(driver.regions.markers) == len(MARKERS),
-                               SETUP_TIMEOUT_S):
+            if not spin_until(executor, lambda: driver.regions is not None
+                              and len(driver.regions.markers) == len(MARKERS),
+                              SETUP_TIMEOUT_S):
                 raise RuntimeError('marker_projector published no regions for the menu')
             targets = driver.targets()
 
@@ -301,10 +286,10 @@ def measure(rounds: int, poll_period_s: Optional[float] = None, rate: float = RA
                 _bridge_command(name, source_id, poll_period_s),
                 env=dict(os.environ, ROS_DOMAIN_ID=str(domain)),
                 stdout=subprocess.DEVNULL, stderr=bridge_log)
-            if not _spin_until(executor, lambda: arbiter.samples_received > 0, SETUP_TIMEOUT_S):
+            if not spin_until(executor, lambda: arbiter.samples_received > 0, SETUP_TIMEOUT_S):
                 raise RuntimeError('no gaze reached the arbiter (bridge log: '
                                    f'{_tail(bridge_log)})')
-            _spin_for(executor, WARMUP_S)
+            spin_for(executor, WARMUP_S)
 
             bridge_process, own_process = psutil.Process(bridge.pid), psutil.Process()
             cpu_start = (_cpu_seconds(bridge_process), _cpu_seconds(own_process))
@@ -315,17 +300,17 @@ def measure(rounds: int, poll_period_s: Optional[float] = None, rate: float = RA
                 label = labels[round_id % len(labels)]
                 opened = arbiter.rounds_started
                 driver.request_pub.publish(Empty())
-                if not _spin_until(executor, lambda: arbiter.rounds_started > opened,
-                                   ROUND_TIMEOUT_S):
+                if not spin_until(executor, lambda: arbiter.rounds_started > opened,
+                                  ROUND_TIMEOUT_S):
                     lost += 1
                     continue
-                _spin_for(executor, rng.uniform(*PAUSE_S))
+                spin_for(executor, rng.uniform(*PAUSE_S))
                 received = len(driver.received)
                 # A random delay in the pusher makes the marked sample independent of
                 # this loop's timing, which follows the bridge's poll timer.
                 here.send((round_id, *targets[label], rng.uniform(*MARK_DELAY_S)))
-                got = _spin_until(executor, lambda: len(driver.received) > received,
-                                  ROUND_TIMEOUT_S)
+                got = spin_until(executor, lambda: len(driver.received) > received,
+                                 ROUND_TIMEOUT_S)
                 pushed_at = _pushed_at(here, round_id)
                 if not got or pushed_at is None:
                     lost += 1

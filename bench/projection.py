@@ -24,7 +24,7 @@ import numpy as np
 from bench import reference_original
 from bench.timing import measure
 from eye_bci_ros2 import geometry
-from eye_bci_ros2.calibration import rviz_intrinsic
+from eye_bci_ros2.camera_model import rviz_intrinsic
 
 #: Metrics shown in the printed table (the JSON has them all).
 TABLE_COLUMNS = ('ms', 'ms_min', 'reference_ms', 'speedup', 'reference_extrapolated',

@@ -2,7 +2,7 @@
 Soak test: the real pipeline under a 1200 Hz LSL gaze stream for minutes (``make soak``).
 
 Runs lsl_gaze_bridge, camera_tracker, marker_projector and choice_arbiter in
-this process on one SingleThreadedExecutor (as ``eye_bci`` does), on a
+this process on one executor (as ``eye_bci`` does: the EventsExecutor), on a
 private ROS domain, fed by a real LSL outlet whose samples a background thread
 pushes at the nominal rate (12 every 10 ms at 1200 Hz) with exact sample
 times.  Every ``--round-period`` seconds a driver node offers the other of two
@@ -15,9 +15,9 @@ Measured, and written to ``soak_results.json``:
   (least-squares slope after the first minute, or the first half of a short
   run, MB/min);
 * CPU: this process's CPU use over each sample period (100 % = one core);
-* samples: pushed into LSL (from the moment the bridge connected) vs ``gaze``
-  messages received on the ROS side (a subscriber on the same executor): none
-  may be lost;
+* samples: pushed into LSL (from the moment the bridge connected) vs samples
+  in the ``gaze/samples`` batches received on the ROS side (a subscriber on
+  the same executor): none may be lost;
 * rounds: every round had gaze on a region, so each must end in exactly one
   ``choice``, the looked-at label: rounds without a choice and wrong choices
   are counted; decision latency = choice arrival minus the round's window end.
@@ -41,14 +41,13 @@ from typing import Dict, List, Optional
 import uuid
 
 from domain_coordinator import domain_id
-from geometry_msgs.msg import PointStamped
 import numpy as np
 import psutil
 import pylsl
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
+from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -59,7 +58,8 @@ from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import cube_marker
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.qos import EVENT_QOS, GAZE_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.runner import executor_kind, make_executor, spin_until
+from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
 
 #: Static RViz view of the soak (world frame ``map``, m).
 EYE, FOCUS, UP = [0.0, -8.0, 12.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]
@@ -173,12 +173,12 @@ class Soak:
         ]
         self.bridge, self.arbiter = self.nodes[0], self.nodes[3]
         self.driver = rclpy.create_node('soak_driver', context=context)
-        self.executor = SingleThreadedExecutor(context=context)
+        self.executor = make_executor(context=context)
         for node in self.nodes + [self.driver]:
             self.executor.add_node(node)
         self.choices_pub = self.driver.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
         self.gaze_received = 0
-        self.driver.create_subscription(PointStamped, 'gaze', self._on_gaze, GAZE_QOS)
+        self.driver.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
         self.driver.create_subscription(String, 'choice', self._on_choice, EVENT_QOS)
         self.targets = screen_targets()
         self.pusher = GazePusher(self.outlet, args.rate)
@@ -189,8 +189,8 @@ class Soak:
     def _now(self) -> float:
         return self.driver.get_clock().now().nanoseconds * 1e-9
 
-    def _on_gaze(self, message: PointStamped) -> None:
-        self.gaze_received += 1
+    def _on_gaze(self, message: PointCloud2) -> None:
+        self.gaze_received += message.width * message.height
 
     def _on_choice(self, message: String) -> None:
         if self.rounds:
@@ -200,12 +200,7 @@ class Soak:
 
     def spin_until(self, predicate, timeout: float) -> bool:
         """Spin until ``predicate()`` holds; return whether it did."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if predicate():
-                return True
-            self.executor.spin_once(timeout_sec=0.01)
-        return predicate()
+        return spin_until(self.executor, predicate, timeout)
 
     def offer(self, index: int) -> None:
         """Offer the next menu and look at one of its choices."""
@@ -286,7 +281,7 @@ class Soak:
             'machine': machine_info(),
             'config': {'duration_s': round(elapsed, 1), 'rate_hz': self.args.rate,
                        'round_period_s': self.args.round_period, 'window_s': WINDOW_S,
-                       'executor': 'SingleThreadedExecutor, 4 pipeline nodes + driver'},
+                       'executor': f'{executor_kind()}, 4 pipeline nodes + driver'},
             'samples': {'pushed': pushed, 'gaze_received': received,
                         'lost': pushed - received, 'bridge_counters': counters},
             'rounds': {'offered': len(complete), 'right_choice': right,

@@ -28,8 +28,10 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from eye_bci_ros2.camera_model import rviz_intrinsic  # noqa: F401 - in the calibration API too
+from eye_bci_ros2.geometry import MIN_DEPTH
+
 #: Points closer than this in front of the camera (m) count as behind it.
-MIN_DEPTH = 1e-6
 
 #: Relative singular value below which a configuration counts as degenerate.
 RANK_TOLERANCE = 1e-9
@@ -103,28 +105,6 @@ def _correspondences(points, pixels, minimum: int, method: str):
         raise ValueError(f'points {first[0]} and {second[0]} are the same world point '
                          f'{points[first[0]].tolist()}: each pair must be a distinct point')
     return points, pixels
-
-
-def rviz_intrinsic(width, height, fov_y_deg: float = 45.0) -> np.ndarray:
-    """
-    Analytic intrinsic of an RViz2 render panel (Ogre: square pixels, centred principal point).
-
-    :param width: render panel width W, px (> 0).
-    :param height: render panel height H, px (> 0).
-    :param fov_y_deg: vertical field of view, degrees, in (0, 180); RViz uses 45.
-    :returns: shape (3, 4), ``fx = fy = (H / 2) / tan(FOVy / 2)``, ``cx = W / 2``,
-        ``cy = H / 2``.
-    :raises ValueError: non-positive size or a field of view outside (0, 180).
-    """
-    width, height, fov_y_deg = float(width), float(height), float(fov_y_deg)
-    if not (math.isfinite(width) and math.isfinite(height) and width > 0 and height > 0):
-        raise ValueError(f'render panel size must be positive, got {width} x {height} px')
-    if not (math.isfinite(fov_y_deg) and 0.0 < fov_y_deg < 180.0):
-        raise ValueError(f'fov_y_deg must be in (0, 180) degrees, got {fov_y_deg}')
-    focal = (height / 2.0) / math.tan(math.radians(fov_y_deg) / 2.0)
-    return np.array([[focal, 0.0, width / 2.0, 0.0],
-                     [0.0, focal, height / 2.0, 0.0],
-                     [0.0, 0.0, 1.0, 0.0]])
 
 
 def _normalising_transform(coordinates: np.ndarray) -> np.ndarray:
@@ -280,6 +260,32 @@ def fit_intrinsic(points, pixels, external, model: str = 'rviz') -> np.ndarray:
         fy, cy = _solve(np.column_stack([y, ones]), pixels[:, 1],
                         'all points are at the same image height')
     return np.array([[fx, skew, cx, 0.0], [0.0, fy, cy, 0.0], [0.0, 0.0, 1.0, 0.0]])
+
+
+def fit_orthographic(points, pixels, external) -> np.ndarray:
+    """
+    Fit an orthographic (TopDownOrtho) intrinsic, the External being known.
+
+    The model of :func:`eye_bci_ros2.geometry.orthographic_intrinsic`:
+    ``u = s X + cx``, ``v = s Y + cy`` with camera-frame ``(X, Y)`` in m, linear
+    in (s, cx, cy); the residuals are pixel distances.  ``s @ external`` is
+    then a 3x4 affine camera that :func:`residuals` reports on.
+
+    :param points: world points, shape (N >= 3, 3), m.
+    :param pixels: their image pixels, shape (N, 2), px.
+    :param external: shape (4, 4), world -> camera, rigid.
+    :returns: shape (3, 4), ``[[s, 0, 0, cx], [0, s, 0, cy], [0, 0, 0, 1]]``.
+    :raises ValueError: fewer than 3 points, all points on one line along the
+        view, NaN, mismatched shapes or duplicated points.
+    """
+    points, pixels = _correspondences(points, pixels, MIN_POINTS['rviz'],
+                                      'the orthographic fit')
+    x, y = camera_points(points, external)[:, :2].T
+    ones, zeros = np.ones_like(x), np.zeros_like(x)
+    design = np.block([[np.column_stack([x, ones, zeros])], [np.column_stack([y, zeros, ones])]])
+    scale, cx, cy = _solve(design, np.concatenate(pixels.T),
+                           'all points lie on one line along the view direction')
+    return np.array([[scale, 0.0, 0.0, cx], [0.0, scale, 0.0, cy], [0.0, 0.0, 0.0, 1.0]])
 
 
 def _solve(design: np.ndarray, target: np.ndarray, degenerate: str) -> np.ndarray:

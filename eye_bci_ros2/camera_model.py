@@ -8,17 +8,19 @@ renders the scene with.  Conventions (DESIGN.md):
 * optical camera frame (REP-103): z forward, x right, y down, m.
 * Ogre camera frame (what RViz's view controllers move): looks along -Z, +Y
   up, +X right, so ``R_optical = R_ogre @ diag(1, -1, -1)``.
+* x-forward camera frame (the Jazzy port of the animated view controller,
+  ``rviz_plugin_view_animated``): x = view direction, y left, z = camera up.
 * image: top-left of the render panel, u right, v down, px.
 * screen: image + (X0, Y0) = ``screen_offset``, px.
 * Quaternions are ordered x, y, z, w.
 """
 
+import math
 from typing import Sequence, Tuple
 
 import numpy as np
 
 from eye_bci_ros2 import geometry
-from eye_bci_ros2.calibration import rviz_intrinsic
 
 #: Render panel used when nothing else is known: 1280x720 px, the render panel
 #: of an RViz window on a 1920x1080 screen (side panels and toolbars take the rest).
@@ -27,11 +29,41 @@ DEFAULT_IMAGE_SIZE = (1280, 720)
 #: RViz2 (Ogre 1.12) renders with this vertical field of view, degrees.
 RVIZ_FOV_Y_DEG = 45.0
 
-__all__ = ['clip_polygons', 'look_at_pose', 'ogre_pose_from_optical', 'optical_pose_from_ogre',
-           'parse_intrinsic', 'rviz_intrinsic', 'RvizCamera']
+__all__ = ['clip_polygons', 'look_at_pose', 'ogre_pose_from_optical', 'optical_pose_from',
+           'optical_pose_from_ogre', 'OrthographicCamera', 'parse_intrinsic', 'pose_from_optical',
+           'POSE_CONVENTIONS', 'rviz_intrinsic', 'RvizCamera']
+
+#: Camera pose conventions a pose topic can use (see :func:`optical_pose_from`).
+POSE_CONVENTIONS = ('ogre', 'x_forward', 'optical')
+
+#: Columns: the optical axes (x right, y down, z forward) in x-forward camera
+#: axes (x forward, y left, z up): ``R_optical = R_x_forward @ _X_FORWARD_TO_OPTICAL``.
+_X_FORWARD_TO_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 #: Tolerance on the last row [0, 0, 1, 0] of a user-supplied intrinsic.
 _LAST_ROW_TOLERANCE = 1e-2
+
+
+def rviz_intrinsic(width, height, fov_y_deg: float = 45.0) -> np.ndarray:
+    """
+    Analytic intrinsic of an RViz2 render panel (Ogre: square pixels, centred principal point).
+
+    :param width: render panel width W, px (> 0).
+    :param height: render panel height H, px (> 0).
+    :param fov_y_deg: vertical field of view, degrees, in (0, 180); RViz uses 45.
+    :returns: shape (3, 4), ``fx = fy = (H / 2) / tan(FOVy / 2)``, ``cx = W / 2``,
+        ``cy = H / 2``.
+    :raises ValueError: non-positive size or a field of view outside (0, 180).
+    """
+    width, height, fov_y_deg = float(width), float(height), float(fov_y_deg)
+    if not (math.isfinite(width) and math.isfinite(height) and width > 0 and height > 0):
+        raise ValueError(f'render panel size must be positive, got {width} x {height} px')
+    if not (math.isfinite(fov_y_deg) and 0.0 < fov_y_deg < 180.0):
+        raise ValueError(f'fov_y_deg must be in (0, 180) degrees, got {fov_y_deg}')
+    focal = (height / 2.0) / math.tan(math.radians(fov_y_deg) / 2.0)
+    return np.array([[focal, 0.0, width / 2.0, 0.0],
+                     [0.0, focal, height / 2.0, 0.0],
+                     [0.0, 0.0, 1.0, 0.0]])
 
 
 def parse_intrinsic(values) -> np.ndarray:
@@ -91,6 +123,62 @@ def ogre_pose_from_optical(position, quaternion_xyzw) -> Tuple[np.ndarray, np.nd
     :returns: ``(position (3,), quaternion_xyzw (4,))`` of the Ogre camera.
     """
     return optical_pose_from_ogre(position, quaternion_xyzw)
+
+
+def optical_pose_from(convention: str, position,
+                      quaternion_xyzw) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Convert a camera pose in a named convention to the optical camera pose.
+
+    * ``ogre``: the Ogre camera (forward -Z, up +Y), as the ROS 1
+      ``rviz_animated_view_controller`` publishes on ``rviz/current_camera_pose``;
+      see :func:`optical_pose_from_ogre`.
+    * ``x_forward``: pose x = view direction, z = camera up (y left), as the Jazzy
+      port publishes on ``rviz_plugin_view_animated_<N>/pose``: the Ogre
+      orientation times ``RPY(0, pi/2, pi/2)`` (weraleiso/ias_rviz_plugins,
+      rviz_plugin_view_animated/source/rviz_plugin_view_animated.cpp,
+      ``PublishViewPose``).  Then ``R_optical = R_x_forward @ M`` with M's
+      columns (0, -1, 0), (0, 0, -1), (1, 0, 0).
+    * ``optical``: already z forward, y down (REP-103 camera frame).
+
+    :param convention: one of :data:`POSE_CONVENTIONS`.
+    :param position: camera centre in the world frame, shape (3,), m.
+    :param quaternion_xyzw: orientation in the world frame, order x, y, z, w;
+        normalised here, must not be zero.
+    :returns: ``(position (3,), quaternion_xyzw (4,))`` of the optical frame,
+        quaternion unit with w >= 0.
+    :raises ValueError: unknown convention, NaN/infinite values or a zero quaternion.
+    """
+    if convention == 'ogre':
+        return optical_pose_from_ogre(position, quaternion_xyzw)
+    position = _finite('camera position', position, 3)
+    quaternion = _unit_quaternion(quaternion_xyzw)
+    if convention == 'optical':
+        return position, _canonical(quaternion)
+    if convention == 'x_forward':
+        rotation = geometry.quaternion_to_matrix(quaternion) @ _X_FORWARD_TO_OPTICAL
+        return position, _canonical(geometry.matrix_to_quaternion(rotation))
+    raise ValueError(f"unknown pose convention '{convention}' "
+                     f"(one of: {', '.join(POSE_CONVENTIONS)})")
+
+
+def pose_from_optical(convention: str, position,
+                      quaternion_xyzw) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Convert an optical camera pose to a named convention (inverse of :func:`optical_pose_from`).
+
+    :param convention: one of :data:`POSE_CONVENTIONS`.
+    :param position: camera centre in the world frame, shape (3,), m.
+    :param quaternion_xyzw: optical frame orientation, order x, y, z, w.
+    :returns: ``(position (3,), quaternion_xyzw (4,))`` in ``convention``.
+    """
+    if convention == 'x_forward':
+        position = _finite('camera position', position, 3)
+        rotation = geometry.quaternion_to_matrix(
+            _unit_quaternion(quaternion_xyzw)) @ _X_FORWARD_TO_OPTICAL.T
+        return position, _canonical(geometry.matrix_to_quaternion(rotation))
+    # The Ogre half turn is its own inverse; the optical case is the identity.
+    return optical_pose_from(convention, position, quaternion_xyzw)
 
 
 def look_at_pose(eye, focus, up) -> Tuple[np.ndarray, np.ndarray]:
@@ -196,11 +284,93 @@ def _canonical(quaternion_xyzw: np.ndarray) -> np.ndarray:
     return quaternion_xyzw if quaternion_xyzw[3] >= 0 else -quaternion_xyzw
 
 
-class RvizCamera:
+class _PanelCamera:
+    """
+    What every RViz camera model shares: the render panel, where it sits, the pose.
+
+    Subclasses give ``intrinsic``, ``project``, ``back_project`` and
+    ``_silhouettes`` for their projection.
+
+    :ivar image_size: (W, H) of the render panel, px.
+    :ivar screen_offset: (X0, Y0), shape (2,), px: the render panel's top-left
+        on the screen.
+    :ivar external: shape (4, 4), world -> optical camera.
+    """
+
+    def _set_panel(self, image_size, screen_offset, external) -> None:
+        """Check and store the panel size (W, H) px, offset (X0, Y0) px and external (4, 4)."""
+        width, height = (float(v) for v in np.asarray(image_size, dtype=float).reshape(2))
+        if not (np.isfinite(width) and np.isfinite(height)) or width <= 0 or height <= 0:
+            raise ValueError(f'image size must be positive, got {width:g} x {height:g} px')
+        self.image_size = (width, height)
+        self.screen_offset = _finite('screen offset', screen_offset, 2)
+        self.external = np.eye(4) if external is None else _check_external(external)
+
+    @property
+    def eye(self) -> np.ndarray:
+        """Camera centre in the world frame, shape (3,), m."""
+        return -self.external[:3, :3].T @ self.external[:3, 3]
+
+    @property
+    def projection(self) -> np.ndarray:
+        """Return the 3x4 world -> image matrix ``intrinsic @ external`` (the report's C)."""
+        return self.intrinsic @ self.external
+
+    def to_screen(self, uv) -> np.ndarray:
+        """Image px (..., 2) -> screen px (..., 2): add (X0, Y0)."""
+        return np.asarray(uv, dtype=float) + self.screen_offset
+
+    def to_image(self, screen_xy) -> np.ndarray:
+        """Screen px (..., 2) -> image px (..., 2): subtract (X0, Y0)."""
+        return np.asarray(screen_xy, dtype=float) - self.screen_offset
+
+    def in_image(self, uv) -> np.ndarray:
+        """Which image points (N, 2) lie on the render panel, shape (N,) bool."""
+        uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+        width, height = self.image_size
+        with np.errstate(invalid='ignore'):
+            return ((uv[:, 0] >= 0) & (uv[:, 0] <= width)
+                    & (uv[:, 1] >= 0) & (uv[:, 1] <= height))
+
+    def box_regions(self, positions, quaternions_xyzw, scales,
+                    clip: bool = True) -> Tuple[np.ndarray, np.ndarray]:
+        """
+        Screen regions of M box markers.
+
+        Each region is the convex hull of the box's projected corners (its
+        exact silhouette), cut to the render panel when ``clip``, then moved
+        by (X0, Y0) into screen px.  A box with any corner behind the camera,
+        a box that contains the camera, and (when clipping) a box wholly off
+        the panel has no region: it is never drawn inverted or off-panel.
+
+        :param positions: shape (M, 3), world frame, m.
+        :param quaternions_xyzw: shape (M, 4), order x, y, z, w, not zero.
+        :param scales: shape (M, 3), full side lengths, m, > 0.
+        :param clip: cut regions to the render panel [0, W] x [0, H].
+        :returns: ``(polygons, visible)``: polygons shape (M, K, 2) screen px,
+            counter-clockwise as the person sees it, padded by repeating the
+            last vertex (K = 6, or at least 10 when clipping); visible shape (M,) bool;
+            rows of invisible boxes are NaN.
+        """
+        polygons, visible = self._silhouettes(positions, quaternions_xyzw, scales)
+        if clip:
+            polygons, on_panel = clip_polygons(polygons, *self.image_size)
+            visible = visible & on_panel
+            polygons = _pad_vertices(polygons, 10)
+        return self.to_screen(polygons), visible
+
+    def __repr__(self) -> str:
+        """Summarise the camera for logs."""
+        return (f'{type(self).__name__}(image_size={self.image_size}, '
+                f'screen_offset={self.screen_offset.tolist()}, eye={self.eye.round(3).tolist()})')
+
+
+class RvizCamera(_PanelCamera):
     """
     A pinhole model of the camera RViz renders with, and where its panel sits.
 
-    Immutable: the ``with_*`` methods return a new camera.
+    The perspective view controllers (Orbit, XYOrbit, ThirdPersonFollower,
+    FPS).  Immutable: the ``with_*`` methods return a new camera.
 
     :ivar intrinsic: shape (3, 4), px.
     :ivar image_size: (W, H) of the render panel, px.
@@ -208,6 +378,9 @@ class RvizCamera:
         on the screen.
     :ivar external: shape (4, 4), world -> optical camera.
     """
+
+    #: Which projection this model uses.
+    kind = 'perspective'
 
     def __init__(self, intrinsic, image_size: Sequence[int] = DEFAULT_IMAGE_SIZE,
                  screen_offset: Sequence[float] = (0.0, 0.0), external=None):
@@ -223,12 +396,7 @@ class RvizCamera:
         :raises ValueError: on any invalid part.
         """
         self.intrinsic = parse_intrinsic(intrinsic)
-        width, height = (float(v) for v in np.asarray(image_size, dtype=float).reshape(2))
-        if not (np.isfinite(width) and np.isfinite(height)) or width <= 0 or height <= 0:
-            raise ValueError(f'image size must be positive, got {width:g} x {height:g} px')
-        self.image_size = (width, height)
-        self.screen_offset = _finite('screen offset', screen_offset, 2)
-        self.external = np.eye(4) if external is None else _check_external(external)
+        self._set_panel(image_size, screen_offset, external)
 
     @classmethod
     def from_look_at(cls, eye, focus, up, image_size: Sequence[int] = DEFAULT_IMAGE_SIZE,
@@ -277,16 +445,6 @@ class RvizCamera:
         """Return a copy looking from ``eye`` at ``focus`` with ``up`` (world frame)."""
         return self.replace(external=geometry.look_at(eye, focus, up))
 
-    @property
-    def eye(self) -> np.ndarray:
-        """Camera centre in the world frame, shape (3,), m."""
-        return -self.external[:3, :3].T @ self.external[:3, 3]
-
-    @property
-    def projection(self) -> np.ndarray:
-        """Return the 3x4 world -> image matrix ``intrinsic @ external`` (the report's C)."""
-        return self.intrinsic @ self.external
-
     def project(self, points) -> Tuple[np.ndarray, np.ndarray]:
         """
         Project world points into the image.
@@ -297,54 +455,135 @@ class RvizCamera:
         """
         return geometry.project_points(points, self.intrinsic, self.external)
 
-    def to_screen(self, uv) -> np.ndarray:
-        """Image px (..., 2) -> screen px (..., 2): add (X0, Y0)."""
-        return np.asarray(uv, dtype=float) + self.screen_offset
-
-    def to_image(self, screen_xy) -> np.ndarray:
-        """Screen px (..., 2) -> image px (..., 2): subtract (X0, Y0)."""
-        return np.asarray(screen_xy, dtype=float) - self.screen_offset
-
-    def in_image(self, uv) -> np.ndarray:
-        """Which image points (N, 2) lie on the render panel, shape (N,) bool."""
-        uv = np.asarray(uv, dtype=float).reshape(-1, 2)
-        width, height = self.image_size
-        with np.errstate(invalid='ignore'):
-            return ((uv[:, 0] >= 0) & (uv[:, 0] <= width)
-                    & (uv[:, 1] >= 0) & (uv[:, 1] <= height))
-
-    def box_regions(self, positions, quaternions_xyzw, scales,
-                    clip: bool = True) -> Tuple[np.ndarray, np.ndarray]:
+    def back_project(self, uv) -> Tuple[np.ndarray, np.ndarray]:
         """
-        Screen regions of M box markers.
+        World rays through image pixels.
 
-        Each region is the convex hull of the box's projected corners (its
-        exact silhouette), cut to the render panel when ``clip``, then moved
-        by (X0, Y0) into screen px.  A box with any corner behind the camera,
-        a box that contains the camera, and (when clipping) a box wholly off
-        the panel has no region: it is never drawn inverted or off-panel.
-
-        :param positions: shape (M, 3), world frame, m.
-        :param quaternions_xyzw: shape (M, 4), order x, y, z, w, not zero.
-        :param scales: shape (M, 3), full side lengths, m, > 0.
-        :param clip: cut regions to the render panel [0, W] x [0, H].
-        :returns: ``(polygons, visible)``: polygons shape (M, K, 2) screen px,
-            counter-clockwise as the person sees it, padded by repeating the
-            last vertex (K = 6, or at least 10 when clipping); visible shape (M,) bool;
-            rows of invisible boxes are NaN.
+        :param uv: shape (N, 2), image px.
+        :returns: ``(origins, directions)``, both shape (N, 3), world frame:
+            every ray starts at the eye; unit directions.
         """
-        polygons, visible = geometry.box_silhouettes(
+        origin, directions = geometry.back_project(uv, self.intrinsic, self.external)
+        return np.repeat(origin[None, :], len(directions), axis=0), directions
+
+    def _silhouettes(self, positions, quaternions_xyzw, scales):
+        return geometry.box_silhouettes(
             positions, quaternions_xyzw, scales, self.intrinsic, self.external)
-        if clip:
-            polygons, on_panel = clip_polygons(polygons, *self.image_size)
-            visible = visible & on_panel
-            polygons = _pad_vertices(polygons, 10)
-        return self.to_screen(polygons), visible
 
-    def __repr__(self) -> str:
-        """Summarise the camera for logs."""
-        return (f'RvizCamera(image_size={self.image_size}, '
-                f'screen_offset={self.screen_offset.tolist()}, eye={self.eye.round(3).tolist()})')
+
+class OrthographicCamera(_PanelCamera):
+    """
+    RViz2's orthographic camera (the TopDownOrtho view controller) and its panel.
+
+    TopDownOrtho (``FixedOrientationOrthoViewController``) puts the camera at
+    (X, Y, 500 m) above the target frame, looking straight down, turned by
+    ``Angle`` about the world Z axis, with ``Scale`` px per m (ros2/rviz,
+    jazzy, rviz_default_plugins/src/rviz_default_plugins/view_controllers/ortho/
+    fixed_orientation_ortho_view_controller.cpp).  The model itself takes any
+    optical pose: every world point at depth > 0 in front of the camera plane
+    projects to ``u = s x_c + W/2``, ``v = s y_c + H/2`` (see
+    :func:`eye_bci_ros2.geometry.orthographic_intrinsic`).  Immutable.
+
+    :ivar scale: px per m.
+    :ivar intrinsic: affine shape (3, 4) ``[[s, 0, 0, W/2], [0, s, 0, H/2], [0, 0, 0, 1]]``,
+        so :attr:`projection` is a 3x4 affine camera that the calibration
+        report (:func:`eye_bci_ros2.calibration.residuals`) reads like any other.
+    """
+
+    #: Which projection this model uses.
+    kind = 'orthographic'
+
+    #: Height of the TopDownOrtho camera above the target frame, m
+    #: (``ORTHO_VIEW_CONTROLLER_CAMERA_Z`` in fixed_orientation_ortho_view_controller.cpp).
+    CAMERA_Z = 500.0
+
+    def __init__(self, scale_px_per_m: float, image_size: Sequence[int] = DEFAULT_IMAGE_SIZE,
+                 screen_offset: Sequence[float] = (0.0, 0.0), external=None):
+        """
+        Build an orthographic camera.
+
+        :param scale_px_per_m: px per m on the panel, > 0.
+        :param image_size: render panel (W, H), px, both > 0.
+        :param screen_offset: (X0, Y0), px.
+        :param external: shape (4, 4), world -> optical camera; when None the
+            TopDownOrtho camera at (0, 0, 500) with Angle 0.
+        :raises ValueError: on any invalid part.
+        """
+        if external is None:
+            external = top_down_external(0.0, 0.0, 0.0)
+        self._set_panel(image_size, screen_offset, external)
+        self.scale = float(scale_px_per_m)
+        self.intrinsic = geometry.orthographic_intrinsic(*self.image_size, self.scale)
+
+    @classmethod
+    def top_down(cls, x: float, y: float, angle: float, scale_px_per_m: float,
+                 image_size: Sequence[int] = DEFAULT_IMAGE_SIZE,
+                 screen_offset: Sequence[float] = (0.0, 0.0)) -> 'OrthographicCamera':
+        """Build the camera of a TopDownOrtho view (X, Y m; Angle rad; Scale px/m)."""
+        return cls(scale_px_per_m, image_size, screen_offset, top_down_external(x, y, angle))
+
+    def replace(self, scale_px_per_m=None, image_size=None, screen_offset=None,
+                external=None) -> 'OrthographicCamera':
+        """Return a copy with the given parts changed (None keeps a part)."""
+        return OrthographicCamera(
+            self.scale if scale_px_per_m is None else scale_px_per_m,
+            self.image_size if image_size is None else image_size,
+            self.screen_offset if screen_offset is None else screen_offset,
+            self.external if external is None else external)
+
+    def with_pose(self, position, quaternion_xyzw) -> 'OrthographicCamera':
+        """Return a copy moved to an optical pose (world frame, x, y, z, w)."""
+        return self.replace(external=geometry.external_from_pose(position, quaternion_xyzw))
+
+    def project(self, points) -> Tuple[np.ndarray, np.ndarray]:
+        """
+        Project world points into the image (parallel projection).
+
+        :param points: shape (N, 3), world frame, m.
+        :returns: ``(uv, depth)``: uv shape (N, 2) image px (NaN behind the
+            camera plane), depth shape (N,) m along the optical axis.
+        """
+        return geometry.project_points_orthographic(points, self.intrinsic, self.external)
+
+    def back_project(self, uv) -> Tuple[np.ndarray, np.ndarray]:
+        """
+        World rays through image pixels: parallel, one per pixel.
+
+        :param uv: shape (N, 2), image px.
+        :returns: ``(origins, directions)``, both shape (N, 3), world frame:
+            origins on the camera plane, every direction the optical axis.
+        """
+        return geometry.back_project_orthographic(uv, self.intrinsic, self.external)
+
+    def _silhouettes(self, positions, quaternions_xyzw, scales):
+        return geometry.box_silhouettes_orthographic(
+            positions, quaternions_xyzw, scales, self.intrinsic, self.external)
+
+
+def top_down_external(x: float, y: float, angle: float) -> np.ndarray:
+    """
+    World -> optical camera of a TopDownOrtho view.
+
+    The controller sets the camera node's position to (X, Y, 500) and its
+    orientation to ``Quaternion(Angle, UNIT_Z)`` (Ogre camera: looks along -Z,
+    up +Y), fixed_orientation_ortho_view_controller.cpp ``orientCamera`` and
+    ``updateCamera``.  So optical x (right) = (cos a, sin a, 0), y (down) =
+    (sin a, -cos a, 0), z (forward) = (0, 0, -1).
+
+    :param x: X, m, world frame.
+    :param y: Y, m, world frame.
+    :param angle: Angle about world Z, rad.
+    :returns: shape (4, 4).
+    """
+    values = np.array([x, y, angle], dtype=float)
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f'TopDownOrtho view needs finite X, Y and Angle, got {values.tolist()}')
+    c, s = np.cos(values[2]), np.sin(values[2])
+    rotation = np.array([[c, s, 0.0], [s, -c, 0.0], [0.0, 0.0, -1.0]])  # rows: optical axes
+    external = np.eye(4)
+    external[:3, :3] = rotation
+    external[:3, 3] = -rotation @ np.array([values[0], values[1], OrthographicCamera.CAMERA_Z])
+    return external
 
 
 def _pad_vertices(polygons: np.ndarray, count: int) -> np.ndarray:

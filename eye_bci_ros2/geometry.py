@@ -170,6 +170,92 @@ def project_points(points, intrinsic, external) -> Tuple[np.ndarray, np.ndarray]
     return uv, depth
 
 
+def orthographic_intrinsic(width, height, scale_px_per_m) -> np.ndarray:
+    """
+    Affine 3x4 intrinsic of RViz2's orthographic camera (TopDownOrtho).
+
+    The view controller sets the projection
+    ``buildScaledOrthoMatrix(-W / scale / 2, W / scale / 2, -H / scale / 2, H / scale / 2,
+    near, far)`` on a panel of W x H px (ros2/rviz, jazzy,
+    rviz_default_plugins/src/rviz_default_plugins/view_controllers/ortho/
+    fixed_orientation_ortho_view_controller.cpp, ``updateCamera``; the matrix in
+    rviz_rendering/src/rviz_rendering/orthographic.cpp), so one metre across the
+    view is ``scale`` px and the optical axis hits the panel centre:
+    ``u = scale * x_c + W / 2``, ``v = scale * y_c + H / 2`` (optical x_c right,
+    y_c down, m).
+
+    :param width: W, px, > 0.
+    :param height: H, px, > 0.
+    :param scale_px_per_m: the view's ``Scale``, px per m, > 0.
+    :returns: ``[[s, 0, 0, W/2], [0, s, 0, H/2], [0, 0, 0, 1]]``, shape (3, 4): the
+        standard affine camera form, so ``intrinsic @ external`` is a 3x4
+        projection whose homogeneous third coordinate is always 1.
+    """
+    values = np.array([width, height, scale_px_per_m], dtype=float)
+    if not np.all(np.isfinite(values)) or np.any(values <= 0):
+        raise ValueError(f'orthographic camera needs a positive panel size and scale, got '
+                         f'{width} x {height} px at {scale_px_per_m} px/m')
+    scale = values[2]
+    return np.array([[scale, 0.0, 0.0, values[0] / 2], [0.0, scale, 0.0, values[1] / 2],
+                     [0.0, 0.0, 0.0, 1.0]])
+
+
+def _affine(intrinsic) -> np.ndarray:
+    """Check an affine (orthographic) 3x4 intrinsic: no z term, last row [0, 0, 0, 1]."""
+    intrinsic = _matrix('orthographic intrinsic', intrinsic, (3, 4))
+    if np.any(np.abs(intrinsic[:2, 2]) > 1e-12) or \
+            not np.allclose(intrinsic[2], [0.0, 0.0, 0.0, 1.0]):
+        raise ValueError('orthographic intrinsic must be [[a, b, 0, cx], [c, d, 0, cy], '
+                         f'[0, 0, 0, 1]], got {intrinsic.tolist()}')
+    if abs(np.linalg.det(intrinsic[:2, :2])) < 1e-12:
+        raise ValueError('orthographic intrinsic is singular (zero scale)')
+    return intrinsic
+
+
+def project_points_orthographic(points, intrinsic, external) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Project world points to image pixels with an orthographic camera.
+
+    :param points: shape (N, 3), world frame, m.
+    :param intrinsic: affine (3, 4), see :func:`orthographic_intrinsic`.
+    :param external: shape (4, 4), world -> optical camera.
+    :returns: ``(uv, depth)``: uv shape (N, 2) in image px, depth shape (N,) in m
+        along the optical axis from the camera plane.  Points with depth <= 0
+        are behind the camera plane: their uv is NaN.
+    """
+    points = _finite_array('points', points, (3,)).reshape(-1, 3)
+    external = _matrix('external', external, (4, 4))
+    camera = points @ external[:3, :3].T + external[:3, 3]
+    intrinsic = _affine(intrinsic)
+    uv = camera[:, :2] @ intrinsic[:2, :2].T + intrinsic[:2, 3]
+    depth = camera[:, 2]
+    uv[depth <= MIN_DEPTH] = np.nan
+    return uv, depth
+
+
+def back_project_orthographic(pixels, intrinsic, external) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    World rays through image pixels of an orthographic camera.
+
+    :param pixels: shape (N, 2), image px.
+    :param intrinsic: affine (3, 4), see :func:`orthographic_intrinsic`.
+    :param external: shape (4, 4), world -> optical camera.
+    :returns: ``(origins, directions)``, both shape (N, 3), world frame: each
+        ray starts on the camera plane and runs along the optical axis (the
+        same unit direction for every pixel); every point
+        ``origin + t * direction`` with t > 0 projects to the pixel.
+    """
+    pixels = _finite_array('pixels', pixels, (2,)).reshape(-1, 2)
+    intrinsic = _affine(intrinsic)
+    external = _matrix('external', external, (4, 4))
+    planar = np.linalg.solve(intrinsic[:2, :2], (pixels - intrinsic[:2, 3]).T).T
+    camera = np.column_stack([planar, np.zeros(len(pixels))])
+    rotation, translation = external[:3, :3], external[:3, 3]
+    origins = (camera - translation) @ rotation
+    directions = np.repeat(rotation[2][None, :], len(pixels), axis=0)
+    return origins, directions
+
+
 def cube_corners(position, quaternion_xyzw, scale) -> np.ndarray:
     """
     Corners of a cube marker.
@@ -287,21 +373,64 @@ def box_silhouettes(positions, quaternions_xyzw, scales, intrinsic,
         vertex.  visible shape (M,) bool; rows of invisible boxes are NaN.
     """
     external = _matrix('external', external, (4, 4))
-    positions = _finite_array('positions', positions, (3,)).reshape(-1, 3)
-    scales = _finite_array('scales', scales, (3,)).reshape(-1, 3)
-    quaternions = _finite_array('quaternions', quaternions_xyzw, (4,)).reshape(-1, 4)
-    count = len(positions)
+    positions, quaternions, scales = _boxes(positions, quaternions_xyzw, scales)
     corners = cube_corners_batch(positions, quaternions, scales)
     uv, depth = project_points(corners.reshape(-1, 3), intrinsic, external)
-    uv = uv.reshape(count, 8, 2)
-    in_front = np.all(depth.reshape(count, 8) > MIN_DEPTH, axis=1)
-
     # Eye in each box's local frame decides which outline the box shows.
     rotations = quaternion_to_matrix(quaternions)
     eye_world = -external[:3, :3].T @ external[:3, 3]
     eye_local = np.einsum('mji,mj->mi', rotations, eye_world - positions)
     half = scales / 2
     cls = (eye_local > half).astype(np.intp) - (eye_local < -half).astype(np.intp) + 1
+    return _outlines(uv, depth, cls)
+
+
+def box_silhouettes_orthographic(positions, quaternions_xyzw, scales, intrinsic,
+                                 external) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Image outlines of M boxes under an orthographic camera (RViz2's TopDownOrtho).
+
+    Under a parallel projection the silhouette of a box is the convex hull of
+    its projected corners, which faces bound it depends only on the view
+    direction (the eye "at infinity" behind the camera).  A box with any
+    corner at depth <= 0 (behind the camera plane) has no outline.
+
+    :param intrinsic: affine (3, 4) ``[[a, b, 0, cx], [c, d, 0, cy], [0, 0, 0, 1]]``,
+        see :func:`project_points_orthographic`.
+    :returns: as :func:`box_silhouettes`.
+    """
+    external = _matrix('external', external, (4, 4))
+    positions, quaternions, scales = _boxes(positions, quaternions_xyzw, scales)
+    corners = cube_corners_batch(positions, quaternions, scales)
+    uv, depth = project_points_orthographic(corners.reshape(-1, 3), intrinsic, external)
+    rotations = quaternion_to_matrix(quaternions)
+    # Direction towards the eye at infinity, in each box's local frame.
+    toward_eye = np.einsum('mji,j->mi', rotations, -external[2, :3])
+    cls = np.sign(np.where(np.abs(toward_eye) < 1e-12, 0.0, toward_eye)).astype(np.intp) + 1
+    return _outlines(uv, depth, cls)
+
+
+def _boxes(positions, quaternions_xyzw, scales) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Check and shape M boxes: positions (M, 3), quaternions (M, 4), scales (M, 3)."""
+    positions = _finite_array('positions', positions, (3,)).reshape(-1, 3)
+    scales = _finite_array('scales', scales, (3,)).reshape(-1, 3)
+    quaternions = _finite_array('quaternions', quaternions_xyzw, (4,)).reshape(-1, 4)
+    return positions, quaternions, scales
+
+
+def _outlines(uv: np.ndarray, depth: np.ndarray,
+              cls: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Pick each box's outline from its projected corners.
+
+    :param uv: shape (M * 8, 2), image px of the corners.
+    :param depth: shape (M * 8,), m.
+    :param cls: shape (M, 3), per local axis 0 (eye below the slab), 1 (in
+        it) or 2 (above it); all 1 means the eye is inside the box.
+    """
+    count = len(cls)
+    uv = uv.reshape(count, 8, 2)
+    in_front = np.all(depth.reshape(count, 8) > MIN_DEPTH, axis=1)
     code = cls[:, 0] + 3 * cls[:, 1] + 9 * cls[:, 2]
     visible = in_front & (code != 13)
     polygons = np.take_along_axis(uv, _SILHOUETTE[code][:, :, None], axis=1)

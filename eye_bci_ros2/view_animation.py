@@ -113,15 +113,6 @@ def optical_rotation(eye, focus, up) -> np.ndarray:
     return geometry.look_at(eye, focus, up)[:3, :3].T
 
 
-def optical_pose(eye, focus, up) -> Tuple[np.ndarray, np.ndarray]:
-    """
-    Return the optical camera pose of a view (``camera/goal``, ``camera/pose``).
-
-    :returns: ``(position (3,), quaternion (4,) x, y, z, w)``, world frame.
-    """
-    return look_at_pose(eye, focus, up)
-
-
 def ogre_pose(eye, focus, up) -> Tuple[np.ndarray, np.ndarray]:
     """
     Return the Ogre camera pose of a view (``rviz/current_camera_pose``).

@@ -1,13 +1,8 @@
 """Shared pytest fixtures: a private ROS 2 graph per test."""
 
-import os
-import sys
-
 import pytest
 
-sys.path.insert(0, os.path.dirname(__file__))
-
-from ros_harness import ros_graph  # noqa: E402
+from ros_harness import ros_graph
 
 pytest_plugins = ['fault_counter']
 

@@ -1,1 +1,1 @@
-"""Experiments: demo, accuracy test, pictures and the metrics they report."""
+"""Experiments on the running system: the demo, the accuracy test, pictures and metrics."""

@@ -1,61 +1,23 @@
 """
 Node choice_arbiter: decide from gaze which offered region the person chose.
 
-Subscribes ``gaze`` (geometry_msgs/PointStamped, frame ``screen``, px),
-``choices/regions`` (visualization_msgs/MarkerArray, latched) and
-``choice/request`` (std_msgs/Empty); publishes ``choice`` (std_msgs/String,
-the region's label: its text if set, else ``ns/id``).
+Subscribes ``gaze/samples`` (sensor_msgs/PointCloud2 batches, frame
+``screen``, px, every sample with its acquisition stamp; see
+:mod:`eye_bci_ros2.nodes.conversions`), ``choices/regions``
+(visualization_msgs/MarkerArray, latched) and ``choice/request``
+(std_msgs/Empty); publishes ``choice`` (std_msgs/String, the region's label:
+its text if set, else ``ns/id``).
 
-Rounds.  A round starts on ``choice/request`` (at the node clock's now) or
-when the *set* of offered labels changes (at the regions' header stamp; a
-stamp older than ``window_s`` is taken as the arrival time).  Regions that
-only move (same labels, new geometry) update the round's geometry.  A new
-round replaces an unfinished one without a choice.  The round uses the gaze
-samples stamped in ``[start, start + window_s)``: like the original, which
-collected gaze for a fixed time after the question, the window is fixed and
-measured on the samples' stamps from the round start (not from the first
-in-region sample, so a person who never looks at a region still gets an
-answer, "no choice", on time).  It ends when a sample stamped after the
-window arrives, or ``stall_timeout_s`` after the window on the node clock if
-the gaze stream goes quiet, and publishes at most one ``choice`` (none when
-no sample fell in a region, or the mean fell in none).  With
-``early_decision`` it ends as soon as the evidence passes ``confidence``
-(see :mod:`eye_bci_ros2.arbitration`).  That evidence is only *fresh* gaze:
-gaze that was on a region before the round start + ``min_reaction_s``
-(sooner than any person reacts to the new display) counts only once it has
-moved to another region, so the option that lies where the gaze rested on
-the previous menu is not chosen by accident; a gaze that never leaves it is
-decided at the window end by ``method``, on every sample.  The next round
-starts on the next request or change of the offered labels.
-
-Bad gaze.  A sample stamped more than ``max_future_s`` after it arrived
-(node clock) is dropped: a corrupt stamp or a wrong clock, which would
-otherwise end the round at once and lose the gaze that follows.  A sample
-stamped more than ``window_s`` before the round start (between rounds,
-before now - 2 ``window_s``) is dropped as no round can use it.  A NaN or
-infinite gaze point is a sample in no region, never evidence.  Each is
-counted (:attr:`ChoiceArbiter.samples_from_future`,
-:attr:`ChoiceArbiter.samples_too_old`,
-:attr:`ChoiceArbiter.samples_not_finite`) and logged as a warning at most
-once per 5 s of each kind.
-
-Latency.  Each gaze sample is classified in its own callback against the
-regions shown at its stamp (the newest set in the steady state, O(1) work),
-so the ``choice`` is published from the callback of the sample that
-completes the decision; a 50 Hz timer only closes rounds whose gaze stream
-went quiet and releases decisions held by ``reorder_s``.
-
-Ordering.  Gaze and regions come on separate topics, so a sample can arrive
-before the regions message stamped just before it.  Such a message
-re-classifies the open round's samples stamped after it (rare, O(round)),
-and a round started by new choices at a past stamp takes the samples
-stamped after that which arrived first.
-With ``reorder_s`` 0 (default) a decision is final when made: a regions
-message that comes later with a stamp before the decision's last sample is
-logged as a warning and does not change it.  With ``reorder_s`` > 0 a
-decision whose last sample is newer than the newest regions waits until
-regions stamped after that sample arrive, or ``reorder_s``, whichever is
-first (see :class:`eye_bci_ros2.arbitration.ChoiceTracker`).
+The rounds (when they start and end, which samples and regions they weigh,
+when a decision is final, what is dropped as implausible) are
+:class:`eye_bci_ros2.rounds.RoundScheduler`, the rules
+:mod:`eye_bci_ros2.evidence`: this node converts messages and keeps the
+clock.  Each gaze batch is weighed in its own callback, so ``choice`` is
+published from the callback of the batch that completes the decision; a
+50 Hz timer only closes rounds whose gaze stream went quiet and releases
+decisions held by ``reorder_s``.  Bad input is counted
+(:attr:`ChoiceArbiter.samples_from_future`, ``samples_too_old``,
+``samples_not_finite``) and logged at most once per 5 s of each kind.
 
 Input modes (parameter ``input_mode``, :mod:`eye_bci_ros2.fusion`).  ``gaze``
 (default): as above.  ``ssvep``: ``choice`` is the ``ssvep/choice`` of the
@@ -71,20 +33,19 @@ confirms it within ``max_lag_s`` (``ssvep/choice`` of the same label, or
 import time
 from typing import Dict, Optional
 
-from geometry_msgs.msg import PointStamped
 from rclpy.node import Node
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.arbitration import (ArbiterSettings, ChoiceTracker, Decision,
-                                      DEFAULT_MAX_FUTURE_S, MAX_FUTURE_S,
-                                      MAX_REACTION_S, METHODS, RegionSet)
+from eye_bci_ros2.evidence import Decision, MAX_REACTION_S, METHODS
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
-from eye_bci_ros2.nodes.conversions import marker_array_to_regions, SCREEN_FRAME
+from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.qos import EVENT_QOS, GAZE_QOS, LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
+from eye_bci_ros2.regions import RegionSet
+from eye_bci_ros2.rounds import ArbiterSettings, DEFAULT_MAX_FUTURE_S, MAX_FUTURE_S, RoundScheduler
 
 #: Period of the timer that closes quiet rounds and releases held decisions, s.
 TICK_S = 0.02
@@ -184,9 +145,9 @@ class ChoiceArbiter(Node):
         super().__init__('choice_arbiter', **kwargs)
         self._config = declare_parameters(self, PARAMETERS, self._on_parameters)
         self._warned: Dict[str, float] = {}
-        self._tracker = ChoiceTracker(ArbiterSettings(**self._config), self._publish, self._log)
+        self._tracker = RoundScheduler(ArbiterSettings(**self._config), self._publish, self._log)
         self._publisher = self.create_publisher(String, 'choice', EVENT_QOS)
-        self.create_subscription(PointStamped, 'gaze', self._on_gaze, GAZE_QOS)
+        self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
         self.create_subscription(Empty, 'choice/request', self._on_request, EVENT_QOS)
         self._timer = self.create_timer(TICK_S, self._on_tick)
@@ -244,18 +205,19 @@ class ChoiceArbiter(Node):
 
     # -- inputs -----------------------------------------------------------------------------
 
-    def _on_gaze(self, msg: PointStamped) -> None:
+    def _on_gaze(self, msg: PointCloud2) -> None:
         try:
-            frame = msg.header.frame_id
-            if frame not in ('', SCREEN_FRAME):
-                self._log('warning', 'gaze_frame',
-                          f"gaze in frame '{frame}' ignored: expected '{SCREEN_FRAME}' (px)")
-                return
+            stamps, points = gaze_batch_arrays(msg)
+        except ValueError as error:
+            self._log('warning', 'gaze_bad', str(error))
+            return
+        try:
             now = self._now()
-            stamp = _seconds(msg.header.stamp) or now
-            self._tracker.add_sample(stamp, msg.point.x, msg.point.y, now)
+            if not (msg.header.stamp.sec or msg.header.stamp.nanosec):
+                stamps = stamps + now   # unstamped: taken as arriving now (offsets kept)
+            self._tracker.add_samples(stamps, points, now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
-            self._log('warning', 'gaze_error', f'gaze sample ignored: {error}')
+            self._log('warning', 'gaze_error', f'gaze batch ignored: {error}')
 
     def _on_regions(self, msg: MarkerArray) -> None:
         try:
@@ -366,7 +328,7 @@ class ChoiceArbiter(Node):
 
 def main(args=None):
     """Run the choice_arbiter node."""
-    spin_node(lambda: ChoiceArbiter(), args)
+    spin_node(ChoiceArbiter, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':

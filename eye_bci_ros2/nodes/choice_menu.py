@@ -1,11 +1,17 @@
 """
-The hierarchical room -> table menu of the original experiment.
+The hierarchical room -> table menu of the original experiment, with a protocol a person can trust.
 
 Offers the rooms of a scene (``scene_file``, see :mod:`eye_bci_ros2.scene`)
 as cube markers with the overview camera view; when a room is chosen, moves
-the camera to that room's view and offers its tables; when a table is
-chosen, reports the outcome ('kitchen/table_2') and starts over at the rooms
-(``repeat``) or finishes (offers nothing).
+the camera to that room's view and offers its tables and a ``back`` option
+(``back_option``); when a table is chosen, reports the outcome
+('kitchen/table_2') and starts over at the rooms (``repeat``) or finishes
+(offers nothing).  When to ask and which choices count is the pure
+:class:`eye_bci_ros2.menu.MenuProtocol` (its module doc has the rules): the
+question (``choice/request``) is asked once the camera has arrived at the
+step's goal (or settled), the gaze has left the option just chosen (or
+``look_away_s`` passed) and the gaze is not off screen for ``pause_after_s``
+(a pause); only a choice that answers the question counts.
 
 Topics:
 
@@ -15,37 +21,79 @@ Topics:
 * publishes ``camera/goal`` geometry_msgs/PoseStamped (latched): optical
   camera pose (z forward, x right, y down) of the view to show;
 * publishes ``choice_menu/result`` std_msgs/String: each outcome;
-* publishes ``choice/request`` std_msgs/Empty: asks the choice_arbiter for a
-  fresh decision when it would not start one by itself.  The arbiter starts
-  a round whenever the set of offered labels changes, which covers every
-  normal step (rooms -> tables -> rooms), so the menu requests only when it
-  offers the same labels again (a reloaded scene, a new ``world_frame``) and
-  after a choice it cannot use (else the arbiter would wait for ever);
-* subscribes ``choice`` std_msgs/String: the label chosen; anything that is
-  not one of the current options is logged and ignored.
+* publishes ``choice/request`` std_msgs/Empty: the question, once per step
+  when the protocol's conditions hold (and again after an unusable choice,
+  or after a pause);
+* publishes ``choice_menu/state`` std_msgs/String (latched): what the menu
+  waits for: ``waiting_for_camera``, ``waiting_for_look_away``, ``paused``,
+  ``asking``, ``finished``;
+* subscribes ``choice`` std_msgs/String: the label chosen; a choice that is
+  not an answer (not asked, paused, made before the question) or not one of
+  the current options is logged and ignored;
+* subscribes ``camera/pose`` geometry_msgs/PoseStamped (optical, the
+  camera_tracker's): whether the camera has arrived;
+* subscribes ``choices/regions`` visualization_msgs/MarkerArray: the screen
+  region of the option chosen, for the look-away rule;
+* subscribes ``gaze/point`` geometry_msgs/PointStamped (screen px, the
+  bridge's rate-limited view; best effort): whether the gaze left it;
+* subscribes ``gaze/on_screen`` std_msgs/Bool: whether the gaze is on the
+  screen (the lead's bridge/arbiter provides it; without it the menu never
+  pauses).
+
+``ask_on_arrival`` false restores the previous menu: every valid choice
+counts at once and it asks only after an unusable choice or an unchanged offer.
 
 Setting ``scene_file`` (even to its current value) reloads the scene and
 starts over at the rooms; a bad file is rejected with the reason and the
 current scene kept.
 """
 
-from typing import Any, Dict, Optional, Sequence
+from dataclasses import fields, replace
+from typing import Any, Dict, List, Optional, Sequence
 
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PointStamped, PoseStamped
 from rclpy.node import Node
-from std_msgs.msg import Empty, String
+from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.nodes.conversions import arrays_to_pose, cube_marker
+from eye_bci_ros2.camera_model import look_at_pose
+from eye_bci_ros2.menu import (Action, Log, MenuProtocol, Offer, ProtocolSettings, Request,
+                               Result, ROOMS_NS, TABLES_NS)
+from eye_bci_ros2.nodes.conversions import (arrays_to_pose, cube_marker,
+                                            marker_array_to_regions, pose_to_arrays)
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.qos import EVENT_QOS, LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.scene import CubeMarker, default_scene_path, load_scene, Room, Scene, View
-from eye_bci_ros2.view_animation import optical_pose
+from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_POINT_TOPIC, LATCHED_QOS, VIEW_QOS
+from eye_bci_ros2.scene import CubeMarker, default_scene_path, load_scene, Scene, View
 
-#: Marker namespaces of the two levels of the menu.
-ROOMS_NS = 'rooms'
-TABLES_NS = 'tables'
+__all__ = ['ChoiceMenu', 'main', 'resolve_scene_path', 'ROOMS_NS', 'TABLES_NS']
+
+#: How often the timed rules (settle, look-away time, pause) are applied, s.
+TICK_S = 0.05
+
+#: Protocol parameters: name -> (description, range); defaults from ProtocolSettings.
+_PROTOCOL_PARAMETERS = {
+    'ask_on_arrival': ('Ask (choice/request) only when the camera has arrived, the gaze has '
+                       'left the last choice and is on screen; only answers count (false: '
+                       'every valid choice counts at once, the previous menu)', None),
+    'back_option': ("Offer a 'back' option with the tables (returns to the rooms)", None),
+    'repeat': ('After a table is chosen, start over at the rooms (true) or finish (false: '
+               'offer nothing more)', None),
+    'arrive_tolerance_m': ('camera/pose within this distance of camera/goal has arrived, m',
+                           (0.0, 100.0)),
+    'arrive_tolerance_deg': ('camera/pose within this rotation of camera/goal has arrived, '
+                             'degrees', (0.0, 180.0)),
+    'settle_s': ('A camera that has not moved for this long has arrived (settled), s',
+                 (0.0, 60.0)),
+    'look_away_s': ('After a choice, ask again at the latest after this even if the gaze '
+                    'stayed on the chosen option, s', (0.0, 60.0)),
+    'look_away_margin_px': ('The gaze must be this far outside the chosen option to have '
+                            'left it, px', (0.0, 1000.0)),
+    'pause_after_s': ('Gaze off screen (gaze/on_screen false) this long pauses the menu, s',
+                      (0.0, 3600.0)),
+    'min_answer_s': ('A choice sooner than this after the request is not its answer, s',
+                     (0.0, 10.0)),
+}
 
 
 def resolve_scene_path(value: str) -> str:
@@ -54,26 +102,30 @@ def resolve_scene_path(value: str) -> str:
 
 
 class ChoiceMenu(Node):
-    """Room -> table menu driven by ``choice``; publishes options and camera goals."""
+    """Room -> table menu driven by ``choice``; publishes options, camera goals, questions."""
 
     def __init__(self, **kwargs):
         """Create the node; ``kwargs`` go to :class:`rclpy.node.Node`."""
         super().__init__('choice_menu', **kwargs)
         # A scene_file is loaded once while it is validated and used on apply.
         self._candidate: Optional[tuple] = None
-        self._scene: Optional[Scene] = None
-        parameters = (
+        defaults = ProtocolSettings()
+        parameters = [
             ParamSpec('scene_file', '',
                       'Scene YAML with rooms, tables and views (empty = the installed '
                       'config/scene.yaml); setting it reloads and starts over',
                       check=self._check_scene_file),
-            ParamSpec('repeat', True,
-                      'After a table is chosen, start over at the rooms (true) or finish '
-                      '(false: offer nothing more)'),
+            ParamSpec('repeat', defaults.repeat, _PROTOCOL_PARAMETERS['repeat'][0]),
             ParamSpec('world_frame', 'map',
                       "Frame of the markers and camera goals; must match the scene's "
                       'frame_id', check=check_frame_id),
-        )
+        ]
+        for name, (description, value_range) in _PROTOCOL_PARAMETERS.items():
+            if name == 'repeat':
+                continue
+            default = getattr(defaults, name)
+            parameters.append(ParamSpec(name, float(default) if value_range else default,
+                                        description, value_range=value_range))
         try:
             values = declare_parameters(self, parameters, self._on_parameters,
                                         check_all=self._check_all)
@@ -81,93 +133,117 @@ class ChoiceMenu(Node):
             self.get_logger().fatal(f'cannot start: {error}')
             self.destroy_node()
             raise
-        self._scene = self._candidate[1]
+        scene = self._candidate[1]
         self._candidate = None
-        self._repeat = values['repeat']
         self._world_frame = values['world_frame']
-        self._room: Optional[Room] = None
-        self._finished = False
-        self._offered: Sequence[str] = ()
+        self._protocol = MenuProtocol(scene, self._settings(values))
+        self._state = ''
 
         self._choices_pub = self.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
         self._goal_pub = self.create_publisher(PoseStamped, 'camera/goal', LATCHED_QOS)
         self._result_pub = self.create_publisher(String, 'choice_menu/result', EVENT_QOS)
         self._request_pub = self.create_publisher(Empty, 'choice/request', EVENT_QOS)
+        self._state_pub = self.create_publisher(String, 'choice_menu/state', LATCHED_QOS)
         self.create_subscription(String, 'choice', self._on_choice, EVENT_QOS)
+        self.create_subscription(PoseStamped, 'camera/pose', self._on_pose, LATCHED_QOS)
+        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(PointStamped, GAZE_POINT_TOPIC, self._on_gaze_point,
+                                 VIEW_QOS)
+        self.create_subscription(Bool, 'gaze/on_screen', self._on_screen, EVENT_QOS)
+        self.create_timer(TICK_S, self._on_tick)
         self.get_logger().info(
-            f'scene {self._scene.source}: rooms {", ".join(self._scene.room_labels)}')
-        self._offer_rooms()
+            f'scene {scene.source}: rooms {", ".join(scene.room_labels)}')
+        self._perform(self._protocol.start(self._now()))
 
     @property
     def scene(self) -> Scene:
         """Return the scene in use."""
-        return self._scene
+        return self._protocol.scene
 
     @property
     def options(self) -> Sequence[str]:
         """Return the labels offered now (empty once finished)."""
-        if self._finished:
-            return ()
-        if self._room is None:
-            return self._scene.room_labels
-        return tuple(table.marker.text for table in self._room.tables)
+        return self._protocol.options
 
-    def _on_choice(self, message: String) -> None:
-        label = message.data
+    @property
+    def state(self) -> str:
+        """Return what the menu waits for (:attr:`eye_bci_ros2.menu.MenuProtocol.state`)."""
+        return self._protocol.state
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    @staticmethod
+    def _settings(values: Dict[str, Any]) -> ProtocolSettings:
+        names = {f.name for f in fields(ProtocolSettings)}
+        return ProtocolSettings(**{k: v for k, v in values.items() if k in names})
+
+    # -- inputs -----------------------------------------------------------------------------
+
+    def _guard(self, what: str, handler) -> None:
         try:
-            if self._finished:
-                self.get_logger().info(f"menu finished: ignoring choice '{label}'")
-                return
-            if self._room is None:
-                room = self._scene.room(label)
-                if room is None:
-                    self._reject(label)
-                    return
-                self.get_logger().info(f"room chosen: '{label}'")
-                self._offer_tables(room)
-                return
-            table = self._room.table(label)
-            if table is None:
-                self._reject(label)
-                return
-            self._result_pub.publish(String(data=label))
-            self.get_logger().info(f"outcome: '{label}'")
-            if self._repeat:
-                self._offer_rooms()
-            else:
-                self._finish()
+            self._perform(handler())
         except Exception as error:  # a message must never kill the node
-            self.get_logger().error(f"failed to handle choice '{label}': {error}",
+            self.get_logger().error(f'failed to handle {what}: {error}',
                                     throttle_duration_sec=5.0)
 
-    def _reject(self, label: str) -> None:
-        self.get_logger().warning(
-            f"ignoring choice '{label}': not one of {', '.join(self.options)}",
-            throttle_duration_sec=1.0)
-        self._request_pub.publish(Empty())
+    def _on_choice(self, message: String) -> None:
+        self._guard(f"choice '{message.data}'",
+                    lambda: self._protocol.on_choice(message.data, self._now()))
 
-    def _offer_rooms(self) -> None:
-        self._finished = False
-        self._room = None
-        self._publish_goal(self._scene.overview)
-        self._publish_choices([room.marker for room in self._scene.rooms], ROOMS_NS)
+    def _on_pose(self, message: PoseStamped) -> None:
+        if message.header.frame_id and message.header.frame_id != self._world_frame:
+            self.get_logger().warning(
+                f"camera/pose in frame '{message.header.frame_id}', not '{self._world_frame}'"
+                ': ignored', throttle_duration_sec=5.0)
+            return
+        self._guard('camera/pose', lambda: self._protocol.on_camera_pose(
+            *pose_to_arrays(message.pose), self._now()))
 
-    def _offer_tables(self, room: Room) -> None:
-        self._room = room
-        self._publish_goal(room.view)
-        self._publish_choices([table.marker for table in room.tables], TABLES_NS)
+    def _on_regions(self, message: MarkerArray) -> None:
+        def take():
+            self._protocol.on_regions(*marker_array_to_regions(message))
+            return []
+        self._guard('choices/regions', take)
 
-    def _finish(self) -> None:
-        self._finished = True
-        self._room = None
-        self._publish_choices([], ROOMS_NS)
-        self.get_logger().info('menu finished (repeat is false)')
+    def _on_gaze_point(self, message: PointStamped) -> None:
+        self._guard('gaze/point', lambda: self._protocol.on_gaze_point(
+            message.point.x, message.point.y, self._now()))
+
+    def _on_screen(self, message: Bool) -> None:
+        self._guard('gaze/on_screen',
+                    lambda: self._protocol.on_screen(bool(message.data), self._now()))
+
+    def _on_tick(self) -> None:
+        self._guard('the menu timer', lambda: self._protocol.tick(self._now()))
+
+    # -- outputs ----------------------------------------------------------------------------
+
+    def _perform(self, actions: List[Action]) -> None:
+        for action in actions:
+            if isinstance(action, Offer):
+                if action.view is not None:
+                    self._publish_goal(action.view)
+                self._publish_choices(action.markers, action.ns)
+            elif isinstance(action, Request):
+                self._request_pub.publish(Empty())
+            elif isinstance(action, Result):
+                self._result_pub.publish(String(data=action.label))
+            elif isinstance(action, Log):
+                if action.level == 'warning':
+                    self.get_logger().warning(action.text, throttle_duration_sec=1.0)
+                else:
+                    self.get_logger().info(action.text)
+        state = self._protocol.state
+        if state != self._state:
+            self._state = state
+            self._state_pub.publish(String(data=state))
 
     def _publish_goal(self, view: View) -> None:
         goal = PoseStamped()
         goal.header.frame_id = self._world_frame
         goal.header.stamp = self.get_clock().now().to_msg()
-        goal.pose = arrays_to_pose(*optical_pose(*view.as_tuple()))
+        goal.pose = arrays_to_pose(*look_at_pose(*view.as_tuple()))
         self._goal_pub.publish(goal)
 
     def _publish_choices(self, markers: Sequence[CubeMarker], ns: str) -> None:
@@ -181,11 +257,8 @@ class ChoiceMenu(Node):
                 ns, index, source.text, self._world_frame, source.position,
                 source.orientation, source.scale, source.color, stamp))
         self._choices_pub.publish(array)
-        labels = tuple(marker.text for marker in markers)
-        if labels and set(labels) == set(self._offered):
-            # Same labels again: the arbiter would not see a change.
-            self._request_pub.publish(Empty())
-        self._offered = labels
+
+    # -- parameters -------------------------------------------------------------------------
 
     def _check_scene_file(self, value: str) -> Optional[str]:
         try:
@@ -198,34 +271,42 @@ class ChoiceMenu(Node):
         if self._candidate is not None and self._candidate[0] == values['scene_file']:
             scene = self._candidate[1]
         else:
-            scene = self._scene
+            scene = self._protocol.scene if hasattr(self, '_protocol') else None
         if scene is not None and scene.frame_id != values['world_frame']:
             return (f"scene {scene.source} is in frame '{scene.frame_id}' but world_frame "
                     f"is '{values['world_frame']}': set frame_id in the scene file to match")
+        try:
+            self._settings(values)
+        except ValueError as error:
+            return str(error)
         return None
 
     def _on_parameters(self, changed: Dict[str, Any]) -> None:
-        if 'repeat' in changed:
-            self._repeat = changed['repeat']
+        protocol = self._protocol
+        settings = {k: v for k, v in changed.items()
+                    if k in {f.name for f in fields(ProtocolSettings)}}
+        if settings:
+            protocol.settings = replace(protocol.settings, **settings)
         if 'world_frame' in changed:
             self._world_frame = changed['world_frame']
+        now = self._now()
         if 'scene_file' in changed and self._candidate is not None:
-            self._scene = self._candidate[1]
+            protocol.scene = self._candidate[1]
             self.get_logger().info(
-                f'loaded scene {self._scene.source}: rooms {", ".join(self._scene.room_labels)}')
-            self._offer_rooms()
-        elif 'world_frame' in changed and not self._finished:
-            # Re-offer the same options, stamped in the new frame.
-            if self._room is None:
-                self._offer_rooms()
-            else:
-                self._offer_tables(self._room)
+                f'loaded scene {protocol.scene.source}: rooms '
+                f'{", ".join(protocol.scene.room_labels)}')
+            self._perform(protocol.start(now))
+        elif 'world_frame' in changed or 'back_option' in changed:
+            # Re-offer the same step (stamped in the new frame / with or without 'back').
+            self._perform(protocol.reoffer(now))
+        else:
+            self._perform(protocol.tick(now))
         self._candidate = None
 
 
 def main(args=None):
     """Run the choice menu."""
-    spin_node(lambda: ChoiceMenu(), args)
+    spin_node(ChoiceMenu, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':

@@ -6,17 +6,117 @@ the complete current set, one closed LINE_STRIP per visible marker, frame
 ``screen``, points (x = screen u px, y = screen v px, z = 0) with the first point
 repeated at the end, and the source marker's ns, id and text.  A region's
 label is its ``text`` when set, else ``ns/id``.
+
+Gaze batches on ``gaze/samples`` (sensor_msgs/PointCloud2): one message per
+chunk the bridge pulls from LSL, ``height`` 1, ``width`` N samples in
+acquisition order, frame ``screen``; ``header.stamp`` is the first sample's
+acquisition time on the ROS clock and each point holds
+
+===== ======== ====== =====================================================
+field datatype offset meaning
+===== ======== ====== =====================================================
+x     FLOAT64  0      screen x, px
+y     FLOAT64  8      screen y, px
+t     FLOAT64  16     acquisition time - header.stamp, s (ns resolution)
+===== ======== ====== =====================================================
+
+little-endian, ``point_step`` 24, ``is_dense`` true (no invalid sample is
+sent).  A per-point time ``t`` relative to the header stamp is how lidar
+drivers stamp their points, so generic PointCloud2 tools read it; float64
+keeps every sample's point exactly as the bridge computed it and its own
+stamp exact over chunks of any length (24 bytes a sample: 48 kB/s at 2000 Hz).
 """
 
 from typing import List, Sequence, Tuple
 
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Point, Pose
+from geometry_msgs.msg import Point, PointStamped, Pose
 import numpy as np
+from sensor_msgs.msg import PointCloud2, PointField
+from std_msgs.msg import Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 #: frame_id of everything in screen pixels.
 SCREEN_FRAME = 'screen'
+
+#: One gaze sample in a ``gaze/samples`` message (module doc).
+GAZE_DTYPE = np.dtype([('x', '<f8'), ('y', '<f8'), ('t', '<f8')])
+#: The PointCloud2 fields of :data:`GAZE_DTYPE`.
+GAZE_FIELDS = [PointField(name=name, offset=8 * index, datatype=PointField.FLOAT64, count=1)
+               for index, name in enumerate(GAZE_DTYPE.names)]
+_GAZE_LAYOUT = tuple((f.name, f.offset, f.datatype, f.count) for f in GAZE_FIELDS)
+_NS_PER_S = 1_000_000_000
+
+
+def stamp_to_ns(stamp: Time) -> int:
+    """builtin_interfaces/Time -> integer ns."""
+    return stamp.sec * _NS_PER_S + stamp.nanosec
+
+
+def ns_to_stamp(nanoseconds: int) -> Time:
+    """Integer ns (>= 0) -> builtin_interfaces/Time."""
+    seconds, nanoseconds = divmod(int(nanoseconds), _NS_PER_S)
+    return Time(sec=seconds, nanosec=nanoseconds)
+
+
+def gaze_batch(stamps_ns: np.ndarray, xy: np.ndarray,
+               frame_id: str = SCREEN_FRAME) -> PointCloud2:
+    """
+    Build one ``gaze/samples`` message (module doc, "Gaze batches").
+
+    :param stamps_ns: shape (N,) int, N >= 1, acquisition times, ns on the ROS clock.
+    :param xy: shape (N, 2), screen px.
+    """
+    stamps_ns = np.asarray(stamps_ns, dtype=np.int64).reshape(-1)
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    if not len(stamps_ns) or len(stamps_ns) != len(xy):
+        raise ValueError(f'a gaze batch needs N >= 1 stamps and points, got {len(stamps_ns)} '
+                         f'and {len(xy)}')
+    first = int(stamps_ns[0])
+    points = np.empty(len(xy), dtype=GAZE_DTYPE)
+    points['x'], points['y'] = xy[:, 0], xy[:, 1]
+    points['t'] = (stamps_ns - first) * 1e-9
+    return PointCloud2(
+        header=Header(stamp=ns_to_stamp(first), frame_id=frame_id), height=1,
+        width=len(points), fields=GAZE_FIELDS, is_bigendian=False,
+        point_step=GAZE_DTYPE.itemsize, row_step=GAZE_DTYPE.itemsize * len(points),
+        data=points.tobytes(), is_dense=True)
+
+
+def gaze_batch_arrays(message: PointCloud2) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Read a ``gaze/samples`` message.
+
+    :returns: ``(stamps, xy)``: acquisition times, shape (N,) s on the ROS
+        clock (float64: sub-microsecond for centuries), and points (N, 2)
+        screen px, in message order.
+    :raises ValueError: the fields, sizes or frame are not those of the
+        module doc (the reason says which).
+    """
+    layout = tuple((f.name, f.offset, f.datatype, f.count) for f in message.fields)
+    if layout != _GAZE_LAYOUT or message.point_step != GAZE_DTYPE.itemsize \
+            or message.is_bigendian:
+        raise ValueError(f'gaze batch with fields {[f.name for f in message.fields]} and '
+                         f'point_step {message.point_step} ignored: expected little-endian '
+                         f'float64 x, y, t, point_step {GAZE_DTYPE.itemsize}')
+    count = message.width * message.height
+    if len(message.data) != count * GAZE_DTYPE.itemsize:
+        raise ValueError(f'gaze batch of {count} points with {len(message.data)} bytes '
+                         f'ignored: expected {count * GAZE_DTYPE.itemsize}')
+    if message.header.frame_id not in ('', SCREEN_FRAME):
+        raise ValueError(f"gaze in frame '{message.header.frame_id}' ignored: expected "
+                         f"'{SCREEN_FRAME}' (px)")
+    points = np.frombuffer(message.data, dtype=GAZE_DTYPE, count=count)
+    stamps = stamp_to_ns(message.header.stamp) * 1e-9 + points['t']
+    xy = np.stack([points['x'], points['y']], axis=1)
+    return stamps, xy
+
+
+def gaze_point(stamp_ns: int, x: float, y: float,
+               frame_id: str = SCREEN_FRAME) -> PointStamped:
+    """Build one ``gaze/point`` message: a sample at ``stamp_ns`` ns, (x, y) screen px."""
+    return PointStamped(header=Header(stamp=ns_to_stamp(stamp_ns), frame_id=frame_id),
+                        point=Point(x=float(x), y=float(y), z=0.0))
 
 
 def marker_label(ns: str, marker_id: int, text: str) -> str:

@@ -1,22 +1,27 @@
 """
 The whole pipeline in one process: every node on one executor.
 
-Composes lsl_gaze_bridge, camera_tracker, marker_projector, choice_arbiter
-and choice_menu (RViz and the eye tracker stay outside).  One
-SingleThreadedExecutor runs them all: every callback is short and
+Composes the four pipeline nodes, lsl_gaze_bridge, camera_tracker,
+marker_projector and choice_arbiter (RViz, the eye tracker and the task that
+publishes ``choices`` stay outside).  The original experiment's menu is
+started explicitly: ``ros2 run eye_bci_ros2 choice_menu``, or
+``eye_bci --with-menu`` to compose it too.  One executor
+(:mod:`eye_bci_ros2.nodes.runner`) runs them all: every callback is short and
 non-blocking, so one thread keeps latency low without locks or the GIL
 contention of a thread pool.  ``--ros-args`` apply to every node, so name
 the node in parameter files (``/marker_projector:``) or use ``/**``.
 """
 
 import importlib
+import sys
 from typing import Any, Dict, List, Optional
 
-import rclpy
 from rclpy.context import Context
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.utilities import remove_ros_args
+
+from eye_bci_ros2.nodes.runner import spin_nodes
 
 #: (node name, module, class) of each pipeline node, in start-up order.
 PIPELINE = (
@@ -24,15 +29,20 @@ PIPELINE = (
     ('camera_tracker', 'eye_bci_ros2.nodes.camera_tracker', 'CameraTracker'),
     ('marker_projector', 'eye_bci_ros2.nodes.marker_projector', 'MarkerProjector'),
     ('choice_arbiter', 'eye_bci_ros2.nodes.choice_arbiter', 'ChoiceArbiter'),
-    ('choice_menu', 'eye_bci_ros2.nodes.choice_menu', 'ChoiceMenu'),
 )
+#: The original experiment's menu, composed only when asked for.
+MENU = ('choice_menu', 'eye_bci_ros2.nodes.choice_menu', 'ChoiceMenu')
+#: The command-line option that composes :data:`MENU` too.
+WITH_MENU = '--with-menu'
+
 
 #: Names of the pipeline nodes.
 NODE_NAMES = tuple(name for name, _, _ in PIPELINE)
 
 
 def make_pipeline_nodes(context: Optional[Context] = None,
-                        overrides: Optional[Dict[str, Dict[str, Any]]] = None) -> List[Node]:
+                        overrides: Optional[Dict[str, Dict[str, Any]]] = None,
+                        with_menu: bool = False) -> List[Node]:
     """
     Create the pipeline nodes (not yet spinning).
 
@@ -40,18 +50,21 @@ def make_pipeline_nodes(context: Optional[Context] = None,
     :param overrides: ``{node name: {parameter: value}}``; a value may be an
         ``rclpy.parameter.Parameter`` (needed for an empty list, whose type
         cannot be guessed).  They take precedence over ``--ros-args``.
-    :returns: the nodes, in :data:`PIPELINE` order.
+    :param with_menu: add the original experiment's menu (:data:`MENU`) last.
+    :returns: the nodes, in :data:`PIPELINE` order (then the menu).
     :raises ValueError: an unknown node name, or a node that refuses its
         parameters (nodes created so far are destroyed first).
     """
     overrides = dict(overrides or {})
-    unknown = sorted(set(overrides) - set(NODE_NAMES))
+    composed = PIPELINE + ((MENU,) if with_menu else ())
+    names = [name for name, _, _ in composed]
+    unknown = sorted(set(overrides) - set(names))
     if unknown:
         raise ValueError(f'no pipeline node named {", ".join(unknown)} '
-                         f'(nodes: {", ".join(NODE_NAMES)})')
+                         f'(nodes: {", ".join(names)})')
     nodes: List[Node] = []
     try:
-        for name, module, class_name in PIPELINE:
+        for name, module, class_name in composed:
             # Imported here: each node pulls in its own dependencies (pylsl, ...).
             node_class = getattr(importlib.import_module(module), class_name)
             kwargs: Dict[str, Any] = {}
@@ -71,22 +84,14 @@ def make_pipeline_nodes(context: Optional[Context] = None,
 
 
 def main(args=None):
-    """Run all pipeline nodes on one executor until Ctrl-C or shutdown."""
-    rclpy.init(args=args)
-    executor = SingleThreadedExecutor()
-    nodes: List[Node] = []
-    try:
-        nodes = make_pipeline_nodes()
-        for node in nodes:
-            executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        executor.shutdown()
-        for node in nodes:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    """Run the pipeline nodes (and the menu with --with-menu) until Ctrl-C or shutdown."""
+    argv = list(sys.argv if args is None else args)
+    with_menu = WITH_MENU in remove_ros_args(argv)[1:]
+    composed = PIPELINE + ((MENU,) if with_menu else ())
+    spin_nodes(lambda: make_pipeline_nodes(with_menu=with_menu),
+               [arg for arg in argv if arg != WITH_MENU],
+               help_modules=[__name__] + [module for _, module, _ in composed],
+               usage=f'ros2 run eye_bci_ros2 eye_bci [{WITH_MENU}]')
 
 
 if __name__ == '__main__':

@@ -1,37 +1,35 @@
 """
-Node ``lsl_gaze_bridge``: eye-tracker gaze from an LSL stream to ``gaze`` on ROS 2.
+Node ``lsl_gaze_bridge``: eye-tracker gaze from an LSL stream to ROS 2.
 
 Finds the LSL stream of an eye-tracker application (profile + stream type /
 name / source_id), pulls its samples in chunks, converts them to points on
 the ``screen`` (px, top-left origin; :mod:`eye_bci_ros2.gaze_profiles`) and
-publishes each as a geometry_msgs/PointStamped whose stamp is the sample's
-acquisition time on the ROS clock.
+publishes
+
+* every valid sample on ``gaze/samples`` (sensor_msgs/PointCloud2), one
+  message per pulled chunk, each sample with its own acquisition time on the
+  ROS clock (:mod:`eye_bci_ros2.nodes.conversions`, "Gaze batches";
+  :mod:`eye_bci_ros2.gaze_stream` for the stamps): the cost follows the poll
+  rate, not the tracker rate;
+* the newest sample on ``gaze/point`` (geometry_msgs/PointStamped) at most
+  ``point_rate_hz`` times a second, for people and simple tools.
 
 Nothing here blocks the executor for long: the stream is found by a
 ``pylsl.ContinuousResolver`` that a timer polls, chunks are pulled with a
 zero timeout, and the clock offset to the sender is estimated by liblsl in
 the background.  The only waits are fetching the full stream description
-once per connection (at most 0.2 s, usually a few ms on a LAN).
+once per connection (at most 0.2 s, usually a few ms on a LAN).  Samples are
+held back until the first time-correction estimate (about 0.7 s after
+connecting); if none comes within 5 s (UDP time service unreachable) the
+bridge warns and stamps with arrival time until one does.
 
-Time stamps: ``t_ros = t_lsl + time_correction + (ros_now - local_clock())``
-where ``t_lsl`` is the sender's timestamp (its LSL clock), the time
-correction (refreshed every ``time_correction_period_s``) maps it to this
-machine's LSL clock, and the last term, measured when the chunk is pulled,
-maps this machine's LSL clock to the ROS clock.  Samples are held back until
-the first time-correction estimate (about 0.7 s after connecting); if none
-comes within 5 s (UDP time service unreachable) the bridge warns and stamps
-with arrival time until one does.
-
-Bursts: samples are published at most ``max_publish_rate_hz`` per second
-(a token bucket refilled at that rate, holding at least
-:data:`PUBLISH_BURST` samples): twice the live rate by default.  A backlog
-(a sender that stalled and then pushed seconds of gaze at once, or samples
-held while the executor was busy) stays in the inlet's buffer, which liblsl
-fills without loss up to :data:`INLET_BUFFER_S` of gaze, and drains over a
-few seconds: publishing it in one callback would overflow every subscriber
-whose queue (``GAZE_QOS`` depth) is shorter than the burst, and a
-subscriber on the same executor takes only one message per wait.  Stamps
-stay acquisition times, so a drained backlog is exactly as old as it is.
+Bursts: a backlog (a sender that stalled and then pushed seconds of gaze at
+once, or samples held while the executor was busy) waits in the inlet's
+buffer, which liblsl fills without loss up to ``INLET_BUFFER_S`` of gaze, and
+is published in chunks of ``max_chunk`` samples, at most
+:data:`MAX_PULLS_PER_POLL` chunks per poll so the executor keeps serving
+other callbacks.  Stamps stay acquisition times, so a drained backlog is
+exactly as old as it is.
 
 Lost streams: inlets are created with ``recover=False``, so an outlet that
 goes away raises ``LostError`` at once; the bridge then resolves again and
@@ -43,7 +41,8 @@ is still advertised (Tobii Stream Engine sends nothing while it sees no
 eyes: switching then would hand control to another device's gaze); only
 when it is gone does the bridge take the newest matching stream, with a
 warning.  A further matching stream that appears while connected is
-reported once and never used.
+reported once and never used.  While no stream matches, the bridge names
+the streams it does see and the parameters that would select each.
 """
 
 from dataclasses import dataclass
@@ -51,39 +50,24 @@ import math
 import time
 from typing import Any, Dict, List, Optional, Tuple
 
-from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Point, PointStamped
+from geometry_msgs.msg import PointStamped
 import numpy as np
 import pylsl
 from pylsl.util import LostError, TimeoutError as LslTimeoutError
 from rclpy.node import Node
-from std_msgs.msg import Header
+from sensor_msgs.msg import PointCloud2
 
 from eye_bci_ros2.gaze_profiles import (
     ANY, build_config, convert, DEFAULT_PROFILE, DROP_REASONS, GazeConfig, GazeMapping,
     NO_CONFIDENCE, ORIGINS, PROFILE_NAMES, resolve_mapping, stream_matches, UNITS,
     xpath_predicate)
-from eye_bci_ros2.nodes.conversions import SCREEN_FRAME
+from eye_bci_ros2.gaze_stream import (acquisition_stamps_ns, describe_stream, how_to_choose,
+                                      inlet_buflen, report_unmatched)
+from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_point
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.qos import GAZE_QOS
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.topics import GAZE_POINT_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC, VIEW_QOS
 
-#: Inlet buffer, s of gaze; liblsl drops the oldest samples beyond it, uncounted.
-INLET_BUFFER_S = 60
-#: Rate assumed to size the inlet buffer of an irregular-rate stream, Hz.
-IRREGULAR_BUFFER_RATE_HZ = 1200.0
-#: Automatic publish limit: this many times the nominal rate ...
-CATCH_UP_FACTOR = 2.0
-#: ... and at least this, samples/s (irregular streams; apps that advertise a
-#: placeholder rate, like App-TobiiPro's 600 Hz for a 1200 Hz tracker).  One
-#: executor running the arbiter and a listener delivers about 3000 gaze
-#: messages/s on a loaded 2-core machine (test_faults_gaze burst tests).
-MIN_AUTO_PUBLISH_RATE_HZ = 2400.0
-#: Most samples published in one poll after a pause (token bucket size, at least).
-PUBLISH_BURST = 32
-#: Report a backlog that takes at least this long to drain, s (not the one left
-#: by the wait for the first clock offset, about 0.7 s of gaze).
-BACKLOG_LOG_S = 0.5
 #: Longest wait for a stream's full description when connecting, s.
 INFO_TIMEOUT_S = 0.2
 #: Without a time-correction estimate after this long, stamp by arrival, s.
@@ -93,7 +77,8 @@ RESOLVER_FORGET_S = 2.0
 #: A lost stream is not reopened for this long (the resolver may still list a dead
 #: outlet); after it, a stream whose connection only broke can be used again, s.
 LOST_IGNORE_S = 2.5 * RESOLVER_FORGET_S
-#: Most chunks pulled per poll, so a huge backlog cannot hog the executor.
+#: Most chunks pulled per poll, so a huge backlog cannot hog the executor (8 chunks of
+#: the default 1024 samples per 2 ms poll drain a burst at 4 million samples/s).
 MAX_PULLS_PER_POLL = 8
 #: Repeating warnings at most this often, s.
 WARN_THROTTLE_S = 5.0
@@ -102,8 +87,6 @@ LOOKING_LOG_PERIOD_S = 10.0
 #: Tries at reading the ROS and LSL clocks together, and a bracket good enough, s.
 CLOCK_READS = 3
 CLOCK_BRACKET_S = 20e-6
-#: Stamps must fit builtin_interfaces/Time (int32 seconds).
-_MAX_STAMP_S = 2.0 ** 31 - 1
 #: Counters kept and logged by the bridge.
 COUNTERS = ('received', 'published') + DROP_REASONS + ('layout', 'bad_stamp')
 
@@ -129,17 +112,20 @@ PARAMETERS = (
               'eye-tracker application whose stream layout to expect; it sets the '
               'defaults of every parameter left empty/0/negative', choices=PROFILE_NAMES),
     ParamSpec('stream_type', '',
-              f"LSL stream type to accept; '' = profile default, '{ANY}' = any"),
+              f"LSL stream type to accept; '' = profile default, '{ANY}' = any",
+              integer_as_text=True),
     ParamSpec('stream_name', '',
-              f"LSL stream name to accept; '' = profile default, '{ANY}' = any"),
-    ParamSpec('source_id', '', f"LSL source_id to accept; '' or '{ANY}' = any"),
+              f"LSL stream name to accept; '' = profile default, '{ANY}' = any",
+              integer_as_text=True),
+    ParamSpec('source_id', '', f"LSL source_id to accept; '' or '{ANY}' = any",
+              integer_as_text=True),
     ParamSpec('x_channel', '',
               'channel of gaze x: label or 0-based index; several separated by commas '
               "(one per eye) are averaged over the valid eyes; '' = profile default",
-              check=_channel_text),
+              check=_channel_text, integer_as_text=True),
     ParamSpec('y_channel', '',
               'channel of gaze y, as x_channel (same number of entries); '
-              "'' = profile default", check=_channel_text),
+              "'' = profile default", check=_channel_text, integer_as_text=True),
     ParamSpec('units', '', 'units of x/y: pixels of the source screen or normalized '
               "(0..1); '' = profile default", check=_one_of_or_empty(UNITS)),
     ParamSpec('origin', '', 'corner of the source screen at x = y = 0; '
@@ -154,7 +140,8 @@ PARAMETERS = (
               value_range=(1, 16384)),
     ParamSpec('confidence_channel', '',
               f"label or index of a 0..1 confidence channel; '' = profile default, "
-              f"'{NO_CONFIDENCE}' = no confidence check", check=_channel_text),
+              f"'{NO_CONFIDENCE}' = no confidence check", check=_channel_text,
+              integer_as_text=True),
     ParamSpec('min_confidence', -1.0,
               'drop samples whose confidence is below this; negative = profile default '
               '(0.6 for pupil_capture)', value_range=(-1.0, 1.0)),
@@ -167,16 +154,13 @@ PARAMETERS = (
               value_range=(0.05, 3600.0)),
     ParamSpec('poll_period_s', 0.002,
               'period of pulling samples from LSL, s; a sample waits up to this long in the '
-              'inlet, so it bounds the added latency (2 ms: p99 LSL push -> choice about '
-              '6 ms at 1200 Hz, see bench/latency.py; 10 ms: about 14 ms, at half the CPU)',
+              'inlet, so it bounds the added latency (see the README, Performance)',
               value_range=(0.001, 1.0)),
     ParamSpec('max_chunk', 1024, 'most samples pulled at once', value_range=(1, 65536)),
-    ParamSpec('max_publish_rate_hz', 0.0,
-              'most gaze samples published per second; a backlog beyond it (a burst from '
-              'the sender) waits in the LSL inlet buffer (60 s) and drains at this rate, so '
-              'subscribers with a shorter queue lose nothing; it must not exceed what the '
-              'slowest gaze subscriber takes; 0 = twice the nominal rate, at least 2400',
-              value_range=(0.0, 1e6)),
+    ParamSpec('point_rate_hz', 30.0,
+              'most gaze/point messages (the newest sample, for people and simple tools) '
+              'per second; every sample is on gaze/samples whatever this is; 0 = none',
+              value_range=(0.0, 1000.0)),
     ParamSpec('resolve_period_s', 0.5,
               'period of looking for the stream and checking its health, s',
               value_range=(0.05, 10.0)),
@@ -208,32 +192,14 @@ def _channel_labels(info: pylsl.StreamInfo) -> List[str]:
     return labels
 
 
-def _describe(info: pylsl.StreamInfo) -> str:
-    """One line naming a stream for log messages."""
-    rate = info.nominal_srate()
-    rate_text = f'{rate:g} Hz' if rate > 0 else 'irregular rate'
-    return (f"'{info.name()}' (type '{info.type()}', source_id '{info.source_id()}', "
-            f'{info.channel_count()} ch, {rate_text}, host {info.hostname()})')
-
-
-def _inlet_buflen(nominal_srate: float) -> int:
-    """
-    Return pylsl's ``max_buflen`` for :data:`INLET_BUFFER_S` of gaze.
-
-    liblsl reads it as seconds for a stream with a nominal rate, but as
-    hundreds of samples for an irregular one (nominal rate 0).
-    """
-    if nominal_srate > 0:
-        return INLET_BUFFER_S
-    return int(math.ceil(INLET_BUFFER_S * IRREGULAR_BUFFER_RATE_HZ / 100.0))
-
-
-def _how_to_choose(info: pylsl.StreamInfo, current_source_id: str) -> str:
-    """Tell the user how to select this stream instead (or why source_id cannot)."""
-    if info.source_id() and info.source_id() != current_source_id:
-        return f"To use it instead, set the parameter source_id to '{info.source_id()}'."
-    return (f"It has the same source_id ('{info.source_id()}'): to use it instead, stop the "
-            f'other sender or select it by stream_name.')
+def _resolver(predicate: str) -> Optional[pylsl.ContinuousResolver]:
+    """Resolve streams matching an XPath ``predicate`` ('' = all) in liblsl's background."""
+    try:
+        if predicate:
+            return pylsl.ContinuousResolver(pred=predicate, forget_after=RESOLVER_FORGET_S)
+        return pylsl.ContinuousResolver(forget_after=RESOLVER_FORGET_S)
+    except Exception:  # noqa: B902 - liblsl errors must not kill the node
+        return None
 
 
 @dataclass
@@ -257,12 +223,6 @@ class _Connection:
     reading_since: Optional[float] = None
     last_sample_at: Optional[float] = None
     stale: bool = False
-    #: Samples that may be published now (token bucket), and when it was last filled.
-    tokens: float = float(PUBLISH_BURST)
-    tokens_at: Optional[float] = None
-    #: A backlog being drained: when it was noticed, and the 'received' count then.
-    backlog_since: Optional[float] = None
-    backlog_start_count: int = 0
 
 
 class LslGazeBridge(Node):
@@ -273,7 +233,13 @@ class LslGazeBridge(Node):
         super().__init__('lsl_gaze_bridge', **kwargs)
         self._params = declare_parameters(self, PARAMETERS, self._on_parameters, _check_all)
         self._config: GazeConfig = build_config(self._params)
-        self._publisher = self.create_publisher(PointStamped, 'gaze', GAZE_QOS)
+        self._batch_publisher = self.create_publisher(
+            PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)
+        self._point_publisher = self.create_publisher(PointStamped, GAZE_POINT_TOPIC, VIEW_QOS)
+        # When gaze/point was last published (monotonic s).
+        self._point_at = -math.inf
+        # Every stream on the network, resolved only while none matches (for the report).
+        self._all_streams: Optional[pylsl.ContinuousResolver] = None
         self._counters = dict.fromkeys(COUNTERS, 0)
         self._logged_counters = dict(self._counters)
         self._connection: Optional[_Connection] = None
@@ -316,11 +282,6 @@ class LslGazeBridge(Node):
         return self._connection.uid if self._connection else None
 
     @property
-    def publish_rate_hz(self) -> Optional[float]:
-        """Return the most samples published per second from the stream in use; None idle."""
-        return self._publish_rate(self._connection) if self._connection else None
-
-    @property
     def stale(self) -> bool:
         """Tell whether the stream in use has sent nothing for ``stale_timeout_s``."""
         return bool(self._connection and self._connection.stale)
@@ -329,6 +290,7 @@ class LslGazeBridge(Node):
         """Close the inlet and the resolver, then destroy the node."""
         self._disconnect()
         self._resolver = None
+        self._all_streams = None
         return super().destroy_node()
 
     # -- parameters -----------------------------------------------------------------
@@ -377,16 +339,9 @@ class LslGazeBridge(Node):
 
     def _start_resolver(self) -> None:
         """Resolve continuously (in liblsl's background thread) for the selection."""
-        predicate = xpath_predicate(self._config)
-        try:
-            if predicate:
-                self._resolver = pylsl.ContinuousResolver(
-                    pred=predicate, forget_after=RESOLVER_FORGET_S)
-            else:
-                self._resolver = pylsl.ContinuousResolver(forget_after=RESOLVER_FORGET_S)
-        except Exception as exc:  # noqa: B902 - liblsl errors must not kill the node
-            self._resolver = None
-            self.get_logger().error(f'cannot start the LSL resolver: {exc}')
+        self._resolver = _resolver(xpath_predicate(self._config))
+        if self._resolver is None:
+            self.get_logger().error('cannot start the LSL resolver (liblsl failed); retrying')
 
     def _candidates(self) -> List[pylsl.StreamInfo]:
         """List the matching streams currently advertised (any uid), oldest first."""
@@ -443,9 +398,9 @@ class LslGazeBridge(Node):
             self._reported_uids.add(uid)
             self.get_logger().warning(
                 f'another LSL stream matches {self._config.describe_selection()}: '
-                f"{_describe(info)}, uid '{uid}'; it is NOT used: the bridge stays with "
+                f"{describe_stream(info)}, uid '{uid}'; it is NOT used: the bridge stays with "
                 f"{connection.description}, uid '{connection.uid}'. "
-                f'{_how_to_choose(info, connection.source_id)}')
+                f'{how_to_choose(info, connection.source_id)}')
 
     def _drop_lost(self, connection: _Connection) -> None:
         """Forget a stream that went away; the next one opened is announced as its successor."""
@@ -468,17 +423,22 @@ class LslGazeBridge(Node):
         candidates = [info for info in self._candidates()
                       if not self._is_ignored(info.uid(), now)]
         if not candidates:
+            if self._all_streams is None:
+                self._all_streams = _resolver('')
             if now - self._last_looking_log >= LOOKING_LOG_PERIOD_S:
                 self._last_looking_log = now
+                seen = self._all_streams.results() if self._all_streams is not None else []
                 self.get_logger().info(
-                    f'looking for an LSL gaze stream: {self._config.describe_selection()}')
+                    f'looking for an LSL gaze stream: {self._config.describe_selection()}; '
+                    f'{report_unmatched(seen, self._config)}')
             return
+        self._all_streams = None
         newest = candidates[-1]
         if len(candidates) > 1:
-            others = '; '.join(_describe(info) for info in candidates[:-1])
+            others = '; '.join(describe_stream(info) for info in candidates[:-1])
             self.get_logger().warning(
                 f'{len(candidates)} LSL streams match {self._config.describe_selection()}: '
-                f'using the newest, {_describe(newest)} (also found: {others}); set '
+                f'using the newest, {describe_stream(newest)} (also found: {others}); set '
                 f'source_id to choose')
             self._reported_uids.update(info.uid() for info in candidates[:-1])
         if self._gone is not None:
@@ -487,22 +447,22 @@ class LslGazeBridge(Node):
                 self.get_logger().info(f'{gone} is back (its connection broke); reconnecting')
             else:
                 self.get_logger().warning(f'{gone} is gone: switching to the newest matching '
-                                          f'stream, {_describe(newest)}')
+                                          f'stream, {describe_stream(newest)}')
         self._open(newest, now)
 
     def _open(self, info: pylsl.StreamInfo, now: float) -> None:
         """Create an inlet for ``info``, read its labels, start clock sync."""
         if info.channel_format() == pylsl.cf_string:
-            self.get_logger().warning(f'ignoring {_describe(info)}: it carries strings, '
+            self.get_logger().warning(f'ignoring {describe_stream(info)}: it carries strings, '
                                       f'not numbers')
             self._ignored[info.uid()] = math.inf
             return
-        inlet = pylsl.StreamInlet(info, max_buflen=_inlet_buflen(info.nominal_srate()),
+        inlet = pylsl.StreamInlet(info, max_buflen=inlet_buflen(info.nominal_srate()),
                                   recover=False)
         try:
             full = inlet.info(timeout=INFO_TIMEOUT_S)
         except LslTimeoutError:
-            self.get_logger().warning(f'no description from {_describe(info)} yet; retrying',
+            self.get_logger().warning(f'no description from {describe_stream(info)} yet; retrying',
                                       throttle_duration_sec=WARN_THROTTLE_S)
             return
         except LostError:
@@ -516,7 +476,7 @@ class LslGazeBridge(Node):
         connection = _Connection(
             inlet=inlet, uid=full.uid(), source_id=full.source_id(),
             created_at=full.created_at(),
-            description=_describe(full), labels=_channel_labels(full),
+            description=describe_stream(full), labels=_channel_labels(full),
             buffer=self._make_buffer(inlet), connected_at=now,
             nominal_srate=full.nominal_srate())
         self._connection = connection
@@ -588,31 +548,17 @@ class LslGazeBridge(Node):
                     f'samples with their arrival time')
         if connection.reading_since is None:
             connection.reading_since = now
-        rate = self._publish_rate(connection)
-        if connection.tokens_at is not None:
-            bucket = max(float(PUBLISH_BURST), rate * self._params['poll_period_s'])
-            connection.tokens = min(bucket,
-                                    connection.tokens + (now - connection.tokens_at) * rate)
-        connection.tokens_at = now
         try:
-            budget = int(connection.tokens)
             for _ in range(MAX_PULLS_PER_POLL):
-                wanted = min(len(connection.buffer), budget)
-                if wanted <= 0:
-                    break
                 samples, timestamps = connection.inlet.pull_chunk(
-                    timeout=0.0, max_samples=wanted, dest_obj=connection.buffer,
-                    as_numpy=True)
+                    timeout=0.0, max_samples=len(connection.buffer),
+                    dest_obj=connection.buffer, as_numpy=True)
                 count = len(timestamps)
                 if count == 0:
                     break
-                budget -= count
-                connection.tokens -= count
                 self._publish_chunk(connection, samples, timestamps, now)
-                if count < wanted:
+                if count < len(connection.buffer):
                     break
-            if budget <= 0 or connection.backlog_since is not None:
-                self._track_backlog(connection, now, rate)
         except LostError:
             self.get_logger().warning(f'lost LSL stream {connection.description} (sender '
                                       f'closed or connection broken); looking for a '
@@ -621,31 +567,6 @@ class LslGazeBridge(Node):
         except Exception as exc:  # noqa: B902 - a node never dies on a sample
             self.get_logger().warning(f'failed to read {connection.description}: {exc}',
                                       throttle_duration_sec=WARN_THROTTLE_S)
-
-    def _publish_rate(self, connection: _Connection) -> float:
-        """Return the most samples published per second from this stream."""
-        if self._params['max_publish_rate_hz'] > 0.0:
-            return self._params['max_publish_rate_hz']
-        return max(CATCH_UP_FACTOR * connection.nominal_srate, MIN_AUTO_PUBLISH_RATE_HZ)
-
-    def _track_backlog(self, connection: _Connection, now: float, rate: float) -> None:
-        """Say when samples pile up in the inlet faster than they may be published."""
-        waiting = connection.inlet.samples_available()
-        if connection.backlog_since is None:
-            if waiting < rate * BACKLOG_LOG_S:
-                return
-            connection.backlog_since = now
-            connection.backlog_start_count = self._counters['received']
-            self.get_logger().warning(
-                f'draining a backlog of {waiting} gaze samples from {connection.description} '
-                f'at up to {rate:g} samples/s (max_publish_rate_hz); their stamps are their '
-                f'acquisition times, so they are published late, not lost',
-                throttle_duration_sec=WARN_THROTTLE_S)
-        elif waiting == 0:
-            drained = self._counters['received'] - connection.backlog_start_count
-            self.get_logger().info(f'backlog drained: {drained} gaze samples read in '
-                                   f'{now - connection.backlog_since:.1f} s')
-            connection.backlog_since = None
 
     def _clock_pair(self) -> Tuple[int, float]:
         """
@@ -682,22 +603,17 @@ class LslGazeBridge(Node):
                 throttle_duration_sec=WARN_THROTTLE_S)
             return
 
-        # Map LSL time to the ROS clock at the moment of the pull (see module doc).
+        # Map LSL time to the ROS clock at the moment of the pull (gaze_stream).
         ros_now_ns, lsl_now = self._clock_pair()
-        if connection.arrival_stamps:
-            delta_s = np.zeros(count)
-        else:
-            delta_s = np.asarray(timestamps, dtype=np.float64) \
-                + connection.time_correction - lsl_now
-        with np.errstate(invalid='ignore'):
-            stamp_s = ros_now_ns * 1e-9 + delta_s
-            good_stamp = np.isfinite(stamp_s) & (stamp_s >= 0.0) & (stamp_s < _MAX_STAMP_S)
+        stamps_ns, good_stamp = acquisition_stamps_ns(
+            timestamps, None if connection.arrival_stamps else connection.time_correction,
+            ros_now_ns, lsl_now)
         if not good_stamp.all():
             self._counters['bad_stamp'] += int(np.count_nonzero(~good_stamp))
             self.get_logger().warning(
                 f'dropping gaze samples with unusable LSL timestamps from '
                 f'{connection.description}', throttle_duration_sec=WARN_THROTTLE_S)
-            samples, delta_s = samples[good_stamp], delta_s[good_stamp]
+            samples, stamps_ns = samples[good_stamp], stamps_ns[good_stamp]
 
         batch = convert(samples, connection.mapping)
         dropped = sum(batch.dropped.values())
@@ -711,14 +627,14 @@ class LslGazeBridge(Node):
                 f'{self._drop_totals()})', throttle_duration_sec=WARN_THROTTLE_S)
         if not len(batch.xy):
             return
-        stamps_ns = ros_now_ns + np.rint(delta_s[batch.keep] * 1e9).astype(np.int64)
-        seconds, nanoseconds = np.divmod(stamps_ns, 1_000_000_000)
-        for (x, y), sec, nanosec in zip(batch.xy.tolist(), seconds.tolist(),
-                                        nanoseconds.tolist()):
-            self._publisher.publish(PointStamped(
-                header=Header(stamp=Time(sec=sec, nanosec=nanosec), frame_id=SCREEN_FRAME),
-                point=Point(x=x, y=y, z=0.0)))
+        stamps_ns = stamps_ns[batch.keep]
+        self._batch_publisher.publish(gaze_batch(stamps_ns, batch.xy))
         self._counters['published'] += len(batch.xy)
+        rate = self._params['point_rate_hz']
+        if rate > 0.0 and now - self._point_at >= 1.0 / rate:
+            self._point_at = now
+            self._point_publisher.publish(
+                gaze_point(stamps_ns[-1], batch.xy[-1, 0], batch.xy[-1, 1]))
 
     # -- reporting --------------------------------------------------------------------
 
@@ -743,7 +659,7 @@ class LslGazeBridge(Node):
 
 def main(args=None):
     """Run the bridge until Ctrl-C."""
-    spin_node(lambda: LslGazeBridge(), args)
+    spin_node(LslGazeBridge, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':

@@ -8,15 +8,26 @@ latched): the complete current set, one closed LINE_STRIP per visible marker,
 points in screen px, same ns/id/text as the marker (see
 :mod:`eye_bci_ros2.nodes.conversions`).
 
-Markers are kept by (ns, id) with RViz's semantics: ADD/MODIFY adds or
-replaces, DELETE removes one, DELETEALL clears everything received before it
-(also earlier in the same array).  A CUBE's region is the silhouette of its
-corners; any other type is treated as the box its scale spans around its pose.
-Only markers in ``world_frame`` are projected (there is no tf2 here).  A marker
-partly behind the camera, one containing the camera, and one wholly outside
-the render panel get no region.  Regions are recomputed and republished
-whenever the markers, the camera or a parameter change; nothing is published
-before the first camera pose.
+Markers are kept by (ns, id) with RViz2's semantics (``MarkerCommon``,
+ros2/rviz jazzy, rviz_default_plugins/src/rviz_default_plugins/displays/marker/
+marker_common.cpp): the markers of an array are applied in order; ADD/MODIFY
+adds or replaces; DELETE removes one; DELETEALL with an empty ``ns`` removes
+every marker received before it, with a non-empty ``ns`` only that namespace's
+(markers after it in the same array survive); a marker with a NaN or infinite
+pose, scale, colour or point is ignored whatever its action; a marker with a
+``lifetime`` (> 0.1 ms) expires that long after it was received, on the node's
+clock.  A CUBE's region is the silhouette of its corners; any other type is
+treated as the box its scale spans around its pose.  Only markers in
+``world_frame`` are projected (there is no tf2 here).  A marker partly behind
+the camera, one containing the camera, and one wholly outside the render panel
+get no region.  Regions are recomputed and republished whenever the markers,
+the camera or a parameter change; nothing is published before the first camera
+pose.
+
+The projection is perspective (Orbit, XYOrbit, ThirdPersonFollower, FPS and the
+animated controller) or orthographic (TopDownOrtho: ``ortho_scale`` px per m
+around the panel centre); ``projection`` and the panel size can come from an
+``rviz_config`` file (see :func:`camera_from_parameters`).
 """
 
 import time
@@ -24,25 +35,27 @@ from typing import Any, Dict, List, Optional, Tuple
 
 from geometry_msgs.msg import PoseStamped
 import numpy as np
+from rclpy.duration import Duration
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.calibration import rviz_intrinsic
-from eye_bci_ros2.camera_model import parse_intrinsic, RvizCamera
+from eye_bci_ros2.camera_model import (OrthographicCamera, parse_intrinsic, rviz_intrinsic,
+                                       RvizCamera)
 from eye_bci_ros2.geometry import external_from_pose
 from eye_bci_ros2.nodes.conversions import pose_to_arrays, regions_to_marker_array
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.qos import LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
+from eye_bci_ros2.nodes.topics import CHOICES_QOS, LATCHED_QOS
 
 #: Largest render panel side accepted, px.
 MAX_IMAGE_SIDE = 16384
 
 #: Where the default 1280x720 render panel sits: centred on a 1920x1080 screen,
-#: as in the default scene (config/scene.yaml).  Measure it for a real RViz.
-DEFAULT_SCREEN_OFFSET = (320, 180)
+#: as in the default scene (config/scene.yaml).  Measure it for a real RViz
+#: (``find_panel``); px, fractional on a scaled (HiDPI) screen.
+DEFAULT_SCREEN_OFFSET = (320.0, 180.0)
 
 #: How often the same warning about bad input may be logged, s.
 WARN_PERIOD_S = 5.0
@@ -50,13 +63,15 @@ WARN_PERIOD_S = 5.0
 #: Problems listed in one warning about a MarkerArray.
 MAX_LISTED = 5
 
-#: ``choices``: latched like LATCHED_QOS, but deep, because MarkerArrays are
-#: incremental (RViz semantics): with depth 1, an array that arrives before the
-#: previous one is taken replaces it, and a lost DELETE leaves a withdrawn
-#: choice selectable.
-CHOICES_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=100,
-    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: Lifetimes up to this are "forever", as in RViz2 (``> 100000`` ns in
+#: MarkerCommon::configureMarker).
+MIN_LIFETIME_NS = 100000
+
+#: How often markers with a lifetime are checked for expiry, s.
+EXPIRY_CHECK_S = 0.05
+
+#: Default ``ortho_scale``: TopDownOrtho's default Scale, px per m.
+DEFAULT_ORTHO_SCALE = 10.0
 
 Key = Tuple[str, int]
 
@@ -134,10 +149,18 @@ class MarkerTable:
         return True
 
     def clear(self) -> None:
-        """Remove every marker (RViz DELETEALL)."""
+        """Remove every marker (RViz DELETEALL with an empty ns)."""
         self._rows.clear()
         self.sources.clear()
         self._count = 0
+
+    def keys_in(self, ns: str) -> List[Key]:
+        """Return the keys of every marker in namespace ``ns``."""
+        return [key for key in self._rows if key[0] == ns]
+
+    def keys(self) -> List[Key]:
+        """Return the keys of every marker held."""
+        return list(self._rows)
 
 
 def marker_box(marker: Marker) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Optional[str]]:
@@ -162,6 +185,24 @@ def marker_box(marker: Marker) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Opti
     elif norm < 1e-9:
         raise ValueError('orientation quaternion has (almost) zero length')
     return position, quaternion / norm, scale, note
+
+
+def non_finite_fields(marker: Marker) -> List[str]:
+    """
+    Name the parts of a marker holding NaN or infinite values.
+
+    What RViz2 checks before any action (``validateFloats`` in
+    marker_common.cpp): pose, scale, colour and points.
+    """
+    position, quaternion = pose_to_arrays(marker.pose)
+    parts = {
+        'pose': np.concatenate([position, quaternion]),
+        'scale': [marker.scale.x, marker.scale.y, marker.scale.z],
+        'color': [marker.color.r, marker.color.g, marker.color.b, marker.color.a],
+        'points': [value for p in marker.points for value in (p.x, p.y, p.z)],
+    }
+    return [name for name, values in parts.items()
+            if len(values) and not np.all(np.isfinite(np.asarray(values, dtype=float)))]
 
 
 def _intrinsic_values(value: Any) -> Optional[str]:
@@ -191,31 +232,67 @@ PARAMETERS: List[ParamSpec] = [
               'ty, 0, 0, 1, 0]; empty = analytic RViz intrinsic (image size, fov_y_deg).',
               check=_intrinsic_values, array_type='double_array'),
     ParamSpec('screen_offset_x', DEFAULT_SCREEN_OFFSET[0],
-              "X0: screen x of the render panel's left edge, px (screen = image + X0).",
+              "X0: screen x of the render panel's left edge, px (screen = image + X0); "
+              'may be fractional (a scaled screen).',
               value_range=(-MAX_IMAGE_SIDE, MAX_IMAGE_SIDE)),
     ParamSpec('screen_offset_y', DEFAULT_SCREEN_OFFSET[1],
-              "Y0: screen y of the render panel's top edge, px (screen = image + Y0).",
+              "Y0: screen y of the render panel's top edge, px (screen = image + Y0); "
+              'may be fractional (a scaled screen).',
               value_range=(-MAX_IMAGE_SIDE, MAX_IMAGE_SIDE)),
     ParamSpec('clip_to_image', True,
               'Cut regions to the render panel (a marker wholly off the panel gets no '
               'region); false = whole silhouettes even where RViz does not draw them.'),
+    ParamSpec('projection', 'auto',
+              'RViz camera projection: perspective (Orbit, XYOrbit, FPS, ...), orthographic '
+              "(TopDownOrtho) or auto (rviz_config's view controller; perspective without one).",
+              choices=('auto', 'perspective', 'orthographic')),
+    ParamSpec('ortho_scale', DEFAULT_ORTHO_SCALE,
+              "Orthographic projection: TopDownOrtho's Scale, px per m; at its default the "
+              "rviz_config file's Scale is used.",
+              value_range=(1e-6, 1e9)),
+    rviz_config_spec('its render panel size (while image_width and image_height are at '
+                     'their defaults), projection kind and TopDownOrtho Scale'),
 ]
 
 
-def camera_from_parameters(values: Dict[str, Any], external=None) -> RvizCamera:
+def camera_from_parameters(values: Dict[str, Any], external=None):
     """
-    Build the camera that the projector's parameters describe.
+    Build the camera that the projector's parameters (and ``rviz_config``) describe.
+
+    Precedence (see :mod:`eye_bci_ros2.nodes.rviz_file`): image size from
+    ``image_width``/``image_height`` unless both are at their defaults and the
+    file's window state gives a panel size; projection from ``projection``
+    unless it is ``auto`` (then the file's view controller, perspective without
+    a file); the orthographic scale from ``ortho_scale`` unless it is at its
+    default and the file has a TopDownOrtho Scale.
 
     :param values: ``{name: value}`` of :data:`PARAMETERS`.
     :param external: world -> camera (4, 4), or None for the identity.
-    :raises ValueError: the parameters describe no valid camera.
+    :returns: :class:`RvizCamera` or :class:`OrthographicCamera`.
+    :raises ValueError: the parameters or the file describe no valid camera.
     """
+    view = rviz_view(values)
     size = (values['image_width'], values['image_height'])
+    if view is not None and view.panel_size and \
+            at_default(values, PARAMETERS, 'image_width', 'image_height'):
+        size = view.panel_size
+    kind = values['projection']
+    if kind == 'auto':
+        kind = view.projection if view is not None else 'perspective'
+    offset = (values['screen_offset_x'], values['screen_offset_y'])
+    if kind == 'orthographic':
+        if values['intrinsic_matrix']:
+            raise ValueError('intrinsic_matrix is a perspective calibration: leave it empty with '
+                             'the orthographic projection (ortho_scale sets the scale)')
+        scale = values['ortho_scale']
+        if view is not None and view.ortho_scale and at_default(values, PARAMETERS,
+                                                                'ortho_scale'):
+            scale = view.ortho_scale
+        return OrthographicCamera(scale, size, offset, np.eye(4) if external is None else external)
     if values['intrinsic_matrix']:
         intrinsic = parse_intrinsic(values['intrinsic_matrix'])
     else:
         intrinsic = rviz_intrinsic(size[0], size[1], values['fov_y_deg'])
-    offset = (values['screen_offset_x'], values['screen_offset_y'])
     return RvizCamera(intrinsic, size, offset, external)
 
 
@@ -238,6 +315,9 @@ class MarkerProjector(Node):
         self._camera = camera_from_parameters(self._params)
         self._camera_frame: Optional[str] = None  # None until a camera pose arrives
         self._table = MarkerTable()
+        self._expiry: Dict[Key, Time] = {}  # markers with a lifetime: when they go
+        self._expiry_timer = self.create_timer(EXPIRY_CHECK_S, self._expire)
+        self._expiry_timer.cancel()
         self._warned: Dict[str, float] = {}
         self._last_stamp: Optional[Time] = None
         self._publisher = self.create_publisher(MarkerArray, 'choices/regions', LATCHED_QOS)
@@ -247,7 +327,7 @@ class MarkerProjector(Node):
                                f'{self._camera!r}; waiting for camera/pose')
 
     @property
-    def camera(self) -> RvizCamera:
+    def camera(self):
         """Return the camera regions are computed with (pose from the last camera/pose)."""
         return self._camera
 
@@ -283,28 +363,41 @@ class MarkerProjector(Node):
         self._publish(stamp if stamp.nanoseconds > 0 else None)
 
     def _on_markers(self, message: MarkerArray) -> None:
-        problems = [problem for problem in map(self._apply, message.markers) if problem]
+        received = self.get_clock().now()
+        problems = [problem for problem in (self._apply(marker, received)
+                                            for marker in message.markers) if problem]
         if problems:
             shown = '; '.join(problems[:MAX_LISTED])
             more = len(problems) - MAX_LISTED
             self._warn(f'choices: {shown}' + (f'; and {more} more' if more > 0 else ''))
         self._publish()
 
-    def _apply(self, marker: Marker) -> Optional[str]:
+    def _apply(self, marker: Marker, received: Time) -> Optional[str]:
         """Apply one marker command to the table; return a problem to report, if any."""
         key = (marker.ns, marker.id)
         label = f'{marker.ns}/{marker.id}'
-        if marker.action == Marker.DELETEALL:
-            self._table.clear()
-        elif marker.action == Marker.DELETE:
-            self._table.delete(key)
-        elif marker.action == Marker.ADD:
+        if marker.action == Marker.ADD:
             try:
                 position, quaternion, scale, note = marker_box(marker)
             except ValueError as error:
                 return f'skipped marker {label}: {error}'
+        broken = non_finite_fields(marker)
+        if broken:  # RViz ignores such a message whatever its action
+            return f"skipped marker {label}: NaN or infinite {', '.join(broken)}"
+        if marker.action == Marker.DELETEALL:
+            for old in (self._table.keys_in(marker.ns) if marker.ns else self._table.keys()):
+                self._delete(old)
+        elif marker.action == Marker.DELETE:
+            self._delete(key)
+        elif marker.action == Marker.ADD:
             frame = marker.header.frame_id or self._params['world_frame']
             self._table.upsert(key, frame, position, quaternion, scale, marker)
+            self._expiry.pop(key, None)
+            lifetime = Duration.from_msg(marker.lifetime)
+            if lifetime.nanoseconds > MIN_LIFETIME_NS:
+                self._expiry[key] = received + lifetime
+                if self._expiry_timer.is_canceled():
+                    self._expiry_timer.reset()
             if frame != self._params['world_frame']:
                 return (f"marker {label} is in frame '{frame}', not "
                         f"'{self._params['world_frame']}': not projected (no tf2 here)")
@@ -313,6 +406,21 @@ class MarkerProjector(Node):
         else:
             return f'skipped marker {label}: unknown action {marker.action}'
         return None
+
+    def _delete(self, key: Key) -> None:
+        self._table.delete(key)
+        self._expiry.pop(key, None)
+
+    def _expire(self) -> None:
+        """Remove markers whose lifetime is over (RViz's removeExpiredMarkers)."""
+        now = self.get_clock().now()
+        expired = [key for key, until in self._expiry.items() if now >= until]
+        for key in expired:
+            self._delete(key)
+        if not self._expiry:
+            self._expiry_timer.cancel()
+        if expired:
+            self._publish()
 
     def _warn(self, text: str) -> None:
         """Log a warning, the same text at most once per WARN_PERIOD_S."""
@@ -356,7 +464,7 @@ class MarkerProjector(Node):
 
 def main(args=None):
     """Run the marker_projector node."""
-    spin_node(lambda: MarkerProjector(), args)
+    spin_node(MarkerProjector, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':

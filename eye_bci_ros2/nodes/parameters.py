@@ -6,11 +6,31 @@ rejects a wrong type or an out-of-range number (from the descriptor); the
 ``on_set`` callback here rejects the rest (unknown choices, per-value checks,
 inconsistent combinations) with a reason, and the ``post_set`` callback hands
 accepted values to the node, so ``ros2 param set`` takes effect at once.
+
+What a person types is accepted where it means the declared type: the YAML
+that ``ros2 param set`` and ``-p name:=value`` parse makes ``1`` an INTEGER,
+``[10, -2, 17]`` an INTEGER_ARRAY and ``[]`` an untyped empty list.  So a
+double parameter takes an integer, a double array an integer array, any array
+an empty list, and a string parameter declared with ``integer_as_text`` (a
+channel index, a stream name or id) an integer as its decimal text.  The
+conversion (:func:`coerce_parameter`) runs in a ``pre_set`` callback, before
+rclpy's type and range checks, so parameters keep their static type (``ros2
+param describe`` stays right) and the stored value is the converted one; the
+start-up overrides (``--ros-args -p``, ``--params-file``,
+``parameter_overrides=``) go through the same conversion before the
+parameter is declared.  Anything else of a wrong type is still refused, with
+a reason.
+
+``-p "stream_name:=*"`` never reaches a node: rcl's YAML parser reads ``*``
+as an alias and fails in ``rclpy.init``.  :func:`quote_param_rules` quotes
+such values in the command line first (the executables' ``main`` use it).
 """
 
 from dataclasses import dataclass
 import math
-from typing import Any, Callable, Dict, Iterable, Optional, Tuple
+import sys
+from typing import Any, Callable, Dict, Iterable, List, Optional, Tuple
+import weakref
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rcl_interfaces.msg import ParameterType, SetParametersResult
@@ -30,6 +50,26 @@ _EMPTY_ARRAY_TYPES = {
     'integer_array': Parameter.Type.INTEGER_ARRAY,
     'string_array': Parameter.Type.STRING_ARRAY,
 }
+_ARRAY_PARAMETER_TYPES = (
+    Parameter.Type.BOOL_ARRAY, Parameter.Type.BYTE_ARRAY, Parameter.Type.INTEGER_ARRAY,
+    Parameter.Type.DOUBLE_ARRAY, Parameter.Type.STRING_ARRAY)
+#: What each declared type is called in a reason given to a user.
+_TYPE_TEXT = {
+    Parameter.Type.BOOL: 'true or false',
+    Parameter.Type.INTEGER: 'an integer',
+    Parameter.Type.DOUBLE: 'a number',
+    Parameter.Type.STRING: 'a text (string)',
+    Parameter.Type.BYTE_ARRAY: 'a list of bytes',
+    Parameter.Type.BOOL_ARRAY: 'a list of true/false',
+    Parameter.Type.INTEGER_ARRAY: 'a list of integers',
+    Parameter.Type.DOUBLE_ARRAY: 'a list of numbers',
+    Parameter.Type.STRING_ARRAY: 'a list of texts',
+}
+#: The ParamSpecs of each node whose sets are converted (one pre_set callback per node).
+_COERCED: 'weakref.WeakKeyDictionary[Node, Dict[str, ParamSpec]]' = weakref.WeakKeyDictionary()
+#: First characters of a YAML value that rcl's parser cannot read unquoted
+#: (alias, anchor, tag, block scalar, directive, reserved).
+_YAML_INDICATORS = '*&!|>%@`'
 
 
 @dataclass(frozen=True)
@@ -47,6 +87,8 @@ class ParamSpec:
     :param array_type: 'double_array', 'integer_array' or 'string_array'
         for list parameters.
     :param read_only: cannot change after start-up.
+    :param integer_as_text: a string parameter that also takes an integer,
+        as its decimal text (``-p x_channel:=0`` is an INTEGER to ROS).
     """
 
     name: str
@@ -57,6 +99,14 @@ class ParamSpec:
     check: Optional[Check] = None
     array_type: Optional[str] = None
     read_only: bool = False
+    integer_as_text: bool = False
+
+    @property
+    def parameter_type(self) -> Parameter.Type:
+        """Return the declared type (from ``array_type`` or the default's type)."""
+        if self.array_type:
+            return _EMPTY_ARRAY_TYPES[self.array_type]
+        return Parameter.Type.from_parameter_value(self.default)
 
     def descriptor(self) -> ParameterDescriptor:
         """Build the ParameterDescriptor advertised for this parameter."""
@@ -107,6 +157,7 @@ def declare_parameters(
         invalid overrides raise ``ValueError`` at start-up.
     """
     specs = {spec.name: spec for spec in specs}
+    _coerce_overrides(node, specs)
     for spec in specs.values():
         default = spec.default
         if spec.array_type and not default:
@@ -147,9 +198,132 @@ def declare_parameters(
         if changed:
             on_change(changed)
 
+    _coerce_on_set(node, specs)
     node.add_on_set_parameters_callback(on_set)
     node.add_post_set_parameters_callback(post_set)
     return values
+
+
+def _coerce_on_set(node: Node, specs: Dict[str, ParamSpec]) -> None:
+    """
+    Convert every set of ``specs`` on ``node`` before rclpy checks its type.
+
+    One ``pre_set`` callback per node, whatever the number of tables declared
+    on it: rclpy concatenates the lists that pre_set callbacks return, so a
+    second callback would set every parameter twice.
+    """
+    table = _COERCED.get(node)
+    if table is None:
+        table = _COERCED[node] = {}
+
+        def pre_set(parameters):
+            return [coerce_parameter(table[p.name], p) if p.name in table else p
+                    for p in parameters]
+
+        node.add_pre_set_parameters_callback(pre_set)
+    table.update(specs)
+
+
+def coerce_parameter(spec: ParamSpec, parameter: Parameter) -> Parameter:
+    """
+    Convert what a person typed to the declared type, where it means that type.
+
+    An integer for a double, an integer array for a double array, an empty
+    list of any type for an array, an integer for a string parameter with
+    ``integer_as_text``.  Anything else is returned unchanged, for rclpy to
+    refuse (wrong type) or accept (right type).
+
+    :param spec: the parameter's row.
+    :param parameter: the value as it arrived (service call or override).
+    :returns: a parameter of the declared type, or ``parameter`` itself.
+    """
+    declared, given = spec.parameter_type, parameter.type_
+    if given == declared:
+        return parameter
+    value = parameter.value
+    if declared == Parameter.Type.DOUBLE and given == Parameter.Type.INTEGER:
+        return Parameter(parameter.name, declared, float(value))
+    if declared == Parameter.Type.DOUBLE_ARRAY and given == Parameter.Type.INTEGER_ARRAY:
+        return Parameter(parameter.name, declared, [float(v) for v in value])
+    if declared in _ARRAY_PARAMETER_TYPES and given in _ARRAY_PARAMETER_TYPES \
+            and len(value) == 0:
+        return Parameter(parameter.name, declared, [])
+    if declared == Parameter.Type.STRING and given == Parameter.Type.INTEGER \
+            and spec.integer_as_text:
+        return Parameter(parameter.name, declared, str(value))
+    return parameter
+
+
+def type_problem(spec: ParamSpec, parameter: Parameter) -> Optional[str]:
+    """Return why ``parameter`` cannot be ``spec``'s type even after conversion, or None."""
+    declared, given = spec.parameter_type, coerce_parameter(spec, parameter).type_
+    if given in (declared, Parameter.Type.NOT_SET):
+        return None
+    accepted = _TYPE_TEXT[declared]
+    if spec.integer_as_text:
+        accepted += ' or an integer'
+    return (f'{spec.name}: expected {accepted}, got {_TYPE_TEXT.get(given, given.name)} '
+            f'{parameter.value!r}')
+
+
+def _coerce_overrides(node: Node, specs: Dict[str, ParamSpec]) -> None:
+    """
+    Convert the node's start-up overrides of ``specs`` in place, or refuse them.
+
+    rclpy takes overrides from its ``_parameter_overrides`` dict (filled from
+    the command line, parameter files and ``parameter_overrides=``) when a
+    parameter is declared, and runs no ``pre_set`` callback then; converting
+    the entries first gives start-up the same rules as ``ros2 param set``.
+
+    :raises ValueError: an override of a type that does not convert, with a reason.
+    """
+    overrides = getattr(node, '_parameter_overrides', None)
+    if not isinstance(overrides, dict):
+        return
+    for name, spec in specs.items():
+        if name in overrides:
+            reason = type_problem(spec, overrides[name])
+            if reason:
+                raise ValueError(f'invalid parameter override: {reason}')
+            overrides[name] = coerce_parameter(spec, overrides[name])
+
+
+def quote_param_rules(args: Optional[List[str]] = None) -> List[str]:
+    """
+    Quote ``-p name:=value`` values that rcl's YAML parser cannot read bare.
+
+    ``-p stream_name:=*`` (any stream) makes ``rclpy.init`` fail ("Couldn't
+    parse parameter override rule"): ``*`` starts a YAML alias.  A value that
+    starts with a YAML indicator (``* & ! | > % @ ```) is wrapped in single
+    quotes, so it arrives as the text typed.  Only rules inside ``--ros-args``
+    are touched.
+
+    :param args: the command line, as ``rclpy.init(args=...)`` takes it;
+        None = ``sys.argv``.
+    :returns: a copy with those values quoted.
+    """
+    if args is None:
+        args = sys.argv
+    quoted, in_ros_args, expect_rule = [], False, False
+    for arg in args:
+        if expect_rule:
+            arg = _quote_rule(arg)
+            expect_rule = False
+        elif arg == '--ros-args':
+            in_ros_args = True
+        elif arg == '--':
+            in_ros_args = False
+        elif in_ros_args and arg in ('-p', '--param'):
+            expect_rule = True
+        quoted.append(arg)
+    return quoted
+
+
+def _quote_rule(rule: str) -> str:
+    name, separator, value = rule.partition(':=')
+    if not separator or not value or value[0] not in _YAML_INDICATORS:
+        return rule
+    return name + separator + "'" + value.replace("'", "''") + "'"
 
 
 def check_frame_id(value: Any) -> Optional[str]:

@@ -1,38 +1,227 @@
-"""The thin Jazzy ``main`` every executable shares."""
+"""
+The thin Jazzy ``main`` every executable shares, and the choice of executor.
 
+Executors.  ``events`` (the default) is rclpy's C++
+``rclpy.experimental.EventsExecutor``: it takes each message, timer and
+service request as an event, without rebuilding a wait set per callback, and
+delivers about 7x the messages per second of the ``single`` (Python
+``SingleThreadedExecutor``) on a 2-core machine.  It is marked experimental in
+rclpy 7.1.6; the project's tests run every node on it (timers, parameter
+services, ``spin_until_future_complete``, shutdown) and on ``single`` where a
+test says so.  Set ``EYE_BCI_EXECUTOR=single`` to use the Python executor in
+every executable, the demo, the benches and the tests.  Its ``spin()`` is not
+used: in rclpy 7.1.6 it polls the clock at most of a core and does not return
+on a signal, while ``spin_once(timeout)`` waits without CPU (bench/README).
+
+Stopping.  rclpy's own signal handlers are not installed: they raise
+KeyboardInterrupt wherever the main thread is (a second Ctrl-C from
+``ros2 launch`` then lands inside ``destroy_node``) and shut the context down
+from another thread while the executor builds its wait set.  Here SIGINT and
+SIGTERM only set a flag that the spin loop checks every
+:data:`STOP_POLL_S`; once it stops, both are ignored, and a clean-up that
+hangs (rclpy's ``destroy_node`` has been seen spinning) ends after
+:data:`CLEANUP_LIMIT_S` with one line and status 1.  A normal stop exits 0.
+"""
+
+import importlib
+import os
+import signal
 import sys
-from typing import Callable, List, Optional
+import threading
+import time
+from typing import Callable, List, Optional, Sequence
 
 import rclpy
+from rclpy.context import Context
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.experimental import EventsExecutor
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+from rclpy.utilities import remove_ros_args
+
+from eye_bci_ros2.nodes.parameters import quote_param_rules
+
+#: rcl's error type (a bad params file, a malformed --ros-args rule).
+RCLError = _rclpy.RCLError
+
+#: Executor names, default first.
+EXECUTORS = ('events', 'single')
+#: Environment variable that selects the executor by name.
+EXECUTOR_ENV = 'EYE_BCI_EXECUTOR'
+#: Signals that stop an executable.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+#: Longest a stop request waits for the spin loop to notice it, s.
+STOP_POLL_S = 0.1
+#: Longest the clean-up after a stop may take before the process gives up, s.
+CLEANUP_LIMIT_S = 5.0
 
 
-def spin_node(make_node: Callable[[], Node], args: Optional[List[str]] = None) -> None:
+def executor_kind() -> str:
+    """Return the executor name in force: ``$EYE_BCI_EXECUTOR``, else the default."""
+    kind = os.environ.get(EXECUTOR_ENV, '').strip().lower() or EXECUTORS[0]
+    if kind not in EXECUTORS:
+        raise ValueError(f"{EXECUTOR_ENV}='{kind}' is not one of {', '.join(EXECUTORS)}")
+    return kind
+
+
+def make_executor(context: Optional[Context] = None, kind: Optional[str] = None) -> Executor:
     """
-    Init rclpy, spin one node until Ctrl-C or shutdown, then clean up.
+    Create the executor in force (module doc).
 
-    A node that refuses to start (a bad parameter override or file) exits with
-    status 1 and its reason, not a traceback.
+    :param context: rclpy context (None: the default one).
+    :param kind: ``events`` or ``single``; None = :func:`executor_kind`.
+    """
+    kind = kind or executor_kind()
+    if kind == 'events':
+        # It enables faulthandler on sys.stderr, which raises when stderr is no file
+        # (captured by pytest, replaced by a GUI): give it the process's own stderr then.
+        saved = sys.stderr
+        try:
+            sys.stderr.fileno()
+        except (AttributeError, OSError, ValueError):
+            sys.stderr = sys.__stderr__
+        try:
+            return EventsExecutor(context=context)
+        finally:
+            sys.stderr = saved
+    if kind == 'single':
+        return SingleThreadedExecutor(context=context)
+    raise ValueError(f"executor '{kind}' is not one of {', '.join(EXECUTORS)}")
 
-    :param make_node: builds the node (after ``rclpy.init``).
+
+def spin_until(executor: Executor, predicate: Callable[[], bool], timeout: float,
+               poll: Optional[Callable[[], None]] = None, step_s: float = 0.01) -> bool:
+    """
+    Spin ``executor`` until ``predicate()`` holds or ``timeout`` s pass; return whether it held.
+
+    :param poll: called after every spin step (e.g. to feed a simulated sender).
+    :param step_s: longest wait of one step, s.
+    """
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        executor.spin_once(timeout_sec=step_s)
+        if poll is not None:
+            poll()
+    return predicate()
+
+
+def spin_for(executor: Executor, seconds: float, step_s: float = 0.01) -> None:
+    """Spin ``executor`` for ``seconds`` of wall time."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=min(step_s, max(0.0, end - time.monotonic())))
+
+
+def _stop_on_signals(stop: threading.Event) -> None:
+    """Make SIGINT and SIGTERM only ask the spin loop to stop (module doc, "Stopping")."""
+    for signum in STOP_SIGNALS:
+        signal.signal(signum, lambda *_: stop.set())
+
+
+def _ignore_signals() -> None:
+    """Ignore further SIGINT / SIGTERM: the clean-up must not be cut short."""
+    for signum in STOP_SIGNALS:
+        signal.signal(signum, signal.SIG_IGN)
+
+
+def _first_line(error: BaseException) -> str:
+    """Return the first line of an error's text (rcl's errors carry their C call stack)."""
+    text = str(error).strip().splitlines()
+    return text[0] if text else type(error).__name__
+
+
+def help_text(modules: Sequence[str], usage: str) -> str:
+    """
+    Say what an executable does: its nodes' docs and their main parameters.
+
+    :param modules: names of the node modules (their docstring and ``PARAMETERS``).
+    :param usage: the first line, e.g. ``ros2 run eye_bci_ros2 choice_arbiter``.
+    """
+    parts = [f'usage: {usage} [--ros-args -p NAME:=VALUE ... --params-file FILE]', '']
+    for module in map(importlib.import_module, modules):
+        parts.append((module.__doc__ or '').strip())
+        specs = getattr(module, 'PARAMETERS', ())
+        if specs:
+            parts += ['', 'parameters (ros2 param describe for ranges):']
+            for spec in specs:
+                parts.append(f'  {spec.name} (default {spec.default!r}): '
+                             f'{spec.description.splitlines()[0]}')
+        parts.append('')
+    parts.append(f'executor: {EXECUTOR_ENV}=events (default) or single.  Ctrl-C or SIGTERM '
+                 'stop it cleanly.')
+    return '\n'.join(parts)
+
+
+def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] = None,
+               help_modules: Sequence[str] = (), usage: str = '') -> None:
+    """
+    Run nodes on one executor until Ctrl-C, SIGTERM or shutdown, then clean up; exit.
+
+    ``-h`` / ``--help`` (before ``--ros-args``) prints :func:`help_text` and
+    exits 0.  A node that refuses to start (a bad parameter override, a
+    missing or malformed params file, a malformed ``--ros-args`` rule) exits
+    with status 1 and a one-line reason, not a traceback.
+
+    :param make_nodes: builds the nodes (after ``rclpy.init``).
     :param args: command-line arguments (``--ros-args ...``), default sys.argv.
+    :param help_modules: names of the node modules that ``--help`` describes.
+    :param usage: the command, for ``--help`` (default: ``ros2 run eye_bci_ros2``
+        and the program's name).
     """
-    rclpy.init(args=args)
-    node = None
+    argv = list(sys.argv if args is None else args)
+    if {'-h', '--help'} & set(remove_ros_args(argv)[1:]):
+        program = os.path.splitext(os.path.basename(argv[0]))[0] if argv else 'NODE'
+        print(help_text(help_modules, usage or f'ros2 run eye_bci_ros2 {program}'))
+        sys.exit(0)
+    stop = threading.Event()
+    _stop_on_signals(stop)
+    try:
+        rclpy.init(args=quote_param_rules(argv), signal_handler_options=SignalHandlerOptions.NO)
+    except RCLError as error:
+        print(f'cannot start: {_first_line(error)}', file=sys.stderr)
+        sys.exit(1)
+    nodes: List[Node] = []
+    executor = None
     status = 0
     try:
-        node = make_node()
-        rclpy.spin(node)
+        executor = make_executor()
+        nodes = make_nodes()
+        for node in nodes:
+            executor.add_node(node)
+        while not stop.is_set() and rclpy.ok():
+            executor.spin_once(timeout_sec=STOP_POLL_S)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except (ValueError, InvalidParameterValueException, InvalidParameterTypeException) as error:
-        print(f'cannot start: {error}', file=sys.stderr)
+    except (ValueError, InvalidParameterValueException, InvalidParameterTypeException,
+            RCLError) as error:
+        print(f'cannot start: {_first_line(error)}', file=sys.stderr)
         status = 1
     finally:
-        if node is not None:
+        _ignore_signals()
+        watchdog = threading.Timer(CLEANUP_LIMIT_S, _give_up)
+        watchdog.daemon = True
+        watchdog.start()
+        if executor is not None:
+            executor.shutdown()
+        for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
-    if status:
-        sys.exit(status)
+        watchdog.cancel()
+    sys.exit(status)
+
+
+def _give_up() -> None:
+    """End a clean-up that hangs (a node stuck in rclpy's destroy): one line, status 1."""
+    print(f'clean-up did not finish within {CLEANUP_LIMIT_S:g} s: exiting', file=sys.stderr,
+          flush=True)
+    os._exit(1)
+
+
+def spin_node(make_node: Callable[[], Node], args: Optional[List[str]] = None,
+              help_modules: Sequence[str] = (), usage: str = '') -> None:
+    """Run one node as :func:`spin_nodes` does."""
+    spin_nodes(lambda: [make_node()], args, help_modules, usage)

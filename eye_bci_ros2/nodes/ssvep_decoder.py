@@ -43,10 +43,10 @@ from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.qos import EVENT_QOS, LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.ssvep_messages import (msg_to_stimulus_map, scores_to_msg,
                                                time_to_seconds)
+from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
 from eye_bci_ros2.ssvep.decision import RULES
 from eye_bci_ros2.ssvep.decoders import DECODERS, TrcaModel
 from eye_bci_ros2.ssvep.layouts import (ANY, LAYOUT_NAMES, LAYOUTS, parse_channels,

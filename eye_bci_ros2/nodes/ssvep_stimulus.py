@@ -26,8 +26,8 @@ from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.qos import LATCHED_QOS
 from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
+from eye_bci_ros2.nodes.topics import LATCHED_QOS
 from eye_bci_ros2.ssvep.stimuli import STIMULI_TOPIC, StimulusMap
 
 WARN_PERIOD_S = 5.0

@@ -19,9 +19,9 @@ from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.qos import LATCHED_QOS
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.ssvep_messages import stimulus_map_to_msg
+from eye_bci_ros2.nodes.topics import LATCHED_QOS
 from eye_bci_ros2.ssvep.stimuli import (assign_stimuli, DEFAULT_FREQUENCIES,
                                         DEFAULT_PHASE_STEP, MAX_FREQUENCY_HZ, STIMULI_TOPIC)
 

@@ -1,1 +1,1 @@
-"""Stand-ins for hardware: simulated person, eye tracker, EEG amplifier, RViz."""
+"""Stand-ins for what cannot run here: the person and eye tracker, the EEG, the RViz view."""

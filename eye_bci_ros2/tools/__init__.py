@@ -1,1 +1,1 @@
-"""Command-line tools (calibration, description, ...)."""
+"""Command-line tools: calibrate, describe the parameters, find the panel, watch the graph."""

@@ -7,8 +7,8 @@ from sensor_msgs.msg import JointState
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.nodes.conversions import regions_to_marker_array
-from eye_bci_ros2.nodes.qos import LATCHED_QOS
 from eye_bci_ros2.nodes.ssvep_messages import seconds_to_time, stimulus_map_to_msg
+from eye_bci_ros2.nodes.topics import LATCHED_QOS
 from eye_bci_ros2.ssvep.stimuli import assign_stimuli, luminance
 
 pytestmark = pytest.mark.ros

@@ -1,16 +1,16 @@
 """The arbiter's input modes with the real ssvep_decoder on simulated EEG over LSL."""
 
-from builtin_interfaces.msg import Time
-from geometry_msgs.msg import PointStamped
 import numpy as np
 import pytest
 from rclpy.parameter import Parameter
 from ros_harness import Collector
+from sensor_msgs.msg import PointCloud2
 from ssvep_rig import LABELS, Rig, WAIT_S
 from std_msgs.msg import Empty, String
 
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.qos import EVENT_QOS, GAZE_QOS
+from eye_bci_ros2.nodes.conversions import gaze_batch
+from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl, pytest.mark.slow]
@@ -32,8 +32,7 @@ class Modes:
         else:  # no EEG stream at all: the decoder never publishes
             self.rig.node.destroy_node()
         node = self.rig.driver
-        # The arbiter's gaze input today (issue 13 will change it to gaze/samples).
-        self.gaze_pub = node.create_publisher(PointStamped, 'gaze', GAZE_QOS)
+        self.gaze_pub = node.create_publisher(PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)
         self.request_pub = node.create_publisher(Empty, 'choice/request', EVENT_QOS)
         self.choices = Collector(node, String, 'choice', EVENT_QOS)
         assert graph.spin_until(lambda: self.gaze_pub.get_subscription_count() > 0
@@ -50,13 +49,8 @@ class Modes:
         rng = np.random.default_rng(index)
         count = int(seconds * GAZE_RATE_HZ)
         points = rng.normal((200 + 300 * index, 200), 10.0, (count, 2))
-        for i, (x, y) in enumerate(points):
-            stamp = start + (i + 0.5) / GAZE_RATE_HZ
-            msg = PointStamped()
-            msg.header.frame_id = 'screen'
-            msg.header.stamp = Time(sec=int(stamp), nanosec=int((stamp % 1) * 1e9))
-            msg.point.x, msg.point.y = float(x), float(y)
-            self.gaze_pub.publish(msg)
+        stamps = start + (np.arange(count) + 0.5) / GAZE_RATE_HZ
+        self.gaze_pub.publish(gaze_batch(np.rint(stamps * 1e9).astype(np.int64), points))
 
     def play_round(self, look=None, attend=None, settle=True):
         """Offer the options (new stimuli), look at / attend options; return the offer time."""

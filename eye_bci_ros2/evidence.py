@@ -1,0 +1,540 @@
+"""
+The evidence of one round and the decision rules: pure numpy.
+
+Everything here works in the ``screen`` frame (px, x right, y down) and on
+time stamps in seconds (any clock, as long as samples and regions share it); regions are
+:class:`eye_bci_ros2.regions.RegionSet`.
+
+A *round* is one question: the regions offered, the gaze samples that fall
+after its start, and one decision.  Three rules are provided:
+
+* ``mean`` (the original rule, DESIGN.md): drop the samples that are outside
+  every region, average the rest, choose the region that contains the mean;
+  no choice when no sample is in a region or the mean falls in none.
+* ``vote``: the region (label) holding most in-region samples; a tie between
+  the two leaders is no choice.  ``margin`` is the leader's share of the
+  in-region samples minus the runner-up's.
+* ``early`` (:class:`RoundEvidence` with a confidence): choose as soon as the
+  evidence for one label is strong enough, before the window ends.
+
+Evidence model of the early decision.  Samples outside every region carry no
+information about the choice and are ignored.  An in-region sample falls on
+the looked-at region with probability ``h`` (``hit_rate``) and otherwise
+uniformly on one of the other ``R - 1`` offered regions.  With a uniform
+prior, after ``n_r`` of ``N`` in-region samples fell on label ``r``::
+
+    P(r | n) = h^n_r ((1 - h)/(R - 1))^(N - n_r) / sum_s (same for s)
+             = 1 / sum_s exp(lambda (n_s - n_r)),  lambda = log(h (R - 1) / (1 - h))
+
+so only count differences matter.  A *run* is a maximal sequence of
+consecutive in-region samples on one label (out-of-region samples, e.g.
+blinks, do not interrupt it; an in-region sample on another label ends it).
+
+Fresh evidence.  Only a sample that can be a reaction to the round's display
+is evidence for the early decision: no person reacts to a new display faster
+than ``min_reaction_s`` (about 0.1 s for a saccade), so a run that began
+before ``start + min_reaction_s`` is a gaze that was already there (typically
+where the previous menu showed the option just chosen, and a target of the
+new menu may now lie there).  Its samples are *stale*, even those after that
+time, until the gaze leaves the region for another one: the next run is a new
+fixation and is fresh.  Fresh samples are therefore exactly those of runs
+starting at or after ``start + min_reaction_s``; the early decision weighs
+only them (counts, posterior, ``min_samples``), and ``min_reaction_s`` 0
+makes every sample fresh (the rule off).  The window-end rules (mean, vote)
+always use every sample of the window, so ``mean`` stays the original rule
+and a gaze that stays on a region it rested on from the start is decided by
+it, at the window end: slower, never a hasty wrong choice.
+
+A label is chosen early when, all at once: its posterior from the fresh
+counts is >= ``confidence``; the round holds >= ``min_samples`` fresh
+in-region samples; the label holds the most recent ``min_samples`` in-region
+samples in one fresh run; and that run spans >= ``dwell_s`` of sample time.
+The dwell keeps a saccade that crosses a region from triggering a choice at
+any tracker rate (``min_samples`` counts samples: at 1200 Hz a saccade
+crossing a region leaves several samples on it).
+With one offered region the posterior is 1 and only the run, dwell and
+freshness tests apply.  ``R`` counts every label offered during the round.
+
+Regions may move during a round (the camera moves, the labels stay): every
+sample is classified against the regions shown at its own time and evidence
+is kept per label.  For the mean rule every in-region sample is carried along
+with the region it fell in (translated by that region's centroid motion) to
+the newest geometry, and the mean is tested there; with static regions this
+is exactly the original mean.
+
+:class:`eye_bci_ros2.rounds.RoundScheduler` runs rounds of this evidence on a
+live stream (the choice_arbiter node's logic without ROS).
+"""
+
+from dataclasses import dataclass, field
+import math
+from typing import Dict, Optional, Tuple
+
+import numpy as np
+
+from eye_bci_ros2.regions import points_array, RegionSet
+
+#: Names of the decision rules, as the ``method`` field of a :class:`Decision`.
+METHODS = ('mean', 'vote')
+
+#: Default probability that an in-region sample falls on the looked-at region.
+DEFAULT_HIT_RATE = 0.9
+
+#: Default shortest reaction to a new display, s: faster gaze is not a reaction to it.
+DEFAULT_MIN_REACTION_S = 0.1
+
+#: Largest accepted ``min_reaction_s``, s.
+MAX_REACTION_S = 2.0
+
+
+@dataclass(frozen=True)
+class Decision:
+    """
+    Outcome of a round (or of a batch of samples).
+
+    :param label: the chosen region's label, or None when there is no choice.
+    :param method: 'mean', 'vote' or 'early'.
+    :param samples_used: samples considered, in and out of regions.
+    :param in_region_samples: of those, samples inside some region.
+    :param margin: (leader's count - runner-up's count) / in_region_samples,
+        0 when there are no in-region samples.
+    :param posterior: posterior probability of ``label`` (of the vote leader
+        when ``label`` is None) under the evidence model; NaN without
+        in-region samples.
+    :param time_to_decision: s from the round start to the stamp of the last
+        sample used; NaN when the samples had no stamps.
+    :param counts: in-region samples per label.
+    :param mean_point: mean of the in-region samples (screen px, motion
+        compensated, see the module doc), shape (2,), or None.
+    :param reason: why there is no choice ('' when there is one).
+    :param fresh_samples: of the in-region samples, those that can be a
+        reaction to the display (module doc); for an ``early`` decision
+        ``margin`` and ``posterior`` are those of the fresh counts, the
+        evidence it weighed.  -1 when not known (batch functions).
+    """
+
+    label: Optional[str]
+    method: str
+    samples_used: int
+    in_region_samples: int
+    margin: float
+    posterior: float
+    time_to_decision: float = math.nan
+    counts: Dict[str, int] = field(default_factory=dict)
+    mean_point: Optional[Tuple[float, float]] = None
+    reason: str = ''
+    fresh_samples: int = -1
+
+    def summary(self) -> str:
+        """One line for a log: the choice and how it was reached."""
+        head = f"choice '{self.label}'" if self.label is not None \
+            else f'no choice ({self.reason})'
+        fresh = f' ({self.fresh_samples} fresh)' \
+            if 0 <= self.fresh_samples < self.in_region_samples else ''
+        return (f'{head} by {self.method}: {self.samples_used} samples, '
+                f'{self.in_region_samples} in regions{fresh}, margin {self.margin:.2f}, '
+                f'posterior {self.posterior:.3f}, '
+                f'{self.time_to_decision:.3f} s after the round start')
+
+
+def log_odds(hit_rate: float, region_count: int) -> float:
+    """
+    Return the evidence weight lambda of one in-region sample (see the module doc).
+
+    :param hit_rate: probability h in (1/R, 1) that an in-region sample is on
+        the looked-at region.
+    :param region_count: R, the number of offered labels (>= 1).
+    :returns: log(h (R - 1) / (1 - h)); +inf when R == 1.
+    """
+    check_hit_rate(hit_rate)
+    if region_count <= 1:
+        return math.inf
+    return math.log(hit_rate * (region_count - 1) / (1 - hit_rate))
+
+
+def check_hit_rate(hit_rate: float) -> None:
+    """Raise ValueError unless 0.5 < hit_rate < 1."""
+    if not 0.5 < hit_rate < 1.0:
+        raise ValueError(f'hit_rate must be in (0.5, 1), got {hit_rate}: an in-region sample '
+                         'must be more likely on the looked-at region than elsewhere')
+
+
+def check_min_reaction(min_reaction_s: float) -> None:
+    """Raise ValueError unless 0 <= min_reaction_s <= MAX_REACTION_S."""
+    if not 0.0 <= min_reaction_s <= MAX_REACTION_S:
+        raise ValueError(f'min_reaction_s must be in [0, {MAX_REACTION_S}] s, got '
+                         f'{min_reaction_s}: it is the shortest time a person takes to react '
+                         'to a new display (about 0.1 s)')
+
+
+def posterior_from_counts(counts, hit_rate: float = DEFAULT_HIT_RATE) -> np.ndarray:
+    """
+    Compute the posterior probability of each label given its in-region counts.
+
+    :param counts: shape (L,) or (M, L) in-region sample counts per label; L
+        is the number of offered labels R.
+    :param hit_rate: see :func:`log_odds`.
+    :returns: same shape as ``counts``, rows sum to 1 (uniform without samples).
+    """
+    counts = np.asarray(counts, dtype=float)
+    if counts.shape[-1] == 0:
+        return counts.copy()
+    weight = log_odds(hit_rate, counts.shape[-1])
+    if math.isinf(weight):
+        return np.ones_like(counts)
+    exponent = weight * (counts - counts.max(axis=-1, keepdims=True))
+    unnormalised = np.exp(exponent)
+    return unnormalised / unnormalised.sum(axis=-1, keepdims=True)
+
+
+def _counts_summary(counts: np.ndarray, hit_rate: float) -> Tuple[int, float, np.ndarray]:
+    """Leader index, margin and posterior of per-label counts (L,), L >= 1."""
+    total = counts.sum()
+    posterior = posterior_from_counts(counts, hit_rate)
+    leader = int(np.argmax(counts))
+    ordered = np.sort(counts)[::-1]
+    runner_up = ordered[1] if len(ordered) > 1 else 0
+    margin = float((ordered[0] - runner_up) / total) if total else 0.0
+    return leader, margin, posterior
+
+
+def _label_counts(region_set: RegionSet, region: np.ndarray) -> Tuple[list, np.ndarray]:
+    """Distinct labels of a set and the count of region indices per label."""
+    distinct = sorted(region_set.label_set)
+    index = {label: i for i, label in enumerate(distinct)}
+    to_label = np.array([index[label] for label in region_set.labels] + [-1], dtype=np.intp)
+    ids = to_label[region]
+    counts = np.bincount(ids[ids >= 0], minlength=len(distinct))
+    return distinct, counts
+
+
+def decide_mean(points, region_set: RegionSet,
+                hit_rate: float = DEFAULT_HIT_RATE) -> Decision:
+    """
+    Apply the original rule to one batch of samples and static regions.
+
+    Drop the samples outside every region, average the rest, and choose the
+    region that contains the mean.
+
+    :param points: shape (N, 2), screen px.
+    :param region_set: the regions shown.
+    :param hit_rate: only for the reported posterior.
+    :returns: the decision; ``label`` is None when no sample is in a region or
+        the mean is in none.
+    """
+    points = points_array(points)
+    region = region_set.classify(points)
+    inside = region >= 0
+    used, in_region = len(points), int(inside.sum())
+    if not in_region:
+        return Decision(None, 'mean', used, 0, 0.0, math.nan, reason='no sample in any region')
+    distinct, counts = _label_counts(region_set, region)
+    _, margin, posterior = _counts_summary(counts, hit_rate)
+    mean = points[inside].mean(axis=0)
+    chosen = region_set.classify_one(mean[0], mean[1])
+    counts_map = dict(zip(distinct, counts.tolist()))
+    mean_point = (float(mean[0]), float(mean[1]))
+    if chosen < 0:
+        leader = int(np.argmax(counts))
+        return Decision(None, 'mean', used, in_region, margin, float(posterior[leader]),
+                        counts=counts_map, mean_point=mean_point,
+                        reason=f'mean ({mean[0]:.1f}, {mean[1]:.1f}) px is in no region')
+    label = region_set.labels[chosen]
+    return Decision(label, 'mean', used, in_region, margin,
+                    float(posterior[distinct.index(label)]), counts=counts_map,
+                    mean_point=mean_point)
+
+
+def decide_vote(points, region_set: RegionSet,
+                hit_rate: float = DEFAULT_HIT_RATE) -> Decision:
+    """
+    Choose the majority of the in-region samples, on one batch and static regions.
+
+    :param points: shape (N, 2), screen px.
+    :param region_set: the regions shown.
+    :param hit_rate: only for the reported posterior.
+    :returns: the decision; ``label`` is None without in-region samples or on
+        a tie between the two leading labels.
+    """
+    points = points_array(points)
+    region = region_set.classify(points)
+    used, in_region = len(points), int((region >= 0).sum())
+    if not in_region:
+        return Decision(None, 'vote', used, 0, 0.0, math.nan, reason='no sample in any region')
+    distinct, counts = _label_counts(region_set, region)
+    leader, margin, posterior = _counts_summary(counts, hit_rate)
+    mean = points[region >= 0].mean(axis=0)
+    details = {'counts': dict(zip(distinct, counts.tolist())),
+               'mean_point': (float(mean[0]), float(mean[1]))}
+    if margin == 0.0:
+        return Decision(None, 'vote', used, in_region, 0.0, float(posterior[leader]),
+                        reason='tie between the leading regions', **details)
+    return Decision(distinct[leader], 'vote', used, in_region, margin, float(posterior[leader]),
+                    **details)
+
+
+class RoundEvidence:
+    """
+    Incremental evidence of one round: O(1) state, batches processed vectorised.
+
+    Feed samples in time order with :meth:`add` (each batch with the regions
+    shown at those samples' time); ask :meth:`decide` at the window end.  With
+    a ``confidence`` :meth:`add` stops at the first sample where the early
+    test passes (module doc) and returns that decision.
+
+    :param start: round start, s (the clock of the sample stamps).
+    :param hit_rate: h of the evidence model, in (0.5, 1).
+    :param min_samples: fresh in-region samples needed, and held by the
+        leader in one fresh run, before an early decision (>= 1).
+    :param dwell_s: sample time the leader's run must span before an early
+        decision, s (>= 0).
+    :param min_reaction_s: runs starting before ``start + min_reaction_s``
+        are stale and not evidence for the early decision (module doc), s
+        (>= 0; 0 = every sample is fresh).  A change applies to the samples
+        added after it.
+    """
+
+    def __init__(self, start: float = 0.0, hit_rate: float = DEFAULT_HIT_RATE,
+                 min_samples: int = 10, dwell_s: float = 0.0, min_reaction_s: float = 0.0):
+        """Start an empty round."""
+        check_hit_rate(hit_rate)
+        if int(min_samples) < 1:
+            raise ValueError(f'min_samples must be at least 1, got {min_samples}')
+        if not dwell_s >= 0:
+            raise ValueError(f'dwell_s must be >= 0, got {dwell_s}')
+        check_min_reaction(min_reaction_s)
+        self.start = float(start)
+        self.hit_rate = float(hit_rate)
+        self.min_samples = int(min_samples)
+        self.dwell_s = float(dwell_s)
+        self.min_reaction_s = float(min_reaction_s)
+        self.labels: list = []
+        self.samples = 0
+        self.in_region = 0
+        #: Fresh in-region samples (module doc).
+        self.fresh = 0
+        self.last_stamp = math.nan
+        self.decision: Optional[Decision] = None
+        self._label_index: Dict[str, int] = {}
+        self._counts = np.zeros(0, dtype=np.int64)
+        self._fresh_counts = np.zeros(0, dtype=np.int64)
+        self._centroids = np.zeros((0, 2))
+        self._offset_sum = np.zeros(2)
+        self._latest: Optional[RegionSet] = None
+        self._mapping: Dict[int, tuple] = {}
+        # Current run of consecutive in-region samples on one label.
+        self._run_label = -1
+        self._run_count = 0
+        self._run_start = math.nan
+
+    @property
+    def counts(self) -> Dict[str, int]:
+        """In-region samples per offered label."""
+        return dict(zip(self.labels, self._counts.tolist()))
+
+    @property
+    def fresh_counts(self) -> Dict[str, int]:
+        """Fresh in-region samples per offered label (the early decision's evidence)."""
+        return dict(zip(self.labels, self._fresh_counts.tolist()))
+
+    @property
+    def fresh_from(self) -> float:
+        """Return the stamp from which a run is fresh, s (-inf when ``min_reaction_s`` is 0)."""
+        return self.start + self.min_reaction_s if self.min_reaction_s > 0 else -math.inf
+
+    def posterior(self) -> Dict[str, float]:
+        """Posterior of each offered label (module doc)."""
+        return dict(zip(self.labels, posterior_from_counts(self._counts, self.hit_rate).tolist()))
+
+    def _label_ids(self, region_set: RegionSet) -> Tuple[np.ndarray, np.ndarray]:
+        """
+        Map each region of a set to its round label id; give each label's centroid.
+
+        :returns: ``(ids, centroids)``: ids shape (R + 1,) with -1 last (for
+            'no region'); centroids shape (L, 2) indexed by label id (a label
+            offered twice takes its last region's centroid; NaN if absent).
+        """
+        cached = self._mapping.get(id(region_set))
+        if cached is not None and cached[0] is region_set:
+            return cached[1], cached[2]
+        new = [label for label in dict.fromkeys(region_set.labels)
+               if label not in self._label_index]
+        if new:
+            for label in new:
+                self._label_index[label] = len(self.labels)
+                self.labels.append(label)
+            self._counts = np.concatenate([self._counts, np.zeros(len(new), dtype=np.int64)])
+            self._fresh_counts = np.concatenate(
+                [self._fresh_counts, np.zeros(len(new), dtype=np.int64)])
+            self._centroids = np.concatenate([self._centroids, np.full((len(new), 2), np.nan)])
+        ids = np.array([self._label_index[label] for label in region_set.labels] + [-1],
+                       dtype=np.intp)
+        centroids = np.full((len(self.labels), 2), np.nan)
+        centroids[ids[:-1]] = region_set.centroids
+        self._mapping[id(region_set)] = (region_set, ids, centroids)
+        return ids, centroids
+
+    def add(self, points, stamps, region_set: RegionSet,
+            confidence: Optional[float] = None) -> Optional[Decision]:
+        """
+        Accumulate samples shown with ``region_set``, in time order.
+
+        :param points: shape (N, 2), screen px.
+        :param stamps: shape (N,), s, non-decreasing and after earlier batches.
+        :param region_set: the regions shown at these samples' time.
+        :param confidence: when given, in (0.5, 1): test the early decision
+            after every in-region sample and stop at the first that passes.
+        :returns: the early decision once made (later calls return it again
+            and add nothing), else None.
+        """
+        if self.decision is not None:
+            return self.decision
+        points = points_array(points)
+        stamps = np.asarray(stamps, dtype=float).reshape(-1)
+        if len(stamps) != len(points):
+            raise ValueError(f'{len(points)} gaze points but {len(stamps)} stamps')
+        if confidence is not None and not 0.5 < confidence < 1.0:
+            raise ValueError(f'confidence must be in (0.5, 1), got {confidence}')
+        ids, label_centroids = self._label_ids(region_set)
+        if self._latest is None or region_set.stamp >= self._latest.stamp:
+            self._latest = region_set
+            # The newest geometry of each label, for the motion-compensated mean.
+            self._centroids[ids[:-1]] = region_set.centroids
+        if not len(points):
+            return None
+        region = region_set.classify(points)
+        inside = np.flatnonzero(region >= 0)
+        label = ids[region[inside]]
+        run_count, run_start = self._runs(label, stamps[inside])
+        fresh = run_start >= self.fresh_from
+        stop = len(points)
+        decided = None
+        if confidence is not None and inside.size:
+            decided = self._first_confident(label, stamps[inside], run_count, run_start,
+                                            fresh, confidence)
+            if decided is not None:
+                stop = inside[decided] + 1
+        taken = inside[inside < stop]
+        kept = len(taken)
+        if kept:
+            self._counts += np.bincount(label[:kept], minlength=len(self.labels))
+            fresh_label = label[:kept][fresh[:kept]]
+            self._fresh_counts += np.bincount(fresh_label, minlength=len(self.labels))
+            self.fresh += len(fresh_label)
+            # Position relative to its label's centroid at the sample's time.
+            offsets = points[taken] - label_centroids[label[:kept]]
+            self._offset_sum += offsets.sum(axis=0)
+            self._run_label = int(label[kept - 1])
+            self._run_count = int(run_count[kept - 1])
+            self._run_start = float(run_start[kept - 1])
+        self.samples += int(stop)
+        self.in_region += kept
+        self.last_stamp = float(stamps[stop - 1])
+        if decided is not None:
+            self.decision = self._decision(self.labels[label[decided]], 'early')
+        return self.decision
+
+    def _runs(self, label: np.ndarray, stamps: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """Length and start stamp of the current run after each in-region sample (M,)."""
+        count = len(label)
+        previous = np.empty(count, dtype=np.intp)
+        previous[:1] = self._run_label
+        previous[1:] = label[:-1]
+        new_run = label != previous
+        run_id = np.cumsum(new_run)
+        # Index of the sample that started each sample's run; -1: run began before.
+        starts = np.concatenate([[-1], np.flatnonzero(new_run)])
+        start_pos = starts[run_id]
+        position = np.arange(count)
+        continuing = start_pos < 0
+        run_count = np.where(continuing, self._run_count + position + 1, position - start_pos + 1)
+        run_start = np.where(continuing, self._run_start, stamps[np.maximum(start_pos, 0)])
+        return run_count, run_start
+
+    def _first_confident(self, label, stamps, run_count, run_start, fresh,
+                         confidence) -> Optional[int]:
+        """
+        Find the first in-region sample after which the early test passes.
+
+        All arguments have shape (M,), one entry per in-region sample of the
+        batch: label id, stamp s, run length and run start s after it, and
+        whether it is fresh.
+        :returns: its index in those arrays, or None.
+        """
+        count, width = len(label), len(self.labels)
+        # Fresh counts per label after each sample of the batch, (M, L).
+        cumulative = np.zeros((count, width), dtype=np.int64)
+        cumulative[np.arange(count), label] = fresh
+        np.cumsum(cumulative, axis=0, out=cumulative)
+        cumulative += self._fresh_counts
+        leader = cumulative.argmax(axis=1)
+        posterior = posterior_from_counts(cumulative, self.hit_rate)
+        leader_posterior = posterior[np.arange(count), leader]
+        total = self.fresh + np.cumsum(fresh)
+        passed = (fresh & (leader_posterior >= confidence) & (total >= self.min_samples)
+                  & (label == leader) & (run_count >= self.min_samples)
+                  & (stamps - run_start >= self.dwell_s - 1e-9))
+        hits = np.flatnonzero(passed)
+        return int(hits[0]) if hits.size else None
+
+    def early(self, confidence: float) -> Optional[Decision]:
+        """Test the early decision on the evidence so far (no samples added)."""
+        if self.decision is not None:
+            return self.decision
+        if not self.fresh:
+            return None
+        leader = int(np.argmax(self._fresh_counts))
+        posterior = posterior_from_counts(self._fresh_counts, self.hit_rate)[leader]
+        if (posterior >= confidence and self.fresh >= self.min_samples
+                and self._run_label == leader and self._run_start >= self.fresh_from
+                and self._run_count >= self.min_samples
+                and self.last_stamp - self._run_start >= self.dwell_s - 1e-9):
+            self.decision = self._decision(self.labels[leader], 'early')
+        return self.decision
+
+    def mean_point(self) -> Optional[np.ndarray]:
+        """Motion-compensated mean of the in-region samples, shape (2,) px, or None."""
+        if not self.in_region:
+            return None
+        used = self._counts > 0
+        carried = (self._counts[used, None] * self._centroids[used]).sum(axis=0)
+        return (self._offset_sum + carried) / self.in_region
+
+    def decide(self, method: str = 'mean') -> Decision:
+        """
+        Decide at the window end (or return the early decision if made).
+
+        :param method: 'mean' (original) or 'vote'.
+        """
+        if self.decision is not None:
+            return self.decision
+        if method not in METHODS:
+            raise ValueError(f"unknown method '{method}': use one of {', '.join(METHODS)}")
+        if not self.in_region:
+            return self._decision(None, method, 'no sample in any region')
+        leader, margin, _ = _counts_summary(self._counts, self.hit_rate)
+        if method == 'vote':
+            if margin == 0.0:
+                return self._decision(None, method, 'tie between the leading regions')
+            return self._decision(self.labels[leader], method)
+        mean = self.mean_point()
+        region = self._latest.classify_one(mean[0], mean[1]) if self._latest else -1
+        if region < 0:
+            return self._decision(
+                None, method, f'mean ({mean[0]:.1f}, {mean[1]:.1f}) px is in no region')
+        return self._decision(self._latest.labels[region], method)
+
+    def _decision(self, label: Optional[str], method: str, reason: str = '') -> Decision:
+        """Build a Decision from the current state (early: margin, posterior of fresh counts)."""
+        weighed = self._fresh_counts if method == 'early' else self._counts
+        if self.in_region:
+            leader, margin, posterior = _counts_summary(weighed, self.hit_rate)
+            chosen = self._label_index[label] if label is not None else leader
+            probability = float(posterior[chosen])
+            mean = self.mean_point()
+            mean_point = (float(mean[0]), float(mean[1]))
+        else:
+            margin, probability, mean_point = 0.0, math.nan, None
+        return Decision(label, method, self.samples, self.in_region, margin, probability,
+                        time_to_decision=self.last_stamp - self.start, counts=self.counts,
+                        mean_point=mean_point, reason=reason, fresh_samples=self.fresh)

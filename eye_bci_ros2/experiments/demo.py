@@ -1,0 +1,922 @@
+"""
+The original room -> table experiment, end to end in one process (``make demo``).
+
+What runs (all real, nothing mocked but RViz and the person):
+
+* the pipeline nodes (lsl_gaze_bridge, camera_tracker, marker_projector,
+  choice_arbiter, choice_menu: :func:`eye_bci_ros2.nodes.eye_bci.make_pipeline_nodes`)
+  and ``sim_rviz_view`` (the simulated RViz camera, animated moves) on one
+  rclpy executor, on a real ROS 2 graph in a private domain id (from
+  ``domain_coordinator``, so two demos or tests never cross-talk);
+* a simulated person with an eye tracker (:class:`eye_bci_ros2.sim.gaze_outlet.GazeStreamer`,
+  the ``original_tobii_4c`` preset by default, seeded) streaming over real
+  LSL with a source_id unique to this run; the bridge accepts only that one;
+* the experiment: a script of (room, table) pairs (seeded, covering
+  different rooms).  For each pair the menu offers the rooms, the person looks
+  at the scripted room, the arbiter decides, the menu zooms into the chosen
+  room and offers its tables, the person looks at the scripted table, the
+  arbiter decides again.
+
+The person looks at the script's target, never at the system's decisions:
+the target's screen point is computed from what the simulated screen shows
+(the current ``rviz/current_camera_pose`` of the simulated RViz, the analytic
+RViz projection, the true panel offset, and the marker the menu currently
+shows on ``choices``), not from ``choices/regions``.  While the camera moves
+the target moves with the marker.  If the system picks the wrong room, the
+scripted table is not on the screen: the person then looks at the table with
+the same number in the room shown.  A round that ends with no choice (e.g.
+the mean fell between regions) is asked again with ``choice/request`` and
+counts as a wrong attempt.
+
+When is the question asked?  The arbiter starts a round as soon as the
+offered labels change, i.e. when the menu shows the new markers and the camera
+starts to move.  The person's gaze then still rests where the previous marker
+was for a reaction time, and the new markers sweep across the screen, so
+those samples can land on a wrong marker (with the mean rule the mean is
+pulled towards it).  The original experiment presented the tables after the
+camera had zoomed in, so by default (``--ask on-arrival``) the experimenter
+asks each question with ``choice/request`` once the simulated RViz camera has
+arrived (this replaces the round the label change started).  ``--ask
+on-change`` leaves the rounds to the arbiter alone and shows that effect.
+
+Each selection is printed; at the end a summary: accuracy, mean decision
+time (question to decision), mean time per selection (new options on the
+screen, camera move included, to decision) and the information transfer rate
+by Wolpaw's formula with the latter.  ``demo_output/`` receives a
+picture of the screen per selection, ``summary.json`` and ``selections.csv``.
+"""
+
+import argparse
+import csv
+from dataclasses import asdict, dataclass, field, replace
+import json
+import math
+import os
+import sys
+import time
+from typing import Dict, List, Optional, Sequence, Tuple
+import uuid
+
+from domain_coordinator import domain_id
+from geometry_msgs.msg import Pose
+import numpy as np
+import pylsl
+import rclpy
+from rclpy.context import Context
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import PointCloud2
+from std_msgs.msg import Empty, String
+from visualization_msgs.msg import Marker, MarkerArray
+
+from eye_bci_ros2.camera_model import optical_pose_from_ogre, RvizCamera
+from eye_bci_ros2.evidence import Decision, METHODS
+from eye_bci_ros2.experiments import render as demo_render
+from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
+                                            marker_label, pose_to_arrays)
+from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
+from eye_bci_ros2.nodes.runner import make_executor, spin_until as _spin_until
+from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
+from eye_bci_ros2.regions import RegionSet
+from eye_bci_ros2.scene import default_scene_path, load_scene, Scene
+from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
+from eye_bci_ros2.sim.person import GazeParams, ORIGINAL_TOBII_4C, PRESETS
+from eye_bci_ros2.sim.rviz_view import SimRvizView
+
+#: The person's screen, px (the Linux machine of the original report).
+SCREEN_SIZE = (1920, 1080)
+#: The RViz render panel, px, and where its top-left sits on the screen (X0, Y0).
+PANEL_SIZE = (1280, 720)
+PANEL_OFFSET = (320, 180)
+#: Vertical field of view RViz renders with, degrees.
+FOV_Y_DEG = 45.0
+#: Where the person looks before and after the experiment: a corner of the
+#: screen, off the render panel, so no question can be answered by accident.
+REST_XY = (160.0, 90.0)
+#: A low-noise person for short runs (--quick): every choice should be right.
+QUICK_PERSON = ORIGINAL_TOBII_4C.with_changes(
+    offset_deg=0.3, jitter_deg=0.15, drift_deg=0.0, blink_rate_per_min=0.0, loss_prob=0.0,
+    name='quick_low_noise')
+#: When questions are asked (see the module doc).
+ASK_MODES = ('on-arrival', 'on-change')
+#: Attempts per step before the demo gives up.
+MAX_ATTEMPTS = 3
+#: Gaze samples that must reach the pipeline before the experiment starts.
+WARMUP_SAMPLES = 20
+
+
+class DemoError(RuntimeError):
+    """Something the demo cannot continue after; the message says what and why."""
+
+
+@dataclass
+class DemoOptions:
+    """
+    Settings of one demo run (the command-line options).
+
+    :ivar rounds: (room, table) pairs to choose.
+    :ivar seed: seeds the script and the simulated person.
+    :ivar method: decision rule at the window end, 'mean' (original) or 'vote'.
+    :ivar early: let the arbiter decide early when confident.
+    :ivar window_s: gaze collection window of a round, s.
+    :ivar output_dir: where pictures and summaries go ('' = none written).
+    :ivar preset: simulated person and tracker (gaze_model preset name, or
+        'quick_low_noise').
+    :ivar ask: 'on-arrival' (ask with choice/request once the camera has
+        arrived) or 'on-change' (the round the arbiter starts when the
+        options change).
+    :ivar transition_s: duration of the simulated RViz camera moves, s.
+    :ivar timeout_s: longest wait for one decision, s.
+    :ivar stream_timeout_s: longest wait for the first gaze over LSL, s.
+    :ivar pictures: write a PNG per selection.
+    :ivar verbose: show the nodes' INFO log lines (else warnings and errors only).
+    """
+
+    rounds: int = 4
+    seed: int = 0
+    method: str = 'mean'
+    early: bool = False
+    window_s: float = 1.0
+    output_dir: str = 'demo_output'
+    preset: str = ORIGINAL_TOBII_4C.name
+    ask: str = 'on-arrival'
+    transition_s: float = 0.5
+    timeout_s: float = 15.0
+    stream_timeout_s: float = 15.0
+    pictures: bool = True
+    verbose: bool = False
+
+
+@dataclass
+class Selection:
+    """
+    One round of the arbiter: a question, the person's intent, the system's answer.
+
+    Times are s; screen points px.  ``time_to_decision_s`` is the arbiter's
+    (sample time from its round start to the last sample used);
+    ``decision_time_s`` runs from the question (the round start) to the
+    decision; ``selection_time_s`` from the moment the options appeared
+    (camera move included; for a repeated question, from the repetition).
+    """
+
+    round_index: int
+    step: str
+    attempt: int
+    offered: List[str]
+    intended: str
+    chosen: Optional[str]
+    method: str
+    samples_used: int
+    in_region_samples: int
+    time_to_decision_s: float
+    decision_time_s: float
+    selection_time_s: float
+    target_xy: Optional[Tuple[float, float]]
+    mean_point: Optional[Tuple[float, float]]
+    counts: Dict[str, int]
+    reason: str
+    camera_eye: Tuple[float, float, float]
+    picture: str = ''
+    # Drawing data, not written to the summary.
+    screen: Optional[demo_render.ScreenPicture] = field(default=None, repr=False)
+
+    @property
+    def correct(self) -> bool:
+        """Tell whether the system chose what the person meant."""
+        return self.chosen is not None and self.chosen == self.intended
+
+    def as_row(self) -> dict:
+        """Return the record as plain data (JSON/CSV)."""
+        row = {key: value for key, value in asdict(self).items() if key != 'screen'}
+        row['correct'] = self.correct
+        return row
+
+
+@dataclass
+class DemoResult:
+    """What a demo run produced."""
+
+    options: DemoOptions
+    person: str
+    source_id: str
+    script: List[Tuple[str, str]]
+    selections: List[Selection]
+    outcomes: List[str]
+    accuracy: float
+    mean_decision_s: float
+    mean_time_s: float
+    itr_bits_per_min: float
+    files: List[str]
+
+
+def wolpaw_bits(choices: int, accuracy: float) -> float:
+    """
+    Bits per selection by Wolpaw's formula.
+
+    ``B = log2 N + P log2 P + (1 - P) log2((1 - P) / (N - 1))``, taken as 0
+    below chance (P <= 1/N).
+
+    :param choices: N, the number of choices offered (>= 2).
+    :param accuracy: P in [0, 1].
+    """
+    if choices < 2:
+        return 0.0
+    if not 0.0 <= accuracy <= 1.0:
+        raise ValueError(f'accuracy must be in [0, 1], got {accuracy}')
+    if accuracy <= 1.0 / choices:
+        return 0.0
+    bits = math.log2(choices) + accuracy * math.log2(accuracy)
+    if accuracy < 1.0:
+        bits += (1 - accuracy) * math.log2((1 - accuracy) / (choices - 1))
+    return bits
+
+
+def itr_bits_per_minute(offered_counts: Sequence[int], accuracy: float,
+                        mean_time_s: float) -> float:
+    """
+    Information transfer rate, bits/min, of selections with the given choice counts.
+
+    Wolpaw's bits per selection are averaged over the selections (each with
+    its own N), at the overall accuracy P, and divided by the mean time per
+    selection T.
+    """
+    if not offered_counts or not mean_time_s > 0:
+        return 0.0
+    bits = np.mean([wolpaw_bits(n, accuracy) for n in offered_counts])
+    return float(bits * 60.0 / mean_time_s)
+
+
+def make_script(scene: Scene, rounds: int, seed: int) -> List[Tuple[str, str]]:
+    """
+    Draw the (room label, table name) pairs the person will choose.
+
+    Rooms are visited in a seeded random order, all before any repeats; the
+    table numbers are balanced the same way, so a few rounds cover different
+    rooms and different tables.
+
+    :raises ValueError: rounds < 1.
+    """
+    if rounds < 1:
+        raise ValueError(f'need at least one round, got {rounds}')
+    rng = np.random.default_rng(seed)
+    script = []
+    rooms: List[int] = []
+    tables: List[int] = []
+    for _ in range(rounds):
+        if not rooms:
+            rooms = [int(i) for i in rng.permutation(len(scene.rooms))]
+        room = scene.rooms[rooms.pop(0)]
+        if not tables:
+            tables = [int(i) for i in rng.permutation(max(len(r.tables) for r in scene.rooms))]
+        table = room.tables[tables.pop(0) % len(room.tables)]
+        script.append((room.name, table.name))
+    return script
+
+
+def person_params(name: str) -> GazeParams:
+    """Return the gaze preset called ``name`` (see :data:`PRESETS`, plus quick_low_noise)."""
+    presets = dict(PRESETS)
+    presets[QUICK_PERSON.name] = QUICK_PERSON
+    if name not in presets:
+        raise ValueError(f"unknown person preset '{name}': use one of {', '.join(presets)}")
+    return presets[name]
+
+
+def _seconds(stamp) -> float:
+    """builtin_interfaces/Time -> float s."""
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def floor_polygons(scene: Scene, camera: RvizCamera) -> List[Tuple[str, np.ndarray]]:
+    """Screen outlines (K, 2) px of the rooms' floor areas seen by ``camera``."""
+    floors = []
+    for room in scene.rooms:
+        if room.area is None:
+            continue
+        x_min, y_min, x_max, y_max = room.area
+        corners = np.array([[x_min, y_min, 0.0], [x_max, y_min, 0.0],
+                            [x_max, y_max, 0.0], [x_min, y_max, 0.0]])
+        uv, depth = camera.project(corners)
+        if np.all(depth > 0):
+            floors.append((room.name, camera.to_screen(uv)))
+    return floors
+
+
+class ExperimentDriver(Node):
+    """
+    The simulated person and the experimenter's notebook, as a node.
+
+    Watches what the (simulated) screen shows and makes the person look at
+    the scripted marker; asks the questions; records the offered choices,
+    the gaze the pipeline received and every decision of the arbiter.
+    """
+
+    def __init__(self, scene: Scene, script: List[Tuple[str, str]], streamer: GazeStreamer,
+                 arbiter, view, options: DemoOptions, **kwargs):
+        """
+        Subscribe to what the screen shows and what the system decides.
+
+        :param arbiter: the ChoiceArbiter node of this process (its
+            ``last_decision`` is read after every callback).
+        :param view: the SimRvizView node (is the camera still moving?).
+        :param kwargs: passed to :class:`rclpy.node.Node`.
+        """
+        super().__init__('demo_experiment', **kwargs)
+        self.scene = scene
+        self.script = script
+        self.streamer = streamer
+        self.arbiter = arbiter
+        self.view = view
+        self.options = options
+        self._base_camera = RvizCamera.from_look_at(
+            *scene.overview.as_tuple(), image_size=PANEL_SIZE, fov_y_deg=FOV_Y_DEG,
+            screen_offset=PANEL_OFFSET)
+        self.camera: Optional[RvizCamera] = None
+        # label -> (position (3,), quaternion xyzw (4,), scale (3,), colour rgba (4,))
+        self.markers: Dict[str, tuple] = {}
+        self.offered: Tuple[str, ...] = ()
+        self.region_history: List[RegionSet] = []
+        self.gaze_stamps: List[float] = []
+        self.gaze_points: List[Tuple[float, float]] = []
+        self.outcomes: List[str] = []
+        self.selections: List[Selection] = []
+        self.running = False
+        self.finished = False
+        self.intended: Optional[str] = None
+        self.round_index = 0
+        self.step = 'rooms'
+        self.attempt = 1
+        # ROS-clock times, s: options shown, labels changed (arbiter's round
+        # start), question asked with choice/request (None: not asked).
+        self.shown_at = math.nan
+        self.changed_at = math.nan
+        self.asked_at: Optional[float] = None
+        self._awaiting_arrival = False
+        self._seen_decision: Optional[Decision] = None
+        self._target_path: List[Tuple[float, float, float]] = []
+        self._request = self.create_publisher(Empty, 'choice/request', EVENT_QOS)
+        self.create_subscription(MarkerArray, 'choices', self._on_choices, LATCHED_QOS)
+        self.create_subscription(Pose, 'rviz/current_camera_pose', self._on_camera, LATCHED_QOS)
+        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
+        self.create_subscription(String, 'choice_menu/result', self._on_result, EVENT_QOS)
+
+    def now_s(self) -> float:
+        """Return the ROS clock (the clock of the gaze and region stamps), s."""
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    @property
+    def question_start(self) -> float:
+        """Return when the arbiter's current round started (ROS clock, s)."""
+        return self.asked_at if self.asked_at is not None else self.changed_at
+
+    # -- what the screen shows ------------------------------------------------------------
+
+    def _on_choices(self, message: MarkerArray) -> None:
+        for marker in message.markers:
+            if marker.action == Marker.DELETEALL:
+                self.markers = {}
+            elif marker.action == Marker.DELETE:
+                self.markers.pop(marker_label(marker.ns, marker.id, marker.text), None)
+            else:
+                position, quaternion = pose_to_arrays(marker.pose)
+                scale = np.array([marker.scale.x, marker.scale.y, marker.scale.z])
+                colour = (marker.color.r, marker.color.g, marker.color.b, marker.color.a)
+                self.markers[marker_label(marker.ns, marker.id, marker.text)] = (
+                    position, quaternion, scale, colour)
+        labels = tuple(self.markers)
+        if set(labels) != set(self.offered):
+            self.offered = labels
+            if self.running and labels:
+                self._new_question()
+        self._look()
+
+    def _on_camera(self, message: Pose) -> None:
+        position, quaternion = pose_to_arrays(message)
+        try:
+            position, quaternion = optical_pose_from_ogre(position, quaternion)
+            self.camera = self._base_camera.with_pose(position, quaternion)
+        except ValueError as error:
+            self.get_logger().warning(f'camera pose ignored: {error}')
+            return
+        self._look()
+
+    def _on_regions(self, message: MarkerArray) -> None:
+        labels, polygons = marker_array_to_regions(message)
+        stamp = _seconds(message.markers[0].header.stamp) if message.markers else self.now_s()
+        previous = self.region_history[-1].label_set if self.region_history else None
+        self.region_history.append(RegionSet(labels, polygons, stamp))
+        if labels and frozenset(labels) != previous:
+            # The arbiter starts a round at this stamp (new labels).
+            self.changed_at = stamp
+
+    def _on_gaze(self, message: PointCloud2) -> None:
+        stamps, points = gaze_batch_arrays(message)
+        self.gaze_stamps.extend(stamps.tolist())
+        self.gaze_points.extend(map(tuple, points.tolist()))
+
+    def _on_result(self, message: String) -> None:
+        self.outcomes.append(message.data)
+
+    # -- the person -----------------------------------------------------------------------
+
+    def target_xy(self) -> Optional[np.ndarray]:
+        """Return where the intended marker's centre is on the screen now, px, or None."""
+        if self.intended is None or self.camera is None or self.intended not in self.markers:
+            return None
+        position = self.markers[self.intended][0]
+        uv, depth = self.camera.project(position[None, :])
+        if not depth[0] > 0 or not self.camera.in_image(uv)[0]:
+            return None
+        return self.camera.to_screen(uv[0])
+
+    def _look(self) -> None:
+        """Point the person's eyes at the intended marker (it may be moving)."""
+        if not self.running:
+            return
+        xy = self.target_xy()
+        if xy is None:
+            return  # not on the screen (yet): keep looking where they were
+        self.streamer.set_target(xy, pylsl.local_clock())
+        self._target_path.append((self.now_s(), float(xy[0]), float(xy[1])))
+
+    def _new_question(self) -> None:
+        """Work out what the person wants from the options now shown."""
+        room, table = self.script[self.round_index]
+        if set(self.offered) == set(self.scene.room_labels):
+            self.step, self.intended = 'rooms', room
+        else:
+            shown_room = self.offered[0].split('/')[0]
+            self.step, self.intended = 'tables', f'{shown_room}/{table}'
+        self.attempt = 1
+        self.shown_at = self.now_s()
+        self.asked_at = None
+        self._awaiting_arrival = self.options.ask == 'on-arrival'
+        self._target_path = []
+
+    def _expected_view(self):
+        """Return the scene view that shows the current options."""
+        if self.step == 'rooms':
+            return self.scene.overview
+        return self.scene.room(self.offered[0].split('/')[0]).view
+
+    def _camera_arrived(self) -> bool:
+        """Tell whether the simulated RViz camera rests at the view of the options."""
+        if self.view.moving:
+            return False
+        eye, focus, _ = self.view.current_view()
+        expected = self._expected_view()
+        return bool(np.allclose(eye, expected.eye, atol=1e-3)
+                    and np.allclose(focus, expected.focus, atol=1e-3))
+
+    def _ask(self) -> None:
+        """Ask the arbiter for a fresh decision on what is shown now."""
+        self._awaiting_arrival = False
+        self.asked_at = self.now_s()
+        self._request.publish(Empty())
+
+    # -- the experiment -------------------------------------------------------------------
+
+    def ready(self) -> bool:
+        """Tell whether gaze flows, the screen is known and the start-up round has closed."""
+        return (len(self.gaze_stamps) >= WARMUP_SAMPLES and self.camera is not None
+                and set(self.offered) == set(self.scene.room_labels)
+                and self.arbiter.last_decision is not None)
+
+    def begin(self) -> None:
+        """Start the script: the person looks at the first room and is asked."""
+        self._seen_decision = self.arbiter.last_decision
+        self.running = True
+        self.round_index = 0
+        self._new_question()
+        self._look()
+        self._ask()
+
+    def poll(self) -> Optional[Selection]:
+        """
+        Ask when the view has arrived; check for a new decision, record it, move on.
+
+        :returns: the new selection, or None.
+        :raises DemoError: too many attempts without a choice, or a timeout.
+        """
+        if not self.running:
+            return None
+        if self._awaiting_arrival and self._camera_arrived():
+            self._ask()
+        decision = self.arbiter.last_decision
+        if decision is self._seen_decision:
+            elapsed = self.now_s() - self.shown_at
+            if elapsed > self.options.timeout_s:
+                raise DemoError(
+                    f'no decision within {self.options.timeout_s:g} s of the options '
+                    f'appearing (round {self.round_index + 1}, {self.step}); gaze samples '
+                    f'received so far: {len(self.gaze_stamps)}')
+            return None
+        self._seen_decision = decision
+        # A decision before the question was asked (--ask on-change, or the
+        # label-change round won the race) stands: the menu acts on it.
+        self._awaiting_arrival = False
+        selection = self._record(decision)
+        self.selections.append(selection)
+        if selection.chosen is None:
+            if self.attempt >= MAX_ATTEMPTS:
+                raise DemoError(f'no choice after {MAX_ATTEMPTS} attempts at round '
+                                f'{self.round_index + 1} ({self.step}): {decision.reason}')
+            self.attempt += 1
+            self.shown_at = self.now_s()
+            self._target_path = self._target_path[-1:]
+            self._ask()
+        elif self.step == 'tables':
+            self.round_index += 1
+            if self.round_index >= len(self.script):
+                self.finish()
+        return selection
+
+    def finish(self) -> None:
+        """Stop the experiment: the person looks away from the panel."""
+        self.running = False
+        self.finished = True
+        self.intended = None
+        self.streamer.set_target(REST_XY, pylsl.local_clock())
+
+    def _record(self, decision: Decision) -> Selection:
+        """Turn a decision into a Selection with its picture data."""
+        now = self.now_s()
+        start = self.question_start
+        target = self.target_xy()
+        if target is None and self._target_path:
+            target = np.array(self._target_path[-1][1:])
+        selection = Selection(
+            round_index=self.round_index + 1, step=self.step, attempt=self.attempt,
+            offered=list(self.offered), intended=self.intended, chosen=decision.label,
+            method=decision.method, samples_used=decision.samples_used,
+            in_region_samples=decision.in_region_samples,
+            time_to_decision_s=float(decision.time_to_decision),
+            decision_time_s=now - start, selection_time_s=now - self.shown_at,
+            target_xy=None if target is None else (float(target[0]), float(target[1])),
+            mean_point=decision.mean_point, counts=dict(decision.counts),
+            reason=decision.reason, camera_eye=tuple(float(v) for v in self.camera.eye))
+        selection.screen = self._picture(selection, decision, start)
+        return selection
+
+    def _picture(self, selection: Selection, decision: Decision,
+                 start: float) -> demo_render.ScreenPicture:
+        """Collect what the screen showed during the selection and where the gaze fell."""
+        end = start + (decision.time_to_decision if math.isfinite(decision.time_to_decision)
+                       else self.options.window_s)
+        stamps = np.array(self.gaze_stamps)
+        points = np.array(self.gaze_points, dtype=float).reshape(-1, 2)
+        use = (stamps >= start) & (stamps <= end + 1e-6)
+        stamps, points = stamps[use], points[use]
+        inside = classify_against_history(stamps, points, self.region_history)
+        latest = self.region_history[-1] if self.region_history else RegionSet([], [])
+        regions = dict(zip(latest.labels, latest.polygons))
+        colours = {label: marker[3] for label, marker in self.markers.items()}
+        # The target since the options appeared: it moves while the camera does.
+        path = np.array([p[1:] for p in self._target_path if p[0] >= self.shown_at - 0.05])
+        if selection.target_xy is not None:
+            path = np.vstack([path.reshape(-1, 2), [selection.target_xy]])
+        verdict = 'CORRECT' if selection.correct else (
+            'NO CHOICE' if selection.chosen is None else 'WRONG')
+        chosen = 'nothing' if selection.chosen is None else f"'{selection.chosen}'"
+        title = (f'Round {selection.round_index}, {selection.step}'
+                 f"{f' (attempt {selection.attempt})' if selection.attempt > 1 else ''}: "
+                 f"intended '{selection.intended}', chosen {chosen} -> {verdict}")
+        details = [
+            f'rule {decision.method}: {decision.samples_used} gaze samples, '
+            f'{decision.in_region_samples} in regions, decided '
+            f'{decision.time_to_decision:.2f} s after the question'
+            + (f' ({decision.reason})' if decision.reason else ''),
+            'samples per region: ' + (', '.join(demo_render.summarise_counts(decision.counts))
+                                      or 'none'),
+        ]
+        return demo_render.ScreenPicture(
+            title=title, details=details, screen_size=SCREEN_SIZE,
+            panel=(PANEL_OFFSET[0], PANEL_OFFSET[1], PANEL_SIZE[0], PANEL_SIZE[1]),
+            floors=floor_polygons(self.scene, self.camera), regions=regions, colours=colours,
+            gaze=points, gaze_in_region=inside, mean_point=decision.mean_point,
+            chosen=decision.label, intended=selection.intended, target_path=path)
+
+
+def classify_against_history(stamps: np.ndarray, points: np.ndarray,
+                             history: Sequence[RegionSet]) -> np.ndarray:
+    """
+    Tell which samples lie in a region shown at their own time.
+
+    :param stamps: shape (N,), s, ascending.
+    :param points: shape (N, 2), screen px.
+    :param history: region sets in arrival order (stamps ascending).
+    :returns: shape (N,) bool.
+    """
+    inside = np.zeros(len(stamps), dtype=bool)
+    if not len(stamps) or not history:
+        return inside
+    history_stamps = np.array([regions.stamp for regions in history])
+    shown = np.searchsorted(history_stamps, stamps, side='right') - 1
+    for index in np.unique(shown):
+        rows = shown == index
+        inside[rows] = history[max(int(index), 0)].classify(points[rows]) >= 0
+    return inside
+
+
+def run_demo(options: DemoOptions, log=print) -> DemoResult:
+    """
+    Run the experiment and write its pictures and summary.
+
+    :param options: the settings.
+    :param log: where progress lines go (``print`` by default).
+    :returns: the result.
+    :raises DemoError: no gaze stream, no decision in time, too many retries.
+    :raises ValueError: invalid options.
+    """
+    if options.method not in METHODS:
+        raise ValueError(f"unknown method '{options.method}': use one of {', '.join(METHODS)}")
+    if options.ask not in ASK_MODES:
+        raise ValueError(f"unknown ask mode '{options.ask}': use one of {', '.join(ASK_MODES)}")
+    if not 0 < options.window_s <= 60:
+        raise ValueError(f'window must be in (0, 60] s, got {options.window_s}')
+    if not 0 <= options.transition_s <= 60:
+        raise ValueError(f'camera move time must be in [0, 60] s, got {options.transition_s}')
+    if not (options.timeout_s > 0 and options.stream_timeout_s > 0):
+        raise ValueError('timeouts must be > 0 s')
+    person = person_params(options.preset)
+    scene_path = default_scene_path()
+    scene = load_scene(scene_path)
+    script = make_script(scene, options.rounds, options.seed)
+    source_id = f'eye_bci_demo-{uuid.uuid4()}'
+
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    rule = {'mean': 'mean (the original rule: mean of the in-region gaze must lie in a region)',
+            'vote': 'vote (the region holding most in-region gaze samples)'}[options.method]
+    log(f'decision rule: {rule}, window {options.window_s:g} s'
+        + (', early decision on (confidence 0.95)' if options.early else ''))
+    asking = {'on-arrival': 'asked (choice/request) once the camera move has ended',
+              'on-change': 'asked by the arbiter itself when the options change'}
+    log(f'questions: {asking[options.ask]}; camera moves take {options.transition_s:g} s')
+    log('script: ' + ', '.join(f'{room}/{table}' for room, table in script))
+    # Lost samples are left out, as the original C# sender (Tobii's gaze point
+    # stream) delivers only valid gaze.
+    streamer = GazeStreamer(params=person, seed=options.seed, source_id=source_id,
+                            initial_xy=REST_XY, send_lost=False)
+    log(streamer.describe())
+
+    # Logger levels are process-wide: quiet the nodes for the run, then put them back.
+    quiet = () if options.verbose else NODE_NAMES + ('choice_menu', 'sim_rviz_view',
+                                                     'demo_experiment')
+    levels = {name: rclpy.logging.get_logger_level(name) for name in quiet}
+    for name in quiet:
+        rclpy.logging.set_logger_level(name, rclpy.logging.LoggingSeverity.WARN)
+    with domain_id() as domain:
+        context = Context()
+        rclpy.init(context=context, domain_id=domain)
+        executor = make_executor(context=context)
+        nodes: List[Node] = []
+        try:
+            nodes = make_pipeline_nodes(context, overrides={
+                'lsl_gaze_bridge': {'source_id': source_id, 'stats_period_s': 0.0},
+                'marker_projector': {
+                    'image_width': PANEL_SIZE[0], 'image_height': PANEL_SIZE[1],
+                    'fov_y_deg': FOV_Y_DEG, 'screen_offset_x': PANEL_OFFSET[0],
+                    'screen_offset_y': PANEL_OFFSET[1]},
+                'choice_arbiter': {'method': options.method, 'window_s': options.window_s,
+                                   'early_decision': options.early},
+                'choice_menu': {'scene_file': scene_path, 'repeat': True},
+            }, with_menu=True)
+            named = dict(zip(NODE_NAMES, nodes))
+            view = SimRvizView(context=context, parameter_overrides=[
+                Parameter('transition_time_s', value=float(options.transition_s))])
+            nodes.append(view)
+            driver = ExperimentDriver(scene, script, streamer, named['choice_arbiter'], view,
+                                      options, context=context)
+            nodes.append(driver)
+            for node in nodes:
+                executor.add_node(node)
+            log(f'ROS 2 domain {domain}: {", ".join(n.get_name() for n in nodes)} on one '
+                f'executor; LSL source_id {source_id}')
+            streamer.start()
+            _experiment(executor, driver, streamer, named['lsl_gaze_bridge'], options, log)
+            # Let the menu's last result arrive.
+            _spin_until(executor, lambda: len(driver.outcomes) >= len(script), 2.0)
+        finally:
+            executor.shutdown()
+            for node in nodes:
+                node.destroy_node()
+            # After the bridge has closed its inlet, so liblsl does not report a broken stream.
+            streamer.stop()
+            context.try_shutdown()
+            for name, level in levels.items():
+                rclpy.logging.set_logger_level(name, level)
+
+    return _summarise(options, person, source_id, script, driver, log)
+
+
+def _experiment(executor, driver: ExperimentDriver, streamer: GazeStreamer, bridge,
+                options: DemoOptions, log) -> None:
+    """Wait for gaze, then run the script to the end."""
+    start = time.monotonic()
+    if not _spin_until(executor, lambda: len(driver.gaze_stamps) >= WARMUP_SAMPLES,
+                       options.stream_timeout_s):
+        if streamer.error is not None:
+            raise DemoError(f'the simulated eye tracker failed: {streamer.error}')
+        where = bridge.stream or 'no stream connected'
+        raise DemoError(
+            f'no gaze reached the pipeline within {options.stream_timeout_s:g} s '
+            f"(LSL source_id '{driver.streamer.info.source_id()}'; bridge: {where}; "
+            f"samples published: {bridge.counters['published']}): is LSL working on this "
+            'machine (loopback multicast)?')
+    if not _spin_until(executor, driver.ready, options.timeout_s):
+        raise DemoError('the pipeline did not settle: no camera pose, no rooms offered or '
+                        'the start-up round did not close')
+    log(f'gaze flowing after {time.monotonic() - start:.1f} s; starting the experiment')
+    driver.begin()
+    printed = 0
+
+    def poll():
+        nonlocal printed
+        driver.poll()
+        while printed < len(driver.selections):
+            _print_selection(driver.selections[printed], log)
+            printed += 1
+        if streamer.error is not None:
+            raise DemoError(f'the simulated eye tracker failed: {streamer.error}')
+
+    # The driver raises DemoError on a per-question timeout; this bounds the whole run.
+    limit = options.timeout_s * (2 * len(driver.script) * MAX_ATTEMPTS + 1)
+    if not _spin_until(executor, lambda: driver.finished, limit, poll):
+        raise DemoError(f'the experiment did not finish within {limit:g} s')
+
+
+def _print_selection(selection: Selection, log) -> None:
+    """Print one selection as it happens."""
+    verdict = 'correct' if selection.correct else (
+        'NO CHOICE' if selection.chosen is None else 'WRONG')
+    retry = f', attempt {selection.attempt}' if selection.attempt > 1 else ''
+    target = ('off screen' if selection.target_xy is None
+              else f'({selection.target_xy[0]:.0f}, {selection.target_xy[1]:.0f}) px')
+    log(f'round {selection.round_index} {selection.step}{retry}: offered '
+        f'{", ".join(selection.offered)}')
+    log(f"  person looks at '{selection.intended}' at {target}; system chose "
+        f"'{selection.chosen}' -> {verdict}")
+    log(f'  {selection.method}: {selection.samples_used} samples used '
+        f'({selection.in_region_samples} in regions); decision {selection.decision_time_s:.2f} '
+        f's after the question, {selection.selection_time_s:.2f} s after the options appeared'
+        + (f'; {selection.reason}' if selection.reason else ''))
+
+
+def _summarise(options: DemoOptions, person: GazeParams, source_id: str,
+               script: List[Tuple[str, str]], driver: ExperimentDriver, log) -> DemoResult:
+    """Compute the summary, write the files and print it."""
+    selections = driver.selections
+    correct = sum(s.correct for s in selections)
+    accuracy = correct / len(selections) if selections else 0.0
+    mean_decision = float(np.mean([s.decision_time_s for s in selections])) if selections \
+        else math.nan
+    mean_time = float(np.mean([s.selection_time_s for s in selections])) if selections \
+        else math.nan
+    itr = itr_bits_per_minute([len(s.offered) for s in selections], accuracy, mean_time)
+    result = DemoResult(options=options, person=person.name, source_id=source_id,
+                        script=script, selections=selections, outcomes=list(driver.outcomes),
+                        accuracy=accuracy, mean_decision_s=mean_decision,
+                        mean_time_s=mean_time, itr_bits_per_min=itr, files=[])
+    if options.output_dir:
+        result.files = _write_outputs(result, person)
+    log(f'summary: {len(selections)} selections, {correct} correct: accuracy '
+        f'{100 * accuracy:.1f} %; mean decision time {mean_decision:.2f} s (question to '
+        f'decision); mean time per selection {mean_time:.2f} s (options shown to decision); '
+        f'ITR {itr:.1f} bits/min (Wolpaw, N = choices offered, P = accuracy, T = time per '
+        'selection)')
+    log('outcomes (menu results): ' + (', '.join(result.outcomes) or 'none')
+        + '; intended: ' + ', '.join(f'{room}/{table}' for room, table in script))
+    if result.files:
+        log(f'wrote {len(result.files)} files to {options.output_dir}/: '
+            + ', '.join(os.path.basename(f) for f in result.files))
+    return result
+
+
+def _write_outputs(result: DemoResult, person: GazeParams) -> List[str]:
+    """Write the pictures, summary.json and selections.csv; return their paths."""
+    directory = result.options.output_dir
+    os.makedirs(directory, exist_ok=True)
+    files = []
+    if result.options.pictures:
+        for selection in result.selections:
+            name = f'round{selection.round_index}_{selection.step}'
+            if selection.attempt > 1:
+                name += f'_attempt{selection.attempt}'
+            selection.picture = demo_render.render_screen(
+                selection.screen, os.path.join(directory, name + '.png'))
+            files.append(selection.picture)
+    rows = [s.as_row() for s in result.selections]
+    summary = {
+        'options': asdict(result.options), 'person': asdict(person),
+        'lsl_source_id': result.source_id,
+        'script': [f'{room}/{table}' for room, table in result.script],
+        'outcomes': result.outcomes, 'selections': rows,
+        'accuracy': result.accuracy, 'mean_decision_time_s': result.mean_decision_s,
+        'mean_time_per_selection_s': result.mean_time_s,
+        'itr_bits_per_min': result.itr_bits_per_min,
+        'itr_formula': 'Wolpaw: B = log2 N + P log2 P + (1-P) log2((1-P)/(N-1)), averaged '
+                       'over selections (N = choices offered), ITR = B * 60 / T',
+    }
+    path = os.path.join(directory, 'summary.json')
+    with open(path, 'w', encoding='utf-8') as stream:
+        json.dump(summary, stream, indent=2, default=demo_render.json_default)
+    files.append(path)
+    path = os.path.join(directory, 'selections.csv')
+    columns = ['round_index', 'step', 'attempt', 'intended', 'chosen', 'correct', 'method',
+               'samples_used', 'in_region_samples', 'time_to_decision_s', 'decision_time_s',
+               'selection_time_s',
+               'offered', 'reason', 'picture']
+    with open(path, 'w', newline='', encoding='utf-8') as stream:
+        writer = csv.DictWriter(stream, fieldnames=columns, extrasaction='ignore')
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({**row, 'offered': ' '.join(row['offered']),
+                             'picture': os.path.basename(row['picture'])})
+    files.append(path)
+    return files
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the command-line options of ``demo``."""
+    parser = argparse.ArgumentParser(
+        prog='demo', description='Run the original room -> table experiment end to end: the '
+        'real nodes on a private ROS 2 graph, a simulated person streaming gaze over real LSL, '
+        'a simulated RViz camera.',
+        epilog='The simulated RViz uses the analytic RViz projection (1280x720 panel at '
+               '(320, 180) on a 1920x1080 screen). Output: a PNG of the screen per '
+               'selection, summary.json and selections.csv.')
+    d = DemoOptions()
+    parser.add_argument('--rounds', type=int, default=None,
+                        help=f'(room, table) pairs to choose (default {d.rounds}; 1 with --quick)')
+    parser.add_argument('--seed', type=int, default=d.seed,
+                        help=f'seeds the script and the simulated person (default {d.seed})')
+    parser.add_argument('--method', choices=METHODS, default=d.method,
+                        help=f'decision rule at the window end; mean = the original '
+                             f'(default {d.method})')
+    parser.add_argument('--early', action='store_true',
+                        help='let the arbiter decide before the window ends when confident')
+    parser.add_argument('--ask', choices=ASK_MODES, default=d.ask,
+                        help='when each question is asked: once the camera move has ended '
+                             '(as in the original experiment) or when the options change '
+                             f'(default {d.ask})')
+    parser.add_argument('--transition-s', type=float, default=d.transition_s,
+                        help=f'duration of the simulated RViz camera moves, s '
+                             f'(default {d.transition_s:g})')
+    parser.add_argument('--window-s', type=float, default=d.window_s,
+                        help=f'gaze collection window per question, s (default {d.window_s:g})')
+    parser.add_argument('--preset', default=None,
+                        choices=sorted(PRESETS) + [QUICK_PERSON.name],
+                        help=f'simulated person and tracker (default {d.preset}; '
+                             f'{QUICK_PERSON.name} with --quick)')
+    parser.add_argument('--output-dir', default=d.output_dir,
+                        help=f"where pictures and summaries go; '' = nowhere "
+                             f'(default {d.output_dir})')
+    parser.add_argument('--no-pictures', action='store_true', help='skip the PNGs')
+    parser.add_argument('--verbose', action='store_true',
+                        help="show the nodes' INFO log lines")
+    parser.add_argument('--quick', action='store_true',
+                        help='a short run for tests: 1 round, a low-noise person')
+    parser.add_argument('--timeout-s', type=float, default=d.timeout_s,
+                        help=f'longest wait for one decision, s (default {d.timeout_s:g})')
+    parser.add_argument('--stream-timeout-s', type=float, default=d.stream_timeout_s,
+                        help=f'longest wait for gaze over LSL, s (default {d.stream_timeout_s:g})')
+    return parser
+
+
+def options_from_args(args: argparse.Namespace) -> DemoOptions:
+    """Turn parsed arguments into :class:`DemoOptions` (applying --quick)."""
+    options = DemoOptions(seed=args.seed, method=args.method, early=args.early, ask=args.ask,
+                          transition_s=args.transition_s,
+                          window_s=args.window_s, output_dir=args.output_dir,
+                          timeout_s=args.timeout_s, stream_timeout_s=args.stream_timeout_s,
+                          pictures=not args.no_pictures, verbose=args.verbose)
+    if args.quick:
+        options = replace(options, rounds=1, preset=QUICK_PERSON.name)
+    if args.rounds is not None:
+        options = replace(options, rounds=args.rounds)
+    if args.preset is not None:
+        options = replace(options, preset=args.preset)
+    return options
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Run the demo; return 0 when it finished, 1 when something failed."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    options = options_from_args(args)
+    if options.rounds < 1:
+        parser.error('--rounds must be at least 1')
+    try:
+        run_demo(options)
+    except (RuntimeError, ValueError) as error:  # DemoError is a RuntimeError
+        print(f'demo failed: {error}', file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print('demo interrupted', file=sys.stderr)
+        return 130
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

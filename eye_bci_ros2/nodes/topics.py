@@ -1,0 +1,55 @@
+"""
+Topic names and quality-of-service profiles: the one home of the topic contract.
+
+Every name is relative, so a namespace (``--ros-args -r __ns:=/left``) moves a
+whole pipeline.  docs/DESIGN.md ("Topics") says what each carries.
+"""
+
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+#: Every gaze sample, batched: sensor_msgs/PointCloud2, one message per LSL chunk
+#: (see :mod:`eye_bci_ros2.nodes.conversions`, "Gaze batches").
+GAZE_SAMPLES_TOPIC = 'gaze/samples'
+#: A per-sample view for people and simple tools (``ros2 topic echo``, a gaze cursor):
+#: geometry_msgs/PointStamped, the newest sample, at most ``point_rate_hz``.
+GAZE_POINT_TOPIC = 'gaze/point'
+
+#: Gaze batches: reliable and deep; a message holds a whole chunk (up to max_chunk
+#: samples), so 1000 messages are seconds of gaze even at 2000 Hz.
+GAZE_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=1000,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+#: The per-sample view: only the newest matters, so best effort and shallow.
+VIEW_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=5,
+    reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+
+#: Tools that watch a topic (the monitor): best effort, so it matches reliable and
+#: best-effort publishers alike, as deep as the gaze queue.
+LISTENER_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=GAZE_QOS.depth,
+    reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+
+#: State that a late joiner needs at once (camera pose, regions, menu): latched.
+LATCHED_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=1,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+#: Events (choices, requests): reliable, never dropped in a burst.
+EVENT_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=10,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+#: ``choices``: latched like LATCHED_QOS, but deep, because MarkerArrays are
+#: incremental (RViz semantics): with depth 1, an array that arrives before the
+#: previous one is taken replaces it, and a lost DELETE leaves a withdrawn
+#: choice selectable.
+CHOICES_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=100,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+#: What RViz view-controller ports publish with: reliable, volatile, depth 10.
+RVIZ_POSE_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=10,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)

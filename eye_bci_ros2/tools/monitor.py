@@ -1,0 +1,374 @@
+"""
+Watch eye_bci_ros2 from a terminal: gaze stream, offered options, decisions.
+
+For the PyPI set-up, where there is no ``ros2`` command (``ros2 topic echo``,
+``ros2 topic hz``).  An rclpy node that listens to
+
+* ``gaze/samples`` (sensor_msgs/PointCloud2 batches from ``lsl_gaze_bridge``:
+  fields x, y float32 screen px and t float64 s after ``header.stamp``; one
+  message per LSL chunk): samples per second, messages per second, total,
+  gaps (more than ``--gap`` s between consecutive sample stamps: blinks, lost
+  eyes, a stalled stream) and the newest point;
+* ``choices/regions`` (visualization_msgs/MarkerArray): the options on offer,
+  by label (the marker's text, else ``ns/id``), and which one the newest gaze
+  point is in;
+* ``choice`` (std_msgs/String): the decisions.
+
+On a terminal it redraws a few status lines in place; when stdout is not a
+terminal (a pipe, a log file) it prints one plain ``key=value`` line per
+period and one line per decision.  ``--once`` listens for one period and
+prints once; ``--duration S`` stops after S seconds.  Topic names are
+relative: remap or push a namespace with ``--ros-args`` as for any node.
+
+Usage::
+
+    monitor
+    monitor --once
+    monitor --duration 30 > run.log
+    monitor --ros-args -r __ns:=/robot1
+"""
+
+import argparse
+from collections import deque
+from dataclasses import dataclass, field
+import signal
+import sys
+import threading
+import time
+from typing import Deque, List, Optional, Sequence, Tuple
+
+import numpy as np
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+from rclpy.utilities import remove_ros_args
+from sensor_msgs.msg import PointCloud2
+from std_msgs.msg import String
+from visualization_msgs.msg import MarkerArray
+
+from eye_bci_ros2.geometry import points_in_convex_polygons
+from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
+from eye_bci_ros2.nodes.runner import make_executor
+from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS, LISTENER_QOS
+
+#: Rates are counted over the last this many seconds of arrivals.
+RATE_WINDOW_S = 2.0
+#: Default: an interval between consecutive sample stamps longer than this is a gap, s.
+DEFAULT_GAP_S = 0.1
+#: Default refresh period, s.
+DEFAULT_PERIOD_S = 1.0
+#: Gaze is "not arriving" after this long without a message, s.
+STALE_S = 1.0
+#: Decisions shown.
+DECISIONS_SHOWN = 3
+#: Options named in the status (the rest are counted).
+OPTIONS_SHOWN = 8
+
+
+@dataclass
+class GazeStats:
+    """
+    Counters of the gaze batches seen so far (no rclpy; times in s).
+
+    The sample rate is the tracker's, from the sample stamps of the batches
+    that arrived in the last :data:`RATE_WINDOW_S` (gaps lower it); the
+    message rate is from their arrival times.
+    """
+
+    gap_s: float = DEFAULT_GAP_S
+    samples: int = 0
+    messages: int = 0
+    bad_messages: int = 0
+    gaps: int = 0
+    longest_gap_s: float = 0.0
+    newest_xy: Optional[np.ndarray] = None
+    last_stamp: Optional[float] = None
+    last_arrival: Optional[float] = None
+    #: (arrival s, samples, first stamp, last stamp) of recent batches.
+    recent: Deque[Tuple[float, int, float, float]] = field(default_factory=deque)
+
+    def add(self, xy: np.ndarray, stamps: np.ndarray, arrival: float) -> None:
+        """
+        Count one batch.
+
+        :param xy: shape (N, 2), screen px.
+        :param stamps: shape (N,), s (ROS clock).
+        :param arrival: when it arrived, s (monotonic).
+        """
+        self.messages += 1
+        self.last_arrival = arrival
+        if not len(stamps):
+            return
+        self.samples += len(stamps)
+        self.recent.append((arrival, len(stamps), float(stamps.min()), float(stamps.max())))
+        previous = [] if self.last_stamp is None else [self.last_stamp]
+        intervals = np.diff(np.concatenate([previous, stamps]))
+        long = intervals[intervals > self.gap_s]
+        self.gaps += len(long)
+        if len(long):
+            self.longest_gap_s = max(self.longest_gap_s, float(long.max()))
+        self.last_stamp = max(float(stamps[-1]), -np.inf if self.last_stamp is None
+                              else self.last_stamp)
+        finite = np.all(np.isfinite(xy), axis=1)
+        if finite.any():
+            self.newest_xy = xy[np.flatnonzero(finite)[-1]]
+
+    def rates(self, now: float) -> Tuple[Optional[float], Optional[float]]:
+        """
+        Return (samples/s, messages/s) over the batches of the last RATE_WINDOW_S.
+
+        None while there is too little to measure (fewer than 2 samples, or
+        fewer than 2 messages, in the window).
+        """
+        while self.recent and self.recent[0][0] < now - RATE_WINDOW_S:
+            self.recent.popleft()
+        if not self.recent:
+            return 0.0, 0.0
+        batches = np.array(self.recent)
+        count = batches[:, 1].sum()
+        span = batches[:, 3].max() - batches[:, 2].min()
+        sample_rate = (count - 1) / span if count > 1 and span > 0 else None
+        arrival_span = batches[-1, 0] - batches[0, 0]
+        message_rate = (len(batches) - 1) / arrival_span if arrival_span > 0 else None
+        return sample_rate, message_rate
+
+
+class Monitor(Node):
+    """Listen to gaze, options and decisions, and keep what the status shows."""
+
+    def __init__(self, gap_s: float = DEFAULT_GAP_S, on_choice=None, **kwargs):
+        """
+        Subscribe to ``gaze/samples``, ``choices/regions`` and ``choice``.
+
+        :param gap_s: gap threshold between sample stamps, s.
+        :param on_choice: called with (wall time s, text) for each decision.
+        """
+        super().__init__('eye_bci_monitor', **kwargs)
+        self.gaze = GazeStats(gap_s=gap_s)
+        self.labels: List[str] = []
+        self.polygons = np.zeros((0, 3, 2))
+        self.regions_at: Optional[float] = None
+        self.decisions: Deque[Tuple[float, str]] = deque(maxlen=100)
+        self.problem = ''
+        self._on_choice = on_choice
+        self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, LISTENER_QOS)
+        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(String, 'choice', self._on_decision, EVENT_QOS)
+
+    def _on_gaze(self, message: PointCloud2) -> None:
+        try:
+            stamps, xy = gaze_batch_arrays(message)
+        except ValueError as error:
+            self.gaze.bad_messages += 1
+            self.problem = f'unreadable gaze/samples message: {error}'
+            return
+        self.gaze.add(xy, stamps, time.monotonic())
+
+    def _on_regions(self, message: MarkerArray) -> None:
+        self.labels, self.polygons = marker_array_to_regions(message)
+        self.regions_at = time.monotonic()
+
+    def _on_decision(self, message: String) -> None:
+        self.decisions.append((time.time(), message.data))
+        if self._on_choice is not None:
+            self._on_choice(*self.decisions[-1])
+
+    def gaze_region(self) -> Optional[str]:
+        """Return the label of the option the newest gaze point is in, '' if none."""
+        if self.gaze.newest_xy is None:
+            return None
+        if not self.labels:
+            return ''
+        inside = points_in_convex_polygons(self.gaze.newest_xy[None, :], self.polygons)[0]
+        hits = np.flatnonzero(inside)
+        return self.labels[hits[0]] if len(hits) else ''
+
+    def status(self, now: Optional[float] = None) -> dict:
+        """Return what the status shows, as plain values (for the renderers and tests)."""
+        now = time.monotonic() if now is None else now
+        sample_rate, message_rate = self.gaze.rates(now)
+        age = None if self.gaze.last_arrival is None else now - self.gaze.last_arrival
+        return {
+            'sample_rate': sample_rate, 'message_rate': message_rate,
+            'samples': self.gaze.samples, 'messages': self.gaze.messages,
+            'bad_messages': self.gaze.bad_messages, 'gaps': self.gaze.gaps,
+            'longest_gap_s': self.gaze.longest_gap_s, 'gaze_age_s': age,
+            'gaze_xy': None if self.gaze.newest_xy is None else self.gaze.newest_xy.tolist(),
+            'gaze_region': self.gaze_region(), 'options': list(self.labels),
+            'decisions': [text for _, text in self.decisions], 'problem': self.problem,
+        }
+
+
+def _rate(value: Optional[float]) -> str:
+    return '    ?  ' if value is None else f'{value:7.1f}'
+
+
+def _clock(wall_s: float) -> str:
+    return time.strftime('%H:%M:%S', time.localtime(wall_s))
+
+
+def status_lines(status: dict, decisions: Sequence[Tuple[float, str]] = ()) -> List[str]:
+    """Render the terminal status block (a few lines)."""
+    age = status['gaze_age_s']
+    if age is None:
+        gaze = 'gaze     nothing on gaze/samples yet'
+    else:
+        state = 'ok' if age < STALE_S else f'NOTHING for {age:.1f} s'
+        gaze = (f"gaze     {_rate(status['sample_rate'])} samples/s in "
+                f"{_rate(status['message_rate'])} msg/s, {status['samples']} samples, "
+                f"{status['gaps']} gaps" +
+                (f" (longest {status['longest_gap_s']:.2f} s)" if status['gaps'] else '') +
+                f', {state}')
+    if status['gaze_xy'] is None:
+        where = 'looking  -'
+    else:
+        x, y = status['gaze_xy']
+        region = status['gaze_region']
+        inside = f"in '{region}'" if region else 'in no option'
+        where = f'looking  ({x:.1f}, {y:.1f}) px, {inside}'
+    options = status['options']
+    shown = ', '.join(options[:OPTIONS_SHOWN]) + \
+        (f', and {len(options) - OPTIONS_SHOWN} more' if len(options) > OPTIONS_SHOWN else '')
+    offered = f'options  {len(options)}: {shown}' if options else 'options  none offered'
+    recent = [f"'{text}' {_clock(at)}" for at, text in list(decisions)[-DECISIONS_SHOWN:]]
+    chosen = 'choice   ' + ('; '.join(reversed(recent)) if recent else '-')
+    lines = [gaze, where, offered, chosen]
+    if status['problem']:
+        lines.append(f"problem  {status['problem']} ({status['bad_messages']} so far)")
+    return lines
+
+
+def status_line(status: dict, elapsed_s: float) -> str:
+    """Render one plain ``key=value`` line (stdout not a terminal)."""
+    xy = status['gaze_xy']
+    fields = [
+        f't={elapsed_s:.1f}',
+        f"gaze_rate={_rate(status['sample_rate']).strip()}",
+        f"msg_rate={_rate(status['message_rate']).strip()}",
+        f"samples={status['samples']}",
+        f"gaps={status['gaps']}",
+        f"longest_gap_s={status['longest_gap_s']:.3f}",
+        'gaze=' + ('-' if xy is None else f'{xy[0]:.1f},{xy[1]:.1f}'),
+        'region=' + (status['gaze_region'] or '-'),
+        'options=' + ('|'.join(status['options']) or '-'),
+        'last_choice=' + (status['decisions'][-1] if status['decisions'] else '-'),
+    ]
+    if status['bad_messages']:
+        fields.append(f"bad_messages={status['bad_messages']}")
+    return ' '.join(fields)
+
+
+class Screen:
+    """Write the status: redrawn in place on a terminal, appended lines elsewhere."""
+
+    def __init__(self, stream, terminal: Optional[bool] = None):
+        """Write to ``stream``; ``terminal`` None = ask the stream (isatty)."""
+        self.stream = stream
+        self.terminal = stream.isatty() if terminal is None else terminal
+        self._drawn = 0
+        self._started = time.monotonic()
+
+    def show(self, monitor: Monitor) -> None:
+        """Write the current status."""
+        status = monitor.status()
+        if self.terminal:
+            lines = [f'eye_bci monitor {_clock(time.time())} (Ctrl-C to quit)'] + \
+                status_lines(status, monitor.decisions)
+            # Up over the last block, clear to the end of the screen, redraw.
+            prefix = f'\x1b[{self._drawn}F\x1b[J' if self._drawn else ''
+            self.stream.write(prefix + '\n'.join(lines) + '\n')
+            self._drawn = len(lines)
+        else:
+            self.stream.write(status_line(status, time.monotonic() - self._started) + '\n')
+        self.stream.flush()
+
+    def choice(self, wall_s: float, text: str) -> None:
+        """Report a decision as it happens (plain output only; the block shows it)."""
+        if not self.terminal:
+            self.stream.write(f'{_clock(wall_s)} choice {text}\n')
+            self.stream.flush()
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float('nan')
+    if not value > 0 or value == float('inf'):
+        raise argparse.ArgumentTypeError(f"'{text}' is not a positive number of seconds")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the command-line parser."""
+    parser = argparse.ArgumentParser(
+        prog='monitor', description=__doc__.split('\n\n')[0].strip(),
+        epilog='Listens to gaze/samples (PointCloud2), choices/regions (MarkerArray) and '
+               'choice (String). ROS arguments go after --ros-args.')
+    when = parser.add_mutually_exclusive_group()
+    when.add_argument('--once', action='store_true',
+                      help='listen for one --period, print the status once and exit')
+    when.add_argument('--duration', type=_positive, metavar='S',
+                      help='exit after S seconds (default: until Ctrl-C)')
+    parser.add_argument('--period', type=_positive, default=DEFAULT_PERIOD_S, metavar='S',
+                        help='refresh period, s; default %(default)s')
+    parser.add_argument('--gap', type=_positive, default=DEFAULT_GAP_S, metavar='S',
+                        help='count a gap when consecutive gaze samples are more than S s '
+                        'apart; default %(default)s')
+    return parser
+
+
+def run(args: argparse.Namespace, context=None, stream=None,
+        terminal: Optional[bool] = None, stop: Optional[threading.Event] = None) -> int:
+    """
+    Run the monitor on an initialised ``context`` until ``stop`` is set or the duration ends.
+
+    :returns: the exit status (0).
+    """
+    stop = stop or threading.Event()
+    screen = Screen(stream or sys.stdout, terminal)
+    monitor = Monitor(gap_s=args.gap, on_choice=screen.choice, context=context)
+    executor = make_executor(context=context)
+    executor.add_node(monitor)
+    duration = args.period if args.once else args.duration
+    start = time.monotonic()
+    next_show = start + (args.period if args.once else 0.0)
+    try:
+        while not stop.is_set() and (duration is None or time.monotonic() - start < duration):
+            executor.spin_once(timeout_sec=min(0.05, args.period))
+            if time.monotonic() >= next_show and not args.once:
+                screen.show(monitor)
+                next_show += args.period
+        screen.show(monitor)
+    finally:
+        executor.shutdown()
+        monitor.destroy_node()
+    return 0
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    """
+    Run ``monitor``; return the exit status.
+
+    Ctrl-C and SIGTERM only ask the loop to stop (no KeyboardInterrupt), and
+    are ignored once it stops, so a second Ctrl-C cannot break the clean-up.
+    """
+    argv = sys.argv if argv is None else argv
+    args = build_parser().parse_args(remove_ros_args(argv)[1:])
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        return run(args, stop=stop)
+    except ExternalShutdownException:
+        return 0
+    finally:
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, signal.SIG_IGN)
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    sys.exit(main())

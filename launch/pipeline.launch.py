@@ -1,0 +1,63 @@
+r"""
+The eye_bci_ros2 pipeline: gaze bridge, camera tracker, marker projector, choice arbiter.
+
+    ros2 launch eye_bci_ros2 pipeline.launch.py
+    ros2 launch eye_bci_ros2 pipeline.launch.py profile:=tobii_pro \
+        params_file:=/path/to/my_params.yaml rviz_config:=/path/to/my.rviz
+
+Each node is its own process and reads ``params_file`` (default: the
+installed config/eye_bci.yaml, every default).  ``profile`` (an eye-tracker
+profile of lsl_gaze_bridge: tobii_pro, tobii_stream_engine, pupil_capture,
+xy_pixels, custom) and ``rviz_config`` (an .rviz file, read by camera_tracker
+and marker_projector for the view and the panel size) are applied over the
+file when not empty.  The options to choose from are published on
+``choices`` by your own node (or ``experiment.launch.py``'s menu).
+"""
+
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
+from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch_ros.actions import Node
+from launch_ros.substitutions import FindPackageShare
+
+PACKAGE = 'eye_bci_ros2'
+
+
+def _nodes(context):
+    """Build the four nodes, with the overrides that were given."""
+    params_file = LaunchConfiguration('params_file')
+    profile = LaunchConfiguration('profile').perform(context)
+    rviz_config = LaunchConfiguration('rviz_config').perform(context)
+    bridge = [{'profile': profile}] if profile else []
+    view = [{'rviz_config': rviz_config}] if rviz_config else []
+    return [
+        Node(package=PACKAGE, executable='lsl_gaze_bridge', name='lsl_gaze_bridge',
+             parameters=[params_file] + bridge, output='screen'),
+        Node(package=PACKAGE, executable='camera_tracker', name='camera_tracker',
+             parameters=[params_file] + view, output='screen'),
+        Node(package=PACKAGE, executable='marker_projector', name='marker_projector',
+             parameters=[params_file] + view, output='screen'),
+        Node(package=PACKAGE, executable='choice_arbiter', name='choice_arbiter',
+             parameters=[params_file], output='screen'),
+    ]
+
+
+def generate_launch_description():
+    """Declare the arguments and the pipeline nodes."""
+    return LaunchDescription([
+        DeclareLaunchArgument(
+            'params_file',
+            default_value=PathJoinSubstitution([FindPackageShare(PACKAGE), 'config',
+                                                'eye_bci.yaml']),
+            description='ROS 2 parameter file for every node (default: all defaults)'),
+        DeclareLaunchArgument(
+            'profile', default_value='',
+            description='eye-tracker profile of lsl_gaze_bridge (tobii_pro, '
+                        'tobii_stream_engine, pupil_capture, xy_pixels, custom); '
+                        "'' = the params file's"),
+        DeclareLaunchArgument(
+            'rviz_config', default_value='',
+            description='.rviz file whose view and panel size camera_tracker and '
+                        "marker_projector read; '' = their parameters"),
+        OpaqueFunction(function=_nodes),
+    ])

@@ -1,0 +1,42 @@
+"""config/eye_bci.rviz: the default scene's RViz2 setup reads back as the nodes' defaults."""
+
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from eye_bci_ros2.nodes.camera_tracker import DEFAULT_EYE, DEFAULT_FOCUS, DEFAULT_UP
+from eye_bci_ros2.nodes.marker_projector import PARAMETERS as PROJECTOR_PARAMETERS
+from eye_bci_ros2.rviz_config import read_rviz_config
+
+CONFIG = Path(__file__).resolve().parents[2] / 'config' / 'eye_bci.rviz'
+
+
+def test_view_reads_back_as_camera_trackers_default_static_view():
+    view = read_rviz_config(CONFIG)
+    assert view.controller == 'rviz_default_plugins/Orbit'
+    assert view.projection == 'perspective'
+    assert view.fixed_frame == 'map'
+    np.testing.assert_allclose(view.eye, DEFAULT_EYE, atol=1e-9)
+    np.testing.assert_allclose(view.focus, DEFAULT_FOCUS, atol=1e-9)
+    np.testing.assert_allclose(view.up, DEFAULT_UP)
+
+
+def test_window_state_holds_the_default_1280x720_panel():
+    defaults = {spec.name: spec.default for spec in PROJECTOR_PARAMETERS}
+    assert read_rviz_config(CONFIG).panel_size == (1280, 720)
+    assert (defaults['image_width'], defaults['image_height']) == (1280, 720)
+
+
+def test_displays_show_what_the_person_must_see():
+    document = yaml.safe_load(CONFIG.read_text())
+    displays = {d['Topic']['Value']: d for d in document['Visualization Manager']['Displays']
+                if d['Class'] == 'rviz_default_plugins/MarkerArray'}
+    assert set(displays) == {'/choices', '/choices/feedback', '/choices/regions'}
+    assert displays['/choices']['Enabled'] is True
+    # The choices are latched (transient local): RViz must ask for them the same way.
+    assert displays['/choices']['Topic']['Durability Policy'] == 'Transient Local'
+    assert displays['/choices/feedback']['Enabled'] is True
+    assert displays['/choices/regions']['Enabled'] is False   # a check display only
+    classes = [d['Class'] for d in document['Visualization Manager']['Displays']]
+    assert 'rviz_default_plugins/Grid' in classes

@@ -1,0 +1,289 @@
+"""The simulated person and tracker (pure numpy): geometry, statistics, timing, seeds."""
+
+import math
+
+import numpy as np
+import pytest
+
+from eye_bci_ros2.sim.person import (
+    CONSUMER_TRACKER, GazeParams, GazeSimulator, ORIGINAL_TOBII_4C, PersonParams, TrackerParams)
+from eye_bci_ros2.visual_angle import (DEFAULT_SCREEN, px_per_degree, ScreenGeometry,
+                                       visual_angle_px)
+
+SCREEN = DEFAULT_SCREEN
+#: Two places far apart on the 1920x1080 screen, px.
+LEFT, RIGHT = (300.0, 300.0), (1600.0, 800.0)
+
+
+def quiet(params: GazeParams = CONSUMER_TRACKER, **changes) -> GazeParams:
+    """Return params without blinks, losses or noise unless asked."""
+    base = {'blink_rate_per_min': 0.0, 'loss_prob': 0.0, 'jitter_deg': 0.0, 'offset_deg': 0.0}
+    base.update(changes)
+    return params.with_changes(**base)
+
+
+# Screen geometry -------------------------------------------------------------
+
+def test_px_per_degree_matches_a_hand_computation():
+    # 1920 px / 527 mm = 3.6433 px/mm; 1 deg at 600 mm spans
+    # 2 * 600 * tan(0.5 deg) = 10.4724 mm -> 38.153 px.
+    assert px_per_degree() == pytest.approx(38.153, abs=2e-3)
+    assert SCREEN.px_per_degree(axis=1) == pytest.approx(1080 / 296 * 10.4724, abs=2e-3)
+    assert visual_angle_px(2.0) == pytest.approx(2 * 600 * math.tan(math.radians(1)) * 1920 / 527)
+    assert SCREEN.px_to_visual_angle(visual_angle_px(3.0)) == pytest.approx(3.0)
+    # An object of px_per_degree pixels centred on the screen subtends 1 deg.
+    half = px_per_degree() / 2
+    assert SCREEN.angle_between_deg((960 - half, 540), (960 + half, 540)) == pytest.approx(1.0)
+    closer = ScreenGeometry(distance_mm=300.0)
+    assert closer.px_per_degree() == pytest.approx(38.153 / 2, abs=1e-3)
+
+
+def test_rotating_the_gaze_ray_is_exact_in_degrees_and_invertible():
+    rng = np.random.default_rng(0)
+    xy = rng.uniform((0, 0), (1920, 1080), size=(500, 2))
+    delta = rng.normal(0.0, 2.0, size=(500, 2))
+    moved = SCREEN.rotate_gaze(xy, delta)
+    np.testing.assert_allclose(SCREEN.angular_error_deg(moved, xy), delta, atol=1e-9)
+    # Each of a pure horizontal or vertical error is that many degrees of visual angle.
+    for delta in ((1.5, 0.0), (0.0, -1.5)):
+        np.testing.assert_allclose(SCREEN.angle_between_deg(SCREEN.rotate_gaze(xy, delta), xy),
+                                   1.5, atol=1e-9)
+    # Right and down are +x and +y on the screen; a degree covers more px at the edge.
+    centre = SCREEN.rotate_gaze([[960, 540]], [1.0, 1.0])[0]
+    assert centre[0] > 960 + 38 and centre[1] > 540 + 38
+    edge = SCREEN.rotate_gaze([[1900, 540]], [1.0, 0.0])[0]
+    assert edge[0] - 1900 > centre[0] - 960 + 5
+
+
+# Statistics of the measurement -----------------------------------------------
+
+@pytest.mark.parametrize('offset_deg, direction_deg, jitter_deg', [
+    (0.5, 30.0, 0.3), (1.2, 250.0, 0.1)])
+def test_fixation_error_has_the_requested_offset_and_jitter(offset_deg, direction_deg,
+                                                            jitter_deg):
+    params = CONSUMER_TRACKER.with_changes(
+        offset_deg=offset_deg, offset_direction_deg=direction_deg, jitter_deg=jitter_deg)
+    target = (1400.0, 300.0)
+    trace = GazeSimulator(params, seed=4).simulate(120.0, [(0.0, target)], initial_xy=target)
+    valid = trace.valid
+    error = SCREEN.angular_error_deg(trace.xy[valid], target)
+    expected = offset_deg * np.array([math.cos(math.radians(direction_deg)),
+                                      math.sin(math.radians(direction_deg))])
+    np.testing.assert_allclose(error.mean(axis=0), expected, atol=0.01)
+    np.testing.assert_allclose(error.std(axis=0), jitter_deg, rtol=0.05)
+    # The eye itself stays on the target: the error is the tracker's.
+    np.testing.assert_allclose(trace.eye_xy, np.broadcast_to(target, trace.eye_xy.shape))
+
+
+def test_the_offset_direction_is_a_property_of_the_seeded_person():
+    directions = []
+    for seed in range(6):
+        sim = GazeSimulator(CONSUMER_TRACKER, seed=seed)
+        assert np.linalg.norm(sim.offset_vector_deg) == pytest.approx(0.5)
+        directions.append(math.atan2(*sim.offset_vector_deg[::-1]))
+        again = GazeSimulator(CONSUMER_TRACKER, seed=seed).offset_vector_deg
+        np.testing.assert_array_equal(again, sim.offset_vector_deg)
+    assert np.ptp(directions) > 1.0
+
+
+def test_drift_adds_a_slow_error_of_the_requested_rms():
+    params = quiet(ORIGINAL_TOBII_4C, drift_deg=0.2, drift_period_s=4.0)
+    sim = GazeSimulator(params, seed=2)
+    trace = sim.simulate(600.0, [(0.0, (960, 540))], initial_xy=(960, 540))
+    error = SCREEN.angular_error_deg(trace.xy, (960, 540))
+    np.testing.assert_allclose(np.sqrt((error ** 2).mean(axis=0)), 0.2, rtol=0.15)
+    # Slow: neighbouring samples differ by far less than the drift itself.
+    assert np.abs(np.diff(error, axis=0)).max() < 0.01
+
+
+def test_blinks_and_losses_remove_the_requested_fraction_of_samples():
+    params = CONSUMER_TRACKER.with_changes(blink_rate_per_min=15.0, loss_prob=0.02)
+    trace = GazeSimulator(params, seed=7).simulate(1800.0, [(0.0, (960, 540))])
+    lost = ~trace.valid
+    np.testing.assert_array_equal(np.isnan(trace.xy).any(axis=1), lost)
+    assert trace.dropped.mean() == pytest.approx(0.02, abs=0.003)
+    assert trace.blink.mean() == pytest.approx(params.person.blink_fraction, rel=0.2)
+    assert lost.mean() == pytest.approx(params.person.lost_fraction, rel=0.15)
+    # Blinks are runs of 100-300 ms, about 15 a minute.
+    edges = np.flatnonzero(np.diff(trace.blink.astype(int)))
+    starts, ends = edges[::2] + 1, edges[1::2] + 1
+    n = min(len(starts), len(ends))
+    durations = trace.t[ends[:n]] - trace.t[starts[:n]]
+    assert durations.min() >= 0.1 - 1.5 / 90 and durations.max() <= 0.3 + 1.5 / 90
+    assert len(starts) / 30.0 == pytest.approx(15.0, rel=0.2)
+
+
+def test_no_blinks_and_no_losses_when_both_are_off():
+    trace = GazeSimulator(quiet(), seed=1).simulate(60.0, [(0.0, (960, 540))])
+    assert trace.valid.all() and np.isfinite(trace.xy).all()
+
+
+# Eye movements ---------------------------------------------------------------
+
+def jump_trials(params: GazeParams, trials: int = 150, seed: int = 5):
+    """Alternate the target between LEFT and RIGHT every second; return the trace."""
+    schedule = [(k + 0.5, RIGHT if k % 2 == 0 else LEFT) for k in range(trials)]
+    sim = GazeSimulator(params, seed=seed)
+    return sim.simulate(trials + 0.5, schedule, initial_xy=LEFT), schedule
+
+
+def test_saccade_latency_and_duration_follow_the_parameters():
+    # A 1 kHz tracker resolves the timing to a millisecond.
+    params = quiet(rate_hz=1000.0)
+    person = params.person
+    trace, schedule = jump_trials(params, trials=400)
+    onsets, durations = [], []
+    for t_jump, new in schedule:
+        old = LEFT if new == RIGHT else RIGHT
+        window = slice(*np.searchsorted(trace.t, [t_jump, t_jump + 1.0]))
+        t, eye = trace.t[window], trace.eye_xy[window]
+        moved = np.argmax(np.hypot(*(eye - old).T) > 1e-6)
+        arrived = np.argmax(np.hypot(*(eye - new).T) < 1e-6)
+        onsets.append(t[moved] - t_jump)
+        durations.append(t[arrived] - t[moved])
+    onsets, durations = np.array(onsets), np.array(durations)
+    assert onsets.min() >= person.latency_min_ms / 1e3
+    assert onsets.mean() == pytest.approx(person.latency_ms / 1e3, abs=0.008)
+    assert onsets.std() == pytest.approx(person.latency_sd_ms / 1e3, rel=0.2)
+    amplitude = SCREEN.angle_between_deg(LEFT, RIGHT)
+    expected = min(person.saccade_base_ms + person.saccade_ms_per_deg * amplitude,
+                   person.saccade_max_ms) / 1e3
+    np.testing.assert_allclose(durations, expected, atol=0.002)
+
+
+def test_measured_gaze_reaches_a_new_target_only_after_the_latency():
+    params = CONSUMER_TRACKER.with_changes(blink_rate_per_min=0.0)
+    trace, schedule = jump_trials(params, trials=60)
+    near_deg = 3.0
+    delays = []
+    for t_jump, new in schedule:
+        window = (trace.t >= t_jump) & (trace.t < t_jump + 1.0) & trace.valid
+        near = window & (SCREEN.angle_between_deg(trace.xy, new) < near_deg)
+        delays.append(trace.t[np.argmax(near)] - t_jump)
+        # Settled on the new target: about the offset away, within the jitter.
+        settled = window & (trace.t > t_jump + 0.6)
+        assert np.median(SCREEN.angle_between_deg(trace.xy[settled], new)) < 1.0
+    delays = np.array(delays)
+    assert delays.min() >= params.person.latency_min_ms / 1e3
+    assert 0.2 < np.median(delays) < 0.35
+
+
+def test_a_slowly_moving_target_is_followed_by_catch_up_saccades():
+    params = quiet()
+    speed_px = 4 * px_per_degree()  # 4 deg/s
+
+    def target(t):
+        return np.stack([400 + speed_px * t, np.full_like(t, 540.0)], axis=1)
+
+    trace = GazeSimulator(params, seed=3).trace(np.arange(0, 5, 1 / 90), target,
+                                                initial_xy=(400, 540))
+    lag_deg = SCREEN.angle_between_deg(trace.eye_xy, target(trace.t))
+    later = trace.t > 1.0
+    # About one latency behind (0.2 s * 4 deg/s) plus the re-targeting step.
+    assert np.median(lag_deg[later]) < 1.6
+    steps = np.count_nonzero(np.diff(trace.eye_xy[:, 0]) > 0.5)
+    assert steps > 10
+
+
+def test_a_callable_schedule_of_jumps_equals_the_list_schedule():
+    t = GazeSimulator(CONSUMER_TRACKER, seed=1).sample_times(6.0)
+    switch = t[np.argmax(t >= 2.0)]
+
+    def target(times):
+        out = np.where((times < 2.0)[:, None], LEFT, RIGHT)
+        out[(times >= 4.0)] = np.nan
+        return out
+
+    by_list = GazeSimulator(CONSUMER_TRACKER, seed=1).trace(
+        t, [(t[0], LEFT), (switch, RIGHT), (t[np.argmax(t >= 4.0)], None)])
+    by_callable = GazeSimulator(CONSUMER_TRACKER, seed=1).trace(t, target)
+    np.testing.assert_array_equal(by_callable.xy, by_list.xy)
+    # No target from 4 s on: the eye stays where it was.
+    assert np.all(by_list.eye_xy[t > 4.0] == RIGHT)
+
+
+def test_a_target_that_moves_again_first_ends_on_the_newest_place():
+    params = quiet()
+    schedule = [(0.0, LEFT), (1.0, RIGHT), (1.05, (960.0, 100.0))]
+    trace = GazeSimulator(params, seed=0).simulate(2.0, schedule, initial_xy=LEFT)
+    np.testing.assert_allclose(trace.eye_xy[-1], (960.0, 100.0))
+    assert np.all(trace.eye_xy[trace.t < 1.0 + params.person.latency_min_ms / 1e3] == LEFT)
+
+
+# Seeds, timing, streaming ----------------------------------------------------
+
+def test_a_seed_reproduces_the_samples_and_another_seed_does_not():
+    schedule = [(0.0, LEFT), (1.0, RIGHT)]
+    a = GazeSimulator(ORIGINAL_TOBII_4C, seed=11).simulate(5.0, schedule)
+    b = GazeSimulator(ORIGINAL_TOBII_4C, seed=11).simulate(5.0, schedule)
+    c = GazeSimulator(ORIGINAL_TOBII_4C, seed=12).simulate(5.0, schedule)
+    np.testing.assert_array_equal(a.t, b.t)
+    np.testing.assert_array_equal(a.xy, b.xy)
+    assert not np.array_equal(a.xy, c.xy, equal_nan=True)
+    sim = GazeSimulator(ORIGINAL_TOBII_4C, seed=11)
+    np.testing.assert_array_equal(sim.samples(a.t, schedule), sim.samples(a.t, schedule))
+
+
+@pytest.mark.parametrize('params', [ORIGINAL_TOBII_4C, CONSUMER_TRACKER])
+def test_sample_times_follow_the_tracker_rate(params):
+    t = GazeSimulator(params, seed=0).sample_times(10.0, start_s=100.0)
+    rate = params.tracker.rate_hz
+    assert len(t) == round(10.0 * rate)
+    assert np.all(np.diff(t) > 0)
+    assert (len(t) - 1) / (t[-1] - t[0]) == pytest.approx(rate, rel=1e-3)
+    assert t[0] == pytest.approx(100.0, abs=0.5 / rate)
+    assert ORIGINAL_TOBII_4C.tracker.rate_hz == 87.0 and CONSUMER_TRACKER.tracker.rate_hz == 90.0
+
+
+def test_streaming_in_chunks_gives_the_same_samples_as_one_batch():
+    params = ORIGINAL_TOBII_4C
+    schedule = [(0.3, LEFT), (1.7, RIGHT), (2.2, (900.0, 500.0)), (3.1, None), (3.5, LEFT)]
+    batch = GazeSimulator(params, seed=9).simulate(6.0, schedule, start_s=0.0)
+
+    streamed = GazeSimulator(params, seed=9)
+    streamed.start(0.0)
+    rng = np.random.default_rng(0)
+    now, pending, chunks = 0.0, list(schedule), []
+    while now < 6.5:
+        now += rng.uniform(0.001, 0.15)
+        while pending and pending[0][0] <= now:
+            streamed.set_target(pending[0][1], pending[0][0])
+            pending.pop(0)
+        chunk = streamed.next_chunk(now)
+        assert np.all(chunk.t <= now)
+        chunks.append(chunk)
+    t = np.concatenate([c.t for c in chunks])
+    xy = np.concatenate([c.xy for c in chunks])
+    n = len(batch)
+    assert len(t) >= n
+    np.testing.assert_array_equal(t[:n], batch.t)
+    np.testing.assert_array_equal(xy[:n], batch.xy)
+
+
+# Bad input -------------------------------------------------------------------
+
+@pytest.mark.parametrize('make, message', [
+    (lambda: PersonParams(jitter_deg=-0.1), 'jitter_deg'),
+    (lambda: PersonParams(latency_ms=100.0), 'latency_ms'),
+    (lambda: PersonParams(loss_prob=1.0), 'loss_prob'),
+    (lambda: PersonParams(blink_min_ms=300.0, blink_max_ms=100.0), 'blink_min_ms'),
+    (lambda: ScreenGeometry(distance_mm=0.0), 'distance_mm'),
+    (lambda: TrackerParams(rate_hz=0.0), 'rate_hz'),
+    (lambda: CONSUMER_TRACKER.with_changes(colour='red'), 'colour'),
+    (lambda: GazeSimulator(CONSUMER_TRACKER, seed=-1), 'seed'),
+    (lambda: GazeSimulator(CONSUMER_TRACKER).samples([0.0, 0.2, 0.1], [(0, LEFT)]), 'order'),
+    (lambda: GazeSimulator(CONSUMER_TRACKER).samples([0.0], [(1, LEFT), (0, RIGHT)]), 'order'),
+    (lambda: GazeSimulator(CONSUMER_TRACKER).samples([0.0], [(0, (1, 2, 3))]), 'target'),
+    (lambda: GazeSimulator(CONSUMER_TRACKER).samples([0.0], lambda t: t), 'target'),
+])
+def test_bad_input_is_rejected_with_a_clear_message(make, message):
+    with pytest.raises(ValueError, match=message):
+        make()
+
+
+def test_with_changes_reaches_person_tracker_and_screen():
+    params = CONSUMER_TRACKER.with_changes(offset_deg=1.0, rate_hz=60.0, distance_mm=700.0)
+    assert params.person.offset_deg == 1.0
+    assert params.tracker.rate_hz == 60.0
+    assert params.person.screen.distance_mm == 700.0
+    assert CONSUMER_TRACKER.person.offset_deg == 0.5

@@ -1,0 +1,183 @@
+"""
+The package builds with colcon and installs what `ros2 run` needs.
+
+A copy of the package is built in a temporary workspace with the venv's
+colcon; every console script of setup.py must then be found the way
+`ros2 run eye_bci_ros2 <exe>` finds it (ament index -> package prefix ->
+lib/eye_bci_ros2/<exe>, an executable file) in the environment of
+`source install/setup.sh`, and one of them must start.
+"""
+
+import ast
+import json
+import os
+from pathlib import Path
+import shutil
+import subprocess
+import sys
+
+from paths import REPO
+import pytest
+
+PACKAGE = 'eye_bci_ros2'
+
+#: What an ament_python package needs to build; the rest (tests, bench, docs) is not installed.
+PACKAGE_FILES = ['setup.py', 'setup.cfg', 'package.xml', 'resource', 'config', 'launch',
+                 PACKAGE]
+
+#: The executable the test starts; `--help` must work without a ROS graph.
+STARTED_EXECUTABLE = 'calibrate'
+
+BUILD_TIMEOUT_S = 600
+RUN_TIMEOUT_S = 120
+
+# Runs in the sourced workspace: what `ros2 run` resolves (ros2run.api.get_executable_paths).
+FIND_EXECUTABLES = """
+import json, os, sys
+from ament_index_python.packages import get_package_prefix, get_package_share_directory
+import eye_bci_ros2
+package = sys.argv[1]
+prefix = get_package_prefix(package)
+lib = os.path.join(prefix, 'lib', package)
+executables = sorted(
+    name for name in os.listdir(lib)
+    if os.path.isfile(os.path.join(lib, name)) and os.access(os.path.join(lib, name), os.X_OK))
+print(json.dumps({'prefix': prefix, 'lib': lib, 'executables': executables,
+                  'share': get_package_share_directory(package),
+                  'module': eye_bci_ros2.__file__}))
+"""
+
+# Runs in the sourced workspace: each console script's target imports and is callable.
+RESOLVE_ENTRY_POINTS = """
+import importlib, json, sys
+failures = {}
+for entry in json.loads(sys.argv[1]):
+    name, target = (part.strip() for part in entry.split('=', 1))
+    module, _, attribute = target.partition(':')
+    try:
+        if not callable(getattr(importlib.import_module(module), attribute)):
+            failures[name] = target + ' is not callable'
+    except Exception as error:
+        failures[name] = '%s: %s: %s' % (target, type(error).__name__, error)
+print(json.dumps(failures))
+"""
+
+
+def console_scripts(setup_py: Path) -> list:
+    """
+    Read the ``console_scripts`` entries of setup.py without running it.
+
+    Follows ``entry_points={'console_scripts': <list or name of a list>}`` in
+    the ``setup()`` call, so the test stays in step with setup.py.
+    """
+    tree = ast.parse(setup_py.read_text(), str(setup_py))
+    assignments = {target.id: node.value for node in tree.body if isinstance(node, ast.Assign)
+                   for target in node.targets if isinstance(target, ast.Name)}
+
+    def resolve(node):
+        return resolve(assignments[node.id]) if isinstance(node, ast.Name) else node
+
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call) and getattr(node.func, 'id', None) == 'setup':
+            for keyword in node.keywords:
+                if keyword.arg == 'entry_points':
+                    entry_points = resolve(keyword.value)
+                    for key, value in zip(entry_points.keys, entry_points.values):
+                        if ast.literal_eval(key) == 'console_scripts':
+                            return list(ast.literal_eval(resolve(value)))
+    raise AssertionError(f'no console_scripts in the setup() call of {setup_py}')
+
+
+def sourced(workspace: Path, command: list, **kwargs) -> subprocess.CompletedProcess:
+    """Run ``command`` after `. install/setup.sh`, as a user of the workspace would."""
+    env = {key: value for key, value in os.environ.items()
+           if key not in ('AMENT_PREFIX_PATH', 'PYTHONPATH', 'COLCON_PREFIX_PATH')}
+    return subprocess.run(
+        ['sh', '-c', '. "$0/install/setup.sh" && exec "$@"', str(workspace), *command],
+        cwd=workspace, env=env, capture_output=True, text=True, **kwargs)
+
+
+@pytest.fixture(scope='module')
+def workspace(tmp_path_factory):
+    """Build a copy of the package with the venv's colcon; yield the workspace."""
+    workspace = tmp_path_factory.mktemp('ws')
+    source = workspace / 'src' / PACKAGE
+    source.mkdir(parents=True)
+    ignore = shutil.ignore_patterns('__pycache__', '*.pyc', '*.egg-info')
+    for name in PACKAGE_FILES:
+        if (REPO / name).is_dir():
+            shutil.copytree(REPO / name, source / name, ignore=ignore)
+        else:
+            shutil.copy2(REPO / name, source / name)
+
+    colcon = Path(sys.prefix) / 'bin' / 'colcon'
+    assert colcon.is_file(), f'colcon is not installed in the venv {sys.prefix}'
+    # Keep colcon's log and user defaults out of the repository and home directory.
+    env = dict(os.environ, COLCON_HOME=str(workspace / 'colcon_home'),
+               PYTHONDONTWRITEBYTECODE='1')
+    build = subprocess.run(
+        [str(colcon), '--log-base', str(workspace / 'log'), 'build',
+         '--base-paths', 'src', '--build-base', 'build', '--install-base', 'install',
+         '--event-handlers', 'console_direct+'],
+        cwd=workspace, env=env, capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
+    assert build.returncode == 0, \
+        f'colcon build failed ({build.returncode}):\n{build.stdout}\n{build.stderr}'
+    yield workspace
+
+
+@pytest.fixture(scope='module')
+def installed(workspace):
+    """Where the sourced workspace finds the package, as `ros2 run` would."""
+    found = sourced(workspace, [sys.executable, '-c', FIND_EXECUTABLES, PACKAGE],
+                    timeout=RUN_TIMEOUT_S)
+    assert found.returncode == 0, found.stdout + found.stderr
+    return json.loads(found.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.slow
+def test_every_console_script_is_an_installed_executable(workspace, installed):
+    prefix = workspace / 'install' / PACKAGE
+    assert Path(installed['prefix']) == prefix
+    # The installed copy is used, not the source tree the venv has in editable mode.
+    assert Path(installed['module']).is_relative_to(prefix)
+    scripts = console_scripts(REPO / 'setup.py')
+    assert scripts, 'setup.py lists no console scripts'
+    expected = sorted(entry.split('=', 1)[0].strip() for entry in scripts)
+    assert installed['executables'] == expected
+
+
+@pytest.mark.slow
+def test_config_files_are_installed(workspace, installed):
+    sources = sorted((REPO / 'config').glob('*.yaml')) + sorted((REPO / 'config').glob('*.rviz'))
+    assert REPO / 'config' / 'eye_bci.yaml' in sources
+    assert REPO / 'config' / 'eye_bci.rviz' in sources
+    config = Path(installed['share']) / 'config'
+    for source in sources:
+        assert (config / source.name).read_bytes() == source.read_bytes(), source.name
+    launch_files = sorted((REPO / 'launch').glob('*.launch.py'))
+    assert REPO / 'launch' / 'pipeline.launch.py' in launch_files
+    for source in launch_files:   # `ros2 launch eye_bci_ros2 <file>` looks in share/<pkg>/launch
+        installed_file = Path(installed['share']) / 'launch' / source.name
+        assert installed_file.read_bytes() == source.read_bytes(), source.name
+    assert (Path(installed['share']) / 'package.xml').is_file()
+
+
+@pytest.mark.slow
+def test_installed_executable_starts(workspace, installed):
+    assert STARTED_EXECUTABLE in installed['executables']
+    executable = Path(installed['lib']) / STARTED_EXECUTABLE
+    result = sourced(workspace, [str(executable), '--help'], timeout=RUN_TIMEOUT_S)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert f'usage: {STARTED_EXECUTABLE}' in result.stdout
+
+
+@pytest.mark.slow
+def test_every_console_script_target_imports(workspace, installed):
+    # `ros2 run` would find the file but die on start if its module is missing.
+    scripts = console_scripts(REPO / 'setup.py')
+    result = sourced(workspace, [sys.executable, '-c', RESOLVE_ENTRY_POINTS,
+                                 json.dumps(scripts)], timeout=RUN_TIMEOUT_S)
+    assert result.returncode == 0, result.stdout + result.stderr
+    failures = json.loads(result.stdout.strip().splitlines()[-1])
+    assert not failures, 'console scripts that cannot start:\n' + '\n'.join(
+        f'{name}: {reason}' for name, reason in sorted(failures.items()))

@@ -1,0 +1,122 @@
+"""The demo: the room -> table experiment end to end over real ROS 2 and LSL."""
+
+import contextlib
+import csv
+import io
+import json
+import os
+
+import numpy as np
+import pytest
+
+from eye_bci_ros2.experiments import demo
+from eye_bci_ros2.experiments.render import png_size
+from eye_bci_ros2.menu import BACK_LABEL
+from eye_bci_ros2.regions import RegionSet
+from eye_bci_ros2.scene import default_scene_path, load_scene
+
+SCENE = load_scene(default_scene_path())
+
+
+def test_wolpaw_bits_and_itr():
+    assert demo.wolpaw_bits(4, 1.0) == pytest.approx(2.0)
+    assert demo.wolpaw_bits(4, 0.9) == pytest.approx(
+        2 + 0.9 * np.log2(0.9) + 0.1 * np.log2(0.1 / 3))
+    assert demo.wolpaw_bits(4, 0.25) == 0.0  # chance carries nothing
+    # Four 4-way and four 3-way choices, all right, 1.5 s each.
+    itr = demo.itr_bits_per_minute([4, 3] * 4, 1.0, 1.5)
+    assert itr == pytest.approx((2 + np.log2(3)) / 2 * 40)
+
+
+def test_script_covers_different_rooms_and_is_seeded():
+    script = demo.make_script(SCENE, 4, seed=7)
+    assert sorted(room for room, _ in script) == sorted(r.name for r in SCENE.rooms)
+    assert len({table for _, table in script}) > 1
+    assert script == demo.make_script(SCENE, 4, seed=7)
+    for room, table in script:
+        assert SCENE.room(room).table(f'{room}/{table}') is not None
+    with pytest.raises(ValueError, match='at least one round'):
+        demo.make_script(SCENE, 0, seed=1)
+
+
+def test_samples_are_classified_against_the_regions_shown_at_their_time():
+    square = [[0, 0], [10, 0], [10, 10], [0, 10]]
+    history = [RegionSet(['a'], [square], 0.0),
+               RegionSet(['a'], [np.add(square, 100)], 1.0)]
+    stamps = np.array([0.5, 0.6, 1.5, 1.6])
+    points = np.array([[5, 5], [105, 105], [5, 5], [105, 105]], dtype=float)
+    inside = demo.classify_against_history(stamps, points, history)
+    assert inside.tolist() == [True, False, False, True]
+
+
+@pytest.fixture(scope='module')
+def quick_run(tmp_path_factory):
+    """Run ``demo --quick`` once; the tests below check what it printed and wrote."""
+    out = tmp_path_factory.mktemp('demo') / 'out'
+    stdout = io.StringIO()
+    with contextlib.redirect_stdout(stdout):
+        code = demo.main(['--quick', '--seed', '3', '--output-dir', str(out)])
+    summary = json.loads((out / 'summary.json').read_text())
+    return code, stdout.getvalue(), out, summary
+
+
+@pytest.mark.ros
+@pytest.mark.lsl
+def test_quick_demo_finishes_with_every_choice_right(quick_run):
+    code, printed, _, summary = quick_run
+    assert code == 0
+    assert 'decision rule: mean' in printed
+    assert 'summary: 2 selections, 2 correct: accuracy 100.0 %' in printed
+    assert 'ITR' in printed
+    selections = summary['selections']
+    assert [s['correct'] for s in selections] == [True, True]
+    assert summary['accuracy'] == 1.0
+    assert summary['itr_bits_per_min'] > 0
+    for selection in selections:
+        # The original rule over a 1 s window on an 87 Hz tracker.
+        assert selection['method'] == 'mean'
+        assert 70 <= selection['samples_used'] <= 95
+        assert 0.9 <= selection['time_to_decision_s'] <= 1.0
+        assert selection['in_region_samples'] > selection['samples_used'] / 2
+
+
+@pytest.mark.ros
+@pytest.mark.lsl
+def test_menu_goes_from_rooms_to_the_room_view_to_its_tables(quick_run):
+    _, _, _, summary = quick_run
+    (room, table), = [entry.split('/') for entry in summary['script']]
+    rooms, tables = summary['selections']
+    assert rooms['step'] == 'rooms' and rooms['intended'] == room
+    assert sorted(rooms['offered']) == sorted(SCENE.room_labels)
+    assert np.allclose(rooms['camera_eye'], SCENE.overview.eye, atol=1e-3)
+    assert tables['step'] == 'tables' and tables['intended'] == f'{room}/{table}'
+    # The room's tables and the menu's way back (issue 10).
+    assert sorted(tables['offered']) == sorted(
+        [t.marker.text for t in SCENE.room(room).tables] + [BACK_LABEL])
+    # The camera had zoomed into the chosen room when the table was chosen.
+    assert np.allclose(tables['camera_eye'], SCENE.room(room).view.eye, atol=1e-3)
+    assert summary['outcomes'] == [f'{room}/{table}']
+
+
+@pytest.mark.ros
+@pytest.mark.lsl
+def test_quick_demo_writes_a_screen_picture_per_selection(quick_run):
+    _, _, out, summary = quick_run
+    pictures = [s['picture'] for s in summary['selections']]
+    assert [os.path.basename(p) for p in pictures] == ['round1_rooms.png', 'round1_tables.png']
+    for picture in pictures:
+        assert png_size(picture) == demo.SCREEN_SIZE
+        assert os.path.getsize(picture) > 20000
+    with open(out / 'selections.csv', newline='') as stream:
+        rows = list(csv.DictReader(stream))
+    assert [row['correct'] for row in rows] == ['True', 'True']
+    assert rows[0]['picture'] == 'round1_rooms.png'
+
+
+@pytest.mark.ros
+@pytest.mark.lsl
+def test_demo_fails_cleanly_when_no_gaze_arrives(tmp_path, capsys):
+    code = demo.main(['--quick', '--stream-timeout-s', '0.01', '--output-dir', str(tmp_path)])
+    assert code == 1
+    assert 'no gaze reached the pipeline within 0.01 s' in capsys.readouterr().err
+    assert not os.listdir(tmp_path)

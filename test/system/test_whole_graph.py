@@ -1,0 +1,131 @@
+"""
+The whole pipeline in-process on a private graph, fed by a real LSL outlet.
+
+LSL outlet (xy_pixels, the original sender's layout) -> lsl_gaze_bridge ->
+``gaze``; camera_tracker (static default view) -> ``camera/pose``; cube
+markers on ``choices`` -> marker_projector -> ``choices/regions``;
+choice_arbiter -> ``choice``.  The gaze is aimed at a marker through the
+analytic projection of DESIGN.md (computed here from geometry.look_at and
+calibration.rviz_intrinsic, not by the nodes' code path).
+"""
+
+import time
+
+from lsl_outlets import bridge_parameters, make_outlet, sample_for
+import numpy as np
+import pytest
+from rclpy.parameter import Parameter
+from ros_harness import Collector
+from std_msgs.msg import Empty, String
+from visualization_msgs.msg import Marker, MarkerArray
+
+from eye_bci_ros2.camera_model import rviz_intrinsic
+from eye_bci_ros2.geometry import look_at, project_points
+from eye_bci_ros2.nodes.camera_tracker import (CameraTracker, DEFAULT_EYE, DEFAULT_FOCUS,
+                                               DEFAULT_UP)
+from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
+from eye_bci_ros2.nodes.conversions import arrays_to_pose
+from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
+from eye_bci_ros2.nodes.marker_projector import DEFAULT_SCREEN_OFFSET, MarkerProjector
+from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
+
+pytestmark = [pytest.mark.ros, pytest.mark.lsl]
+
+#: Marker text -> centre in the map frame, m: a row across the default view.
+ROOMS = {'kitchen': (7.0, 6.0, 0.0), 'bedroom': (10.0, 6.0, 0.0), 'bathroom': (13.0, 6.0, 0.0)}
+CUBE_SCALE = (1.5, 1.5, 0.05)
+#: The projector's default render panel, px.
+PANEL = (1280, 720)
+WINDOW_S = 0.5
+GAZE_RATE_HZ = 100.0
+WAIT_S = 10.0
+
+
+def aim(position):
+    """Screen px where a world point (map, m) appears in the default static view."""
+    external = look_at(DEFAULT_EYE, DEFAULT_FOCUS, DEFAULT_UP)
+    uv, depth = project_points(np.array([position]), rviz_intrinsic(*PANEL), external)
+    assert depth[0] > 0
+    return uv[0] + np.array(DEFAULT_SCREEN_OFFSET, dtype=float)
+
+
+def menu():
+    """Cube markers of ROOMS, labelled by their text."""
+    markers = []
+    for index, (text, position) in enumerate(ROOMS.items()):
+        marker = Marker()
+        marker.header.frame_id = 'map'
+        marker.ns, marker.id, marker.text = 'rooms', index, text
+        marker.type, marker.action = Marker.CUBE, Marker.ADD
+        marker.pose = arrays_to_pose(position, (0.0, 0.0, 0.0, 1.0))
+        marker.scale.x, marker.scale.y, marker.scale.z = CUBE_SCALE
+        marker.color.a = 1.0
+        markers.append(marker)
+    return MarkerArray(markers=markers)
+
+
+class Pipeline:
+    """The four pipeline nodes, an LSL outlet and a test node playing the menu."""
+
+    def __init__(self, graph):
+        self.graph = graph
+        self.outlet, info = make_outlet('xy_pixels', rate=GAZE_RATE_HZ)
+        self.bridge = graph.add(LslGazeBridge, parameter_overrides=[
+            Parameter(name, value=value)
+            for name, value in bridge_parameters('xy_pixels', info).items()])
+        graph.add(CameraTracker)
+        graph.add(MarkerProjector)
+        self.arbiter = graph.add(ChoiceArbiter, parameter_overrides=[
+            Parameter('window_s', value=WINDOW_S)])
+        self.driver = graph.node('menu')
+        self.choices = self.driver.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
+        self.request_pub = self.driver.create_publisher(Empty, 'choice/request', EVENT_QOS)
+        self.chosen = Collector(self.driver, String, 'choice', EVENT_QOS)
+        self.rng = np.random.default_rng(11)
+        assert graph.spin_until(self.outlet.have_consumers, WAIT_S), 'bridge never connected'
+
+    @property
+    def labels(self):
+        """Return the choices received so far."""
+        return [message.data for message in self.chosen.messages]
+
+    def offer_rooms(self):
+        """Publish the menu; return once the arbiter opened a round on its regions."""
+        self.choices.publish(menu())
+        assert self.graph.spin_until(lambda: self.arbiter.rounds_started >= 1, WAIT_S), \
+            'the arbiter never saw the regions of the menu'
+
+    def request(self):
+        """Ask for a choice; return once the arbiter opened the round."""
+        rounds = self.arbiter.rounds_started
+        self.request_pub.publish(Empty())
+        assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, WAIT_S)
+
+    def look_until_chosen(self, screen_xy):
+        """Stream gaze around ``screen_xy`` (px) over LSL until a new choice arrives."""
+        before = len(self.chosen.messages)
+        end = time.monotonic() + WAIT_S
+        while len(self.chosen.messages) == before and time.monotonic() < end:
+            point = self.rng.normal(screen_xy, 4.0)
+            self.outlet.push_sample(sample_for('xy_pixels', point).tolist())
+            self.graph.spin_for(1.0 / GAZE_RATE_HZ)
+        assert len(self.chosen.messages) > before, 'no choice from the gaze'
+        # Let the samples still in flight arrive while no round is open.
+        self.graph.spin_for(0.3)
+
+
+def test_gaze_on_a_marker_chooses_it_and_another_marker_another(graph):
+    pipeline = Pipeline(graph)
+    pipeline.offer_rooms()
+    pipeline.look_until_chosen(aim(ROOMS['bathroom']))
+    assert pipeline.labels == ['bathroom']
+    decision = pipeline.arbiter.last_decision
+    assert decision.method == 'mean'
+    assert decision.counts['bathroom'] == decision.in_region_samples > 0.5 * WINDOW_S * \
+        GAZE_RATE_HZ
+
+    pipeline.request()
+    pipeline.look_until_chosen(aim(ROOMS['kitchen']))
+    assert pipeline.labels == ['bathroom', 'kitchen']
+    assert pipeline.arbiter.last_decision.counts['kitchen'] > 0
+    assert pipeline.bridge.counters['published'] > 0
