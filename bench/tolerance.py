@@ -62,8 +62,9 @@ import numpy as np
 from bench import decision
 from eye_bci_ros2.evidence import RoundEvidence
 from eye_bci_ros2.experiments import accuracy_test
+from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.scene import default_scene_path, load_scene
+from eye_bci_ros2.scene import load_scene
 from eye_bci_ros2.sim.person import (CONSUMER_TRACKER, GazeParams, GazeSimulator,
                                      ORIGINAL_TOBII_4C, ScreenGeometry)
 from eye_bci_ros2.tolerance import DEFAULT_RATIO, extend_to_nearby, GazeErrorModel

@@ -26,17 +26,12 @@ the file, the line and the offending key.
 
 from dataclasses import dataclass
 import os
-from pathlib import Path
-import sys
 from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 import yaml
 
 from eye_bci_ros2 import geometry
-
-#: Package whose share directory holds the installed config/.
-PACKAGE_NAME = 'eye_bci_ros2'
 
 #: File name of the default scene inside config/.
 DEFAULT_SCENE_NAME = 'scene.yaml'
@@ -179,31 +174,6 @@ def parse_scene(text: str, source: str = '<string>') -> Scene:
     except yaml.YAMLError as error:
         raise ValueError(f'{source}: malformed YAML: {error}') from None
     return _Parser(source).scene(document)
-
-
-def default_scene_path() -> str:
-    """
-    Locate the default ``config/scene.yaml``.
-
-    Tries the installed share directory (ament index), then the source tree
-    next to this package (``pip install -e``), then ``<prefix>/share``.
-
-    :raises ValueError: none of these exists.
-    """
-    candidates = []
-    try:
-        from ament_index_python.packages import get_package_share_directory
-        candidates.append(Path(get_package_share_directory(PACKAGE_NAME)) / 'config')
-    except (ImportError, LookupError, OSError, ValueError):
-        pass  # not in an ament index: a plain pip install or a source checkout
-    candidates.append(Path(__file__).resolve().parent.parent / 'config')
-    candidates.append(Path(sys.prefix) / 'share' / PACKAGE_NAME / 'config')
-    for directory in candidates:
-        path = directory / DEFAULT_SCENE_NAME
-        if path.is_file():
-            return str(path)
-    raise ValueError(f'default scene {DEFAULT_SCENE_NAME} not found in: '
-                     + ', '.join(str(d) for d in candidates))
 
 
 class _LocatedDict(dict):

@@ -48,9 +48,10 @@ import numpy as np
 from eye_bci_ros2.camera_model import RvizCamera
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.geometry import polygon_signed_area
+from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings
-from eye_bci_ros2.scene import default_scene_path, load_scene, Scene
+from eye_bci_ros2.scene import load_scene, Scene
 from eye_bci_ros2.sim.person import GazeParams, GazeSimulator, ORIGINAL_TOBII_4C, PRESETS
 
 #: RViz render panel (W, H) px, its offset (X0, Y0) on the 1920x1080 screen, vertical FOV.

@@ -75,10 +75,11 @@ from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
                                             marker_label, pose_to_arrays)
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
+from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.nodes.runner import make_executor, spin_until as _spin_until
 from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.scene import default_scene_path, load_scene, Scene
+from eye_bci_ros2.scene import load_scene, Scene
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
 from eye_bci_ros2.sim.person import GazeParams, ORIGINAL_TOBII_4C, PRESETS
 from eye_bci_ros2.sim.rviz_view import SimRvizView

@@ -61,10 +61,11 @@ from eye_bci_ros2.menu import (Action, Log, MenuProtocol, Offer, ProtocolSetting
                                Result, ROOMS_NS, TABLES_NS)
 from eye_bci_ros2.nodes.conversions import (arrays_to_pose, cube_marker,
                                             marker_array_to_regions, pose_to_arrays)
+from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_POINT_TOPIC, LATCHED_QOS, VIEW_QOS
-from eye_bci_ros2.scene import CubeMarker, default_scene_path, load_scene, Scene, View
+from eye_bci_ros2.scene import CubeMarker, load_scene, Scene, View
 
 __all__ = ['ChoiceMenu', 'main', 'resolve_scene_path', 'ROOMS_NS', 'TABLES_NS']
 

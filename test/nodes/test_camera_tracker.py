@@ -10,7 +10,7 @@ from eye_bci_ros2 import geometry
 from eye_bci_ros2.nodes.camera_tracker import (
     CameraTracker, DEFAULT_EYE, DEFAULT_FOCUS, DEFAULT_UP)
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
+from eye_bci_ros2.nodes.topics import LATCHED_QOS, RVIZ_POSE_QOS
 
 pytestmark = pytest.mark.ros
 
@@ -29,7 +29,7 @@ def start(graph, **overrides):
     tracker = graph.add(CameraTracker, parameter_overrides=[
         Parameter(name, value=value) for name, value in overrides.items()])
     helper = graph.node('tracker_test')
-    rviz = helper.create_publisher(Pose, 'rviz/current_camera_pose')
+    rviz = helper.create_publisher(Pose, 'rviz/current_camera_pose', RVIZ_POSE_QOS)
     poses = Collector(helper, PoseStamped, 'camera/pose', LATCHED_QOS)
     return tracker, rviz, poses
 

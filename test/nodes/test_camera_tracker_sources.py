@@ -15,7 +15,7 @@ from eye_bci_ros2.camera_model import look_at_pose, pose_from_optical
 from eye_bci_ros2.nodes.camera_tracker import (
     CameraTracker, DEFAULT_EYE, DEFAULT_FOCUS)
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
+from eye_bci_ros2.nodes.topics import LATCHED_QOS, RVIZ_POSE_QOS
 
 pytestmark = pytest.mark.ros
 
@@ -82,7 +82,7 @@ def test_pose_stamped_in_another_frame_is_refused_with_a_reason(graph, capfd):
 
 def test_plain_pose_with_the_optical_convention(graph):
     tracker, poses = start(graph, pose_topic='camera_source', pose_convention='optical')
-    source = graph.node('source').create_publisher(Pose, 'camera_source')
+    source = graph.node('source').create_publisher(Pose, 'camera_source', RVIZ_POSE_QOS)
     assert graph.spin_until(lambda: tracker.pose_type is Pose, 10.0)
     same_pose(publish_until_answered(graph, source, arrays_to_pose(*OPTICAL), poses), *OPTICAL)
 
@@ -98,7 +98,7 @@ def test_a_topic_of_another_type_is_named_and_not_read(graph, capfd):
 
 def test_pose_topic_can_be_switched_at_run_time(graph):
     tracker, poses = start(graph)
-    old = graph.node('ros1').create_publisher(Pose, 'rviz/current_camera_pose')
+    old = graph.node('ros1').create_publisher(Pose, 'rviz/current_camera_pose', RVIZ_POSE_QOS)
     assert graph.spin_until(lambda: tracker.pose_type is Pose, 10.0)
     results = graph.set_parameters('/camera_tracker', {'pose_topic': PORT_TOPIC,
                                                        'pose_convention': 'x_forward'})

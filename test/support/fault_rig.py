@@ -32,7 +32,8 @@ from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, marker_array_to_regions
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                       RVIZ_POSE_QOS)
 
 #: Generous wait for anything to arrive, s (2 shared cores; never a timing assertion).
 WAIT_S = 10.0
@@ -161,7 +162,7 @@ class Pipeline:
         self.driver = graph.node('fault_driver')
         driver = self.driver
         self.choices_pub = driver.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
-        self.rviz_pub = driver.create_publisher(Pose, 'rviz/current_camera_pose')
+        self.rviz_pub = driver.create_publisher(Pose, 'rviz/current_camera_pose', RVIZ_POSE_QOS)
         self.camera_pub = None if tracker else driver.create_publisher(
             PoseStamped, 'camera/pose', LATCHED_QOS)
         self.gaze_pub = driver.create_publisher(PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)

@@ -11,8 +11,9 @@ from visualization_msgs.msg import MarkerArray
 from eye_bci_ros2 import geometry
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
+from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
-from eye_bci_ros2.scene import default_scene_path, load_scene
+from eye_bci_ros2.scene import load_scene
 from eye_bci_ros2.sim.rviz_view import SimRvizView
 
 pytestmark = pytest.mark.ros

@@ -14,7 +14,8 @@ from eye_bci_ros2.experiments import accuracy_test
 from eye_bci_ros2.experiments.accuracy_test import (
     binary_search_threshold, CURVE_COLUMNS, RoomScenario, run_trials, TrialSettings)
 from eye_bci_ros2.experiments.render import png_size
-from eye_bci_ros2.scene import default_scene_path, load_scene
+from eye_bci_ros2.nodes.package_files import default_scene_path
+from eye_bci_ros2.scene import load_scene
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER
 
 SCENE = load_scene(default_scene_path())

@@ -8,7 +8,8 @@ from eye_bci_ros2.geometry import project_points
 from eye_bci_ros2.menu import (ASKING, BACK_LABEL, back_marker, FINISHED, LOOK_AWAY,
                                MenuProtocol, Offer, PAUSED, ProtocolSettings, READY, Request,
                                Result, WAITING_FOR_CAMERA)
-from eye_bci_ros2.scene import default_scene_path, load_scene
+from eye_bci_ros2.nodes.package_files import default_scene_path
+from eye_bci_ros2.scene import load_scene
 
 SCENE = load_scene(default_scene_path())
 ROOMS = ('kitchen', 'living_room', 'bedroom', 'office')

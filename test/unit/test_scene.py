@@ -9,7 +9,8 @@ import pytest
 import yaml
 
 from eye_bci_ros2 import geometry
-from eye_bci_ros2.scene import default_scene_path, load_scene, parse_scene
+from eye_bci_ros2.nodes.package_files import default_scene_path
+from eye_bci_ros2.scene import load_scene, parse_scene
 
 #: The set-up the default scene is laid out for: 1280x720 render panel,
 #: vertical FOV 45 deg, at (X0, Y0) = (320, 180) on a 1920x1080 screen.

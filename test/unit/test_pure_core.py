@@ -1,0 +1,42 @@
+"""The pure core imports no rclpy, pylsl, matplotlib or pyglet (docs/DESIGN.md, "Layers")."""
+
+import pkgutil
+import subprocess
+import sys
+
+from paths import REPO
+
+import eye_bci_ros2
+
+#: Packages of the package that may use ROS, LSL, plots or a window.
+IMPURE_PACKAGES = ('nodes', 'sim', 'experiments', 'tools')
+#: What the pure core must not load.
+FORBIDDEN = ('rclpy', 'pylsl', 'matplotlib', 'pyglet', 'ament_index_python')
+
+
+def pure_modules():
+    """Every module of eye_bci_ros2 outside the adapter, simulation, experiment and tool parts."""
+    names = []
+    for info in pkgutil.walk_packages(eye_bci_ros2.__path__, 'eye_bci_ros2.'):
+        if info.name.split('.')[1] not in IMPURE_PACKAGES:
+            names.append(info.name)
+    return sorted(names)
+
+
+def test_the_pure_core_is_found():
+    names = pure_modules()
+    for expected in ('eye_bci_ros2.geometry', 'eye_bci_ros2.rounds', 'eye_bci_ros2.gaze_stream',
+                     'eye_bci_ros2.camera_model', 'eye_bci_ros2.scene'):
+        assert expected in names
+    assert not [name for name in names if '.nodes' in name or '.sim' in name]
+
+
+def test_pure_modules_load_no_ros_lsl_or_plotting_in_a_fresh_interpreter():
+    code = ('import importlib, json, sys\n'
+            f'for name in {pure_modules()!r}:\n'
+            '    importlib.import_module(name)\n'
+            f'print(json.dumps(sorted(m for m in {FORBIDDEN!r} if m in sys.modules)))\n')
+    done = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                          cwd=REPO, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip() == '[]', f'the pure core loaded {done.stdout.strip()}'
