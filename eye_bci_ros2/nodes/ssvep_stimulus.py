@@ -5,7 +5,7 @@ Subscribes ``choices/regions`` (visualization_msgs/MarkerArray, latched:
 the options' outlines in ``screen`` px and labels) and ``ssvep/stimuli``
 (sensor_msgs/JointState, latched: each option's frequency and phase, stamp =
 epoch, :mod:`eye_bci_ros2.nodes.ssvep_messages`), and draws one patch per
-option in a pyglet window (:class:`eye_bci_ros2.display.stimulus_window.StimulusWindow`)
+option in a pyglet window (:class:`eye_bci_ros2.nodes.stimulus_window.StimulusWindow`)
 at every display refresh, frame k of the epoch showing ``L(k) = 0.5 (1 +
 sin(2 pi f k / refresh + phase))``.  Options without a stimulus stay dark.
 
@@ -56,7 +56,7 @@ class SsvepStimulus(Node):
         """Declare parameters, open the window (this thread), subscribe the topics."""
         super().__init__('ssvep_stimulus', **kwargs)
         self._params = declare_parameters(self, PARAMETERS, lambda changed: None)
-        from eye_bci_ros2.display.stimulus_window import StimulusWindow
+        from eye_bci_ros2.nodes.stimulus_window import StimulusWindow
         fullscreen = not (self._params['width'] and self._params['height'])
         self.window = StimulusWindow(
             self._params['width'] or 1, self._params['height'] or 1,

@@ -1,1 +1,0 @@
-"""Windows a person looks at (the SSVEP stimulus window); pyglet, not part of the pure core."""
