@@ -43,7 +43,8 @@ from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
 from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                       SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, DEFAULT_MAX_FUTURE_S, MAX_FUTURE_S, RoundScheduler
 
@@ -275,8 +276,9 @@ class ChoiceArbiter(Node):
         self._fusion_values = dict(values)
         self._fusion = ChoiceFusion(self._fusion_settings(values))
         self._fusion_labels = None
-        self.create_subscription(String, 'ssvep/choice', self._on_ssvep_choice, EVENT_QOS)
-        self.create_subscription(JointState, 'ssvep/scores', self._on_ssvep_scores, 10)
+        self.create_subscription(String, SSVEP_CHOICE_TOPIC, self._on_ssvep_choice, EVENT_QOS)
+        self.create_subscription(JointState, SSVEP_SCORES_TOPIC, self._on_ssvep_scores,
+                                 SCORES_QOS)
         if values['input_mode'] != 'gaze':
             self.get_logger().info(f"input mode {values['input_mode']}: "
                                    + ('the SSVEP choice chooses' if values['input_mode'] ==

@@ -46,13 +46,14 @@ from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.ssvep_messages import (msg_to_stimulus_map, scores_to_msg,
                                                time_to_seconds)
-from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import (EVENT_QOS, LATCHED_QOS, SCORES_QOS, SSVEP_CHOICE_TOPIC,
+                                       SSVEP_SCORES_TOPIC, SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.ssvep.decision import RULES
 from eye_bci_ros2.ssvep.decoders import DECODERS, TrcaModel
 from eye_bci_ros2.ssvep.layouts import (ANY, LAYOUT_NAMES, LAYOUTS, parse_channels,
                                         resolve_channels, stream_name_matches)
 from eye_bci_ros2.ssvep.online import OnlineDecoder, OnlineSettings
-from eye_bci_ros2.ssvep.stimuli import STIMULI_TOPIC, StimulusMap
+from eye_bci_ros2.ssvep.stimuli import StimulusMap
 
 #: Repeating warnings at most this often, s.
 WARN_PERIOD_S = 5.0
@@ -186,10 +187,10 @@ class SsvepDecoder(Node):
         self._params = declare_parameters(self, PARAMETERS, self._on_parameters, _check_all)
         self._model = _load_model(self._params)
         self._warned: Dict[str, float] = {}
-        self._choice_pub = self.create_publisher(String, 'ssvep/choice', EVENT_QOS)
-        self._scores_pub = self.create_publisher(JointState, 'ssvep/scores', 10)
+        self._choice_pub = self.create_publisher(String, SSVEP_CHOICE_TOPIC, EVENT_QOS)
+        self._scores_pub = self.create_publisher(JointState, SSVEP_SCORES_TOPIC, SCORES_QOS)
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
-        self.create_subscription(JointState, STIMULI_TOPIC, self._on_stimuli, LATCHED_QOS)
+        self.create_subscription(JointState, SSVEP_STIMULI_TOPIC, self._on_stimuli, LATCHED_QOS)
         self.create_subscription(Empty, 'choice/request', self._on_request, EVENT_QOS)
         self._options: tuple = ()
         self._stimuli: Optional[StimulusMap] = None
@@ -461,7 +462,7 @@ class SsvepDecoder(Node):
             stimuli = msg_to_stimulus_map(msg)
         except ValueError as error:
             self._stimuli = None
-            self._warn('stimuli', f'stimulus map on {STIMULI_TOPIC} ignored: {error}; no '
+            self._warn('stimuli', f'stimulus map on {SSVEP_STIMULI_TOPIC} ignored: {error}; no '
                        'SSVEP choice until a valid one arrives')
             self._restart_round(self._now())
             return

@@ -27,8 +27,8 @@ from visualization_msgs.msg import MarkerArray
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
-from eye_bci_ros2.ssvep.stimuli import STIMULI_TOPIC, StimulusMap
+from eye_bci_ros2.nodes.topics import LATCHED_QOS, SSVEP_STIMULI_TOPIC
+from eye_bci_ros2.ssvep.stimuli import StimulusMap
 
 WARN_PERIOD_S = 5.0
 
@@ -67,7 +67,7 @@ class SsvepStimulus(Node):
         self._warned: Dict[str, float] = {}
         self._reported_drops = 0
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
-        self.create_subscription(JointState, STIMULI_TOPIC, self._on_stimuli, LATCHED_QOS)
+        self.create_subscription(JointState, SSVEP_STIMULI_TOPIC, self._on_stimuli, LATCHED_QOS)
         width, height = self.window.size
         self.get_logger().info(f'ssvep_stimulus: {width}x{height} px at '
                                f"{self._params['refresh_hz']:g} Hz")

@@ -21,9 +21,9 @@ from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.ssvep_messages import stimulus_map_to_msg
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
+from eye_bci_ros2.nodes.topics import LATCHED_QOS, SSVEP_STIMULI_TOPIC
 from eye_bci_ros2.ssvep.stimuli import (assign_stimuli, DEFAULT_FREQUENCIES,
-                                        DEFAULT_PHASE_STEP, MAX_FREQUENCY_HZ, STIMULI_TOPIC)
+                                        DEFAULT_PHASE_STEP, MAX_FREQUENCY_HZ)
 
 
 def _frequencies(value) -> Optional[str]:
@@ -52,7 +52,7 @@ class SsvepStimulusMap(Node):
         """Declare parameters and topics."""
         super().__init__('ssvep_stimulus_map', **kwargs)
         self._params = declare_parameters(self, PARAMETERS, self._params_changed)
-        self._publisher = self.create_publisher(JointState, STIMULI_TOPIC, LATCHED_QOS)
+        self._publisher = self.create_publisher(JointState, SSVEP_STIMULI_TOPIC, LATCHED_QOS)
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
         self._labels = None
 

@@ -31,8 +31,6 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-#: Topic and message contract, for documentation and the nodes.
-STIMULI_TOPIC = 'ssvep/stimuli'
 #: Frequencies the task assigns by default, Hz: 1 Hz apart, no option a
 #: harmonic of another up to 15 Hz, all below 30 Hz / 2 of a 60 Hz display.
 DEFAULT_FREQUENCIES = (8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 15.0)
