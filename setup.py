@@ -23,6 +23,11 @@ console_scripts = [
     'find_panel = eye_bci_ros2.tools.find_panel:main',
     'monitor = eye_bci_ros2.tools.monitor:main',
     'view_animated_bridge = eye_bci_ros2.nodes.view_animated_bridge:main',
+    'ssvep_decoder = eye_bci_ros2.nodes.ssvep_decoder:main',
+    'sim_eeg = eye_bci_ros2.sim.eeg_outlet:main',
+    'ssvep_calibrate = eye_bci_ros2.tools.ssvep_calibrate:main',
+    'ssvep_stimulus = eye_bci_ros2.nodes.ssvep_stimulus:main',
+    'ssvep_stimulus_map = eye_bci_ros2.nodes.ssvep_stimulus_map:main',
 ]
 
 setup(

@@ -41,6 +41,7 @@ REGISTRY: Dict[str, str] = {
     'gaze_rate': 'bench.gaze_rate',
     'decision': 'bench.decision',
     'calibration': 'bench.calibration_protocol',
+    'ssvep': 'bench.ssvep',
 }
 
 #: Default output: bench_results.json at the repository root.

@@ -18,21 +18,33 @@ published from the callback of the batch that completes the decision; a
 decisions held by ``reorder_s``.  Bad input is counted
 (:attr:`ChoiceArbiter.samples_from_future`, ``samples_too_old``,
 ``samples_not_finite``) and logged at most once per 5 s of each kind.
+
+Input modes (parameter ``input_mode``, :mod:`eye_bci_ros2.fusion`).  ``gaze``
+(default): as above.  ``ssvep``: ``choice`` is the ``ssvep/choice`` of the
+ssvep_decoder (std_msgs/String) when it names an offered option, once per
+round; the gaze decision is not published.  ``hybrid``: gaze alone never
+chooses: a round's gaze decision with a margin of at least
+``min_gaze_margin`` is a candidate, published as ``choice`` only when SSVEP
+confirms it within ``max_lag_s`` (``ssvep/choice`` of the same label, or
+``ssvep/scores`` (sensor_msgs/JointState, position = posterior) of at least
+``confirm_threshold`` for it).
 """
 
 import time
 from typing import Dict, Optional
 
 from rclpy.node import Node
-from sensor_msgs.msg import PointCloud2
+from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.evidence import Decision, MAX_REACTION_S, METHODS
+from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
 from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                       SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, DEFAULT_MAX_FUTURE_S, MAX_FUTURE_S, RoundScheduler
 
@@ -102,6 +114,25 @@ PARAMETERS = (
 )
 
 
+#: Input modes (issue 11), declared apart from the gaze parameters (own table and callbacks).
+FUSION_PARAMETERS = (
+    ParamSpec('input_mode', 'gaze',
+              'What chooses: gaze (the gaze decision), ssvep (ssvep/choice of the '
+              'ssvep_decoder) or hybrid (a gaze decision is only a candidate; it is chosen '
+              'when SSVEP confirms it, see eye_bci_ros2.fusion)', choices=INPUT_MODES),
+    ParamSpec('confirm_threshold', 0.9,
+              'hybrid: SSVEP posterior (ssvep/scores) of the gaze candidate that confirms it',
+              value_range=(0.01, 1.0)),
+    ParamSpec('max_lag_s', 5.0,
+              'hybrid: longest time between the gaze candidate and the SSVEP evidence that '
+              'confirms it, s', value_range=(0.0, 60.0)),
+    ParamSpec('min_gaze_margin', 0.5,
+              'hybrid: a gaze decision is a candidate only with at least this margin (share '
+              "of in-region gaze on it minus the runner-up's): the gaze stayed on it",
+              value_range=(0.0, 1.0)),
+)
+
+
 def _seconds(stamp) -> float:
     """builtin_interfaces/Time -> float s."""
     return stamp.sec + stamp.nanosec * 1e-9
@@ -121,6 +152,7 @@ class ChoiceArbiter(Node):
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
         self.create_subscription(Empty, 'choice/request', self._on_request, EVENT_QOS)
         self._timer = self.create_timer(TICK_S, self._on_tick)
+        self._init_fusion()
         self.get_logger().info(
             f"choice_arbiter: method {self._config['method']}, window "
             f"{self._config['window_s']} s, early decision "
@@ -201,8 +233,10 @@ class ChoiceArbiter(Node):
             self._tracker.add_regions(region_set, now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'regions_error', f'failed to apply regions: {error}')
+        self._fusion_options(labels)
 
     def _on_request(self, msg: Empty) -> None:
+        self._fusion.new_round()
         try:
             self._tracker.request(self._now())
         except Exception as error:  # noqa: B902 - a node never dies on a message
@@ -217,8 +251,10 @@ class ChoiceArbiter(Node):
     # -- outputs ----------------------------------------------------------------------------
 
     def _publish(self, decision: Decision) -> None:
-        if decision.label is not None:
-            self._publisher.publish(String(data=decision.label))
+        # Input mode 'gaze' (default): the decision's label, as before.
+        label = self._fusion.gaze(decision.label, self._now(), decision.margin)
+        if label is not None:
+            self._publisher.publish(String(data=label))
 
     def _log(self, level: str, key: str, text: str) -> None:
         """Log ``text``; warnings of one ``key`` at most once per WARN_PERIOD_S."""
@@ -230,6 +266,66 @@ class ChoiceArbiter(Node):
             return
         self._warned[key] = now
         self.get_logger().warning(text)
+
+    # -- input modes: gaze / ssvep / hybrid (issue 11; eye_bci_ros2.fusion) -------------------
+
+    def _init_fusion(self) -> None:
+        """Declare the input-mode parameters and subscribe the SSVEP decoder's output."""
+        values = declare_parameters(self, FUSION_PARAMETERS, self._on_fusion_parameters,
+                                    self._check_fusion)
+        self._fusion_values = dict(values)
+        self._fusion = ChoiceFusion(self._fusion_settings(values))
+        self._fusion_labels = None
+        self.create_subscription(String, SSVEP_CHOICE_TOPIC, self._on_ssvep_choice, EVENT_QOS)
+        self.create_subscription(JointState, SSVEP_SCORES_TOPIC, self._on_ssvep_scores,
+                                 SCORES_QOS)
+        if values['input_mode'] != 'gaze':
+            self.get_logger().info(f"input mode {values['input_mode']}: "
+                                   + ('the SSVEP choice chooses' if values['input_mode'] ==
+                                      'ssvep' else 'gaze candidates need SSVEP confirmation'))
+
+    @staticmethod
+    def _fusion_settings(values: dict) -> FusionSettings:
+        return FusionSettings(values['input_mode'], values['confirm_threshold'],
+                              values['max_lag_s'], values['min_gaze_margin'])
+
+    def _check_fusion(self, values: dict) -> Optional[str]:
+        try:
+            self._fusion_settings(values)
+        except ValueError as error:
+            return str(error)
+        return None
+
+    def _on_fusion_parameters(self, changed: dict) -> None:
+        self._fusion_values.update(changed)
+        self._fusion.configure(self._fusion_settings(self._fusion_values))
+
+    def _fusion_options(self, labels) -> None:
+        """Start a new fusion round when the set of offered labels changes."""
+        labels = tuple(labels)
+        if labels != self._fusion_labels:
+            self._fusion_labels = labels
+            self._fusion.new_round(labels)
+
+    def _on_ssvep_choice(self, msg: String) -> None:
+        try:
+            label = self._fusion.ssvep_choice(msg.data, self._now())
+            if label is not None:
+                self._publisher.publish(String(data=label))
+        except Exception as error:  # noqa: B902 - a node never dies on a message
+            self._log('warning', 'ssvep_error', f'SSVEP choice ignored: {error}')
+
+    def _on_ssvep_scores(self, msg: JointState) -> None:
+        try:
+            if len(msg.name) != len(msg.position):
+                self._log('warning', 'ssvep_scores', 'ssvep/scores ignored: name and '
+                          'position (posterior) differ in length')
+                return
+            label = self._fusion.ssvep_scores(list(msg.name), list(msg.position), self._now())
+            if label is not None:
+                self._publisher.publish(String(data=label))
+        except Exception as error:  # noqa: B902 - a node never dies on a message
+            self._log('warning', 'ssvep_error', f'SSVEP scores ignored: {error}')
 
 
 def main(args=None):

@@ -14,10 +14,22 @@ GAZE_SAMPLES_TOPIC = 'gaze/samples'
 #: geometry_msgs/PointStamped, the newest sample, at most ``point_rate_hz``.
 GAZE_POINT_TOPIC = 'gaze/point'
 
+#: SSVEP (eye_bci_ros2.nodes.ssvep_messages): each option's stimulus (latched,
+#: sensor_msgs/JointState), the decoder's per-option posterior and score per step
+#: (JointState, SCORES_QOS) and its choice (std_msgs/String, EVENT_QOS).
+SSVEP_STIMULI_TOPIC = 'ssvep/stimuli'
+SSVEP_SCORES_TOPIC = 'ssvep/scores'
+SSVEP_CHOICE_TOPIC = 'ssvep/choice'
+
 #: Gaze batches: reliable and deep; a message holds a whole chunk (up to max_chunk
 #: samples), so 1000 messages are seconds of gaze even at 2000 Hz.
 GAZE_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=1000,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+#: SSVEP scores: one message per decoding step (10 Hz); reliable, a few seconds deep.
+SCORES_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=50,
     reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 
 #: The per-sample view: only the newest matters, so best effort and shallow.

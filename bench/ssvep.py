@@ -1,0 +1,294 @@
+"""
+SSVEP benchmarks on the simulated subjects: accuracy / ITR, Midas touch, decoder CPU.
+
+1. ``accuracy``: FBCCA and ensemble TRCA (fitted on a 5-trials-per-option
+   calibration of the same subject) on cue-guided trials of the 4-room menu,
+   window 0.5-2 s from stimulus onset; mean over the 8 subjects of
+   :data:`eye_bci_ros2.sim.eeg.SUBJECTS`; Wolpaw ITR with a selection time
+   of window + :data:`GAZE_SHIFT_S` (Nakanishi 2018's 0.5 s cue / gaze shift).
+2. ``rounds``: the room -> table task (4 then 3 options) through the online
+   decoder (:class:`eye_bci_ros2.ssvep.online.OnlineDecoder`: FBCCA with the
+   default settings, and ensemble TRCA fitted on 5 trials per option with
+   ``min_window_s`` 0.5) and the hybrid fusion (:class:`eye_bci_ros2.fusion.ChoiceFusion`,
+   default settings), in *intent* rounds (the person looks at and attends one
+   option) and *Midas-touch* rounds (the person looks over the options for
+   :data:`ROUND_S` s, 0.25-0.5 s per glance, attending whatever the gaze is on,
+   without intent).  The gaze decision is modelled, not simulated: in intent
+   rounds the looked-at option (margin 1), in Midas rounds the option with the
+   most dwell in the gaze window (1 s), margin = (its dwell - the runner-up's)
+   / the window: gaze alone *always* chooses one (one choice per Midas round);
+   hybrid must make 0.  SNR: narrow-band SNR at Oz over 10 s of attention.
+3. ``cpu``: the online decoder (filter bank on every sample, FBCCA with decoys
+   on a growing/sliding 2 s window every 0.1 s, 4 options) processing one
+   simulated minute in 20 ms chunks, at 250 and 1000 Hz with 8 and 32
+   channels: CPU seconds (``time.process_time``) / 60 s = fraction of one
+   core, and the same divided by a reference workload timed in the same run
+   (``reference_s``: 200 QR factorisations of a 2000 x 32 matrix).
+
+Usage::
+
+    python -m bench.ssvep            # short (about a minute on 2 shared cores)
+    python -m bench.ssvep --full     # more trials and rounds
+"""
+
+import argparse
+import json
+import sys
+import time
+from typing import Dict, List
+
+import numpy as np
+
+from eye_bci_ros2.experiments.metrics import wolpaw_bits
+from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
+from eye_bci_ros2.sim.eeg import (calibration_session, EegSimulator, narrowband_snr_db,
+                                  SUBJECTS)
+from eye_bci_ros2.ssvep.decoders import FbccaDecoder
+from eye_bci_ros2.ssvep.filters import filter_recording
+from eye_bci_ros2.ssvep.layouts import ACTICAP_32
+from eye_bci_ros2.ssvep.online import OnlineDecoder, OnlineSettings
+from eye_bci_ros2.ssvep.stimuli import assign_stimuli, StimulusMap
+from eye_bci_ros2.ssvep.training import fit_trca
+
+ROOMS = ('kitchen', 'living_room', 'bedroom', 'office')
+TABLES = ('table_1', 'table_2', 'table_3')
+WINDOWS_S = (0.5, 1.0, 1.5, 2.0)
+#: Time between selections besides the window (cue, gaze shift), s.
+GAZE_SHIFT_S = 0.5
+#: Longest round of the online rounds, s; the gaze window of the arbiter, s.
+ROUND_S = 5.0
+GAZE_WINDOW_S = 1.0
+STEP_S = 0.1
+CHUNK_S = 0.02
+
+TABLE_COLUMNS = None
+
+
+def _accuracy(full: bool) -> Dict[str, Dict]:
+    """Accuracy and ITR against window length, FBCCA and ensemble TRCA."""
+    stimuli = assign_stimuli(ROOMS)
+    per_option = 10 if full else 3
+    correct = {(name, w): [] for name in ('fbcca', 'ensemble_trca') for w in WINDOWS_S}
+    snrs = []
+    for index, subject in enumerate(SUBJECTS):
+        calibration = EegSimulator(subject, seed=1000 + index)
+        t, x, trials = calibration_session(calibration, stimuli, 5, 2.0, 1.0, seed=index)
+        model = fit_trca(x, t, trials, stimuli, calibration.rate, calibration.labels)
+        test = EegSimulator(subject, seed=2000 + index)
+        t, x, trials = calibration_session(test, stimuli, per_option, 2.0, 1.0,
+                                           seed=100 + index)
+        steady = EegSimulator(subject, seed=3000 + index)
+        _, recording = steady.simulate(10.0, [(0.0, ROOMS[0])], stimuli)
+        snrs.append(narrowband_snr_db(recording[:, steady.labels.index('Oz')], steady.rate,
+                                      stimuli.frequencies[0]))
+        filtered = filter_recording(x, test.rate)
+        fbcca = FbccaDecoder(stimuli.frequencies, test.rate)
+        for onset, label in trials:
+            start = int(np.searchsorted(t, onset))
+            target = ROOMS.index(label)
+            for w in WINDOWS_S:
+                window = filtered[:, start:start + int(round(w * test.rate))]
+                correct[('fbcca', w)].append(np.argmax(fbcca.scores(window)) == target)
+                correct[('ensemble_trca', w)].append(
+                    np.argmax(model.scores(window, 0.0)) == target)
+    section = {}
+    for (name, w), hits in correct.items():
+        accuracy = float(np.mean(hits))
+        bits = wolpaw_bits(len(ROOMS), accuracy)
+        section[f'{name} {w:g} s'] = {
+            'accuracy': round(accuracy, 4), 'bits': round(bits, 3),
+            'itr_bpm': round(bits * 60.0 / (w + GAZE_SHIFT_S), 1), 'trials': len(hits)}
+    section['subjects'] = {'count': len(SUBJECTS),
+                           'snr_db_min': round(float(min(snrs)), 1),
+                           'snr_db_max': round(float(max(snrs)), 1)}
+    return section
+
+
+def _scan(rng, labels, duration_s) -> List:
+    """Look over the options without intent: (t, label) glances of 0.25-0.5 s."""
+    glances, t, last = [], 0.0, None
+    while t < duration_s:
+        label = rng.choice([lb for lb in labels if lb != last])
+        glances.append((t, str(label)))
+        last = label
+        t += rng.uniform(0.25, 0.5)
+    return glances
+
+
+def _round(subject, seed, labels, intent: bool, model=None):
+    """One online round; returns what SSVEP alone and hybrid chose and when."""
+    rng = np.random.default_rng(seed)
+    stimuli = assign_stimuli(labels, epoch_s=2.0)
+    simulator = EegSimulator(subject, seed=seed)
+    simulator.start(0.0, stimuli)
+    if intent:
+        target = str(rng.choice(labels))
+        schedule = [(2.0, target)]
+        candidate, margin = target, 1.0
+    else:
+        target = None
+        schedule = [(2.0 + t, label) for t, label in _scan(rng, labels, ROUND_S)]
+        dwell = dict.fromkeys(labels, 0.0)
+        times = [t for t, _ in schedule] + [2.0 + ROUND_S]
+        for (t, label), end in zip(schedule, times[1:]):
+            dwell[label] += max(0.0, min(end, 2.0 + GAZE_WINDOW_S) - t)
+        candidate = max(dwell, key=dwell.get)
+        shares = sorted(dwell.values(), reverse=True)
+        margin = (shares[0] - shares[1]) / sum(shares)
+    for t, label in schedule:
+        simulator.set_attended(label, t)
+    settings = OnlineSettings(keep_scoring=True) if model is None else OnlineSettings(
+        decoder='ensemble_trca', min_window_s=0.5, keep_scoring=True)
+    decoder = OnlineDecoder(simulator.rate, simulator.labels, settings, model)
+    fusion = ChoiceFusion(FusionSettings('hybrid'))
+    fusion.new_round(labels)
+    decoder.add(*simulator.next_chunk(2.0))  # the stream ran before the round
+    decoder.start_round(2.0, labels, stimuli)
+    now, ssvep, hybrid = 2.0, None, None
+    next_step = 2.0 + STEP_S
+    while now < 2.0 + ROUND_S and (hybrid is None or ssvep is None):
+        now += CHUNK_S
+        decoder.add(*simulator.next_chunk(now))
+        if now >= 2.0 + GAZE_WINDOW_S and fusion.candidate is None and not fusion.chosen:
+            got = fusion.gaze(candidate, now, margin)
+            hybrid = (got, now - 2.0) if got and hybrid is None else hybrid
+        if now + 1e-9 < next_step:
+            continue
+        next_step += STEP_S
+        result = decoder.step()
+        if result is None or not len(result.scores):
+            continue
+        got = fusion.ssvep_scores(result.labels, result.posterior, now)
+        if result.choice is not None and ssvep is None:
+            ssvep = (result.choice, now - 2.0)
+            got = got or fusion.ssvep_choice(result.choice, now)
+        if got and hybrid is None:
+            hybrid = (got, now - 2.0)
+    return target, ssvep, hybrid
+
+
+def _rounds(full: bool, decoder: str = 'fbcca') -> Dict[str, Dict]:
+    """Intent and Midas-touch rounds: SSVEP alone vs hybrid, with one decoder."""
+    per_subject = 12 if full else 2
+    outcome = {key: [] for key in ('ssvep intent', 'hybrid intent', 'ssvep midas',
+                                   'hybrid midas')}
+    for index, subject in enumerate(SUBJECTS):
+        models = {}
+        if decoder != 'fbcca':
+            for labels in (ROOMS, TABLES):
+                calibration = EegSimulator(subject, seed=5000 + index)
+                stimuli = assign_stimuli(labels)
+                t, x, trials = calibration_session(calibration, stimuli, 5, 2.0, 1.0,
+                                                   seed=index)
+                models[labels] = fit_trca(x, t, trials, stimuli, calibration.rate,
+                                          calibration.labels)
+        for k in range(per_subject):
+            labels = ROOMS if k % 2 == 0 else TABLES
+            seed = 10_000 + 100 * index + k
+            model = models.get(labels)
+            target, ssvep, hybrid = _round(subject, seed, labels, True, model)
+            outcome['ssvep intent'].append((target, ssvep, len(labels)))
+            outcome['hybrid intent'].append((target, hybrid, len(labels)))
+            target, ssvep, hybrid = _round(subject, seed + 50, labels, False, model)
+            outcome['ssvep midas'].append((None, ssvep, len(labels)))
+            outcome['hybrid midas'].append((None, hybrid, len(labels)))
+    section = {}
+    for key, rows in outcome.items():
+        chosen = [(target, got) for target, got, _ in rows if got is not None]
+        row = {'rounds': len(rows), 'choices': len(chosen)}
+        if key.endswith('intent'):
+            right = sum(target == got[0] for target, got in chosen)
+            accuracy = right / len(rows)
+            selection_s = (np.mean([got[1] for _, got in chosen]) if chosen else ROUND_S) \
+                + GAZE_SHIFT_S
+            bits = np.mean([wolpaw_bits(n, accuracy) for _, _, n in rows])
+            row.update({'correct': right, 'wrong': len(chosen) - right,
+                        'accuracy': round(accuracy, 4),
+                        'precision': round(right / len(chosen), 4) if chosen else None,
+                        'mean_time_s': round(selection_s - GAZE_SHIFT_S, 2),
+                        'itr_bpm': round(float(bits) * 60.0 / selection_s, 1)})
+        section[key] = row
+    section['gaze midas'] = {'rounds': len(outcome['hybrid midas']),
+                             'choices': len(outcome['hybrid midas'])}
+    return section
+
+
+def _reference_s() -> float:
+    """CPU time of a fixed workload, s (200 QR of 2000 x 32)."""
+    matrix = np.random.default_rng(0).standard_normal((2000, 32))
+    start = time.process_time()
+    for _ in range(200):
+        np.linalg.qr(matrix)
+    return time.process_time() - start
+
+
+def _cpu(full: bool) -> Dict[str, Dict]:
+    """Fraction of one core the online decoder needs for a real-time stream."""
+    section = {}
+    duration = 60.0
+    stimuli = assign_stimuli(ROOMS, epoch_s=0.0)
+    reference = _reference_s()
+    for rate in (250.0, 1000.0):
+        for channels in (8, 32):
+            if channels == 8:
+                simulator = EegSimulator(SUBJECTS[3], rate=rate, seed=1)
+            else:
+                simulator = EegSimulator(SUBJECTS[3], layout='liveamp', rate=rate, seed=1)
+            times, samples = simulator.simulate(duration, [(0.0, 'bedroom')], stimuli)
+            names = list(simulator.labels)
+            decoder = OnlineDecoder(rate, names, OnlineSettings(threshold=1.0))
+            chunk = int(round(CHUNK_S * rate))
+            step = int(round(STEP_S / CHUNK_S))
+            decoder.start_round(0.0, ROOMS, StimulusMap(stimuli.labels, stimuli.frequencies,
+                                                        stimuli.phases, 0.0))
+            start = time.process_time()
+            for k, first in enumerate(range(0, len(times), chunk)):
+                decoder.add(times[first:first + chunk], samples[first:first + chunk])
+                if k % step == 0:
+                    decoder.step()
+            cpu_s = time.process_time() - start
+            section[f'{rate:g} Hz x {channels} ch'] = {
+                'cpu_s': round(cpu_s, 3), 'core_fraction': round(cpu_s / duration, 4),
+                'reference_s': round(reference, 3),
+                'vs_reference': round(cpu_s / reference, 2)}
+    assert len(ACTICAP_32) == 32
+    return section
+
+
+def run(quick: bool = False, full: bool = False) -> Dict[str, Dict]:
+    """Run the SSVEP benchmarks; ``quick`` = the CPU part only (for smoke tests)."""
+    results = {}
+    if not quick:
+        results.update({f'accuracy: {k}': v for k, v in _accuracy(full).items()})
+        for decoder in ('fbcca', 'ensemble_trca'):
+            results.update({f'rounds {decoder}: {k}': v
+                            for k, v in _rounds(full, decoder).items()})
+    results.update({f'cpu: {k}': v for k, v in _cpu(full).items()})
+    return results
+
+
+def format_lines(section: Dict[str, Dict]) -> List[str]:
+    """One line per row."""
+    return [f'{name:<34} ' + ', '.join(f'{k} {v}' for k, v in row.items())
+            for name, row in section.items()]
+
+
+def main(argv=None) -> int:
+    """Run and print; ``--full`` for more trials, ``--json PATH`` to save."""
+    parser = argparse.ArgumentParser(prog='bench.ssvep', description=__doc__.split('\n')[1])
+    parser.add_argument('--full', action='store_true', help='more trials and rounds')
+    parser.add_argument('--quick', action='store_true', help='CPU part only')
+    parser.add_argument('--json', default='', help='write the results here')
+    args = parser.parse_args(argv)
+    started = time.perf_counter()
+    results = run(quick=args.quick, full=args.full)
+    print('\n'.join(format_lines(results)))
+    print(f'({time.perf_counter() - started:.0f} s)')
+    if args.json:
+        with open(args.json, 'w') as stream:
+            json.dump(results, stream, indent=1)
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

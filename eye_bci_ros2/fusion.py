@@ -1,0 +1,156 @@
+"""
+Input modes of an experiment: gaze, SSVEP, or both (hybrid), and how they make a choice.
+
+- ``gaze``: the gaze decision is the choice (the original system).
+- ``ssvep``: the SSVEP decoder's choice (``ssvep/choice``) is the choice, if
+  it names an offered option; gaze is ignored.
+- ``hybrid``: gaze alone never chooses.  The gaze decision only nominates a
+  *candidate*; it becomes the choice when SSVEP confirms it: the decoder
+  chose the same option, or its posterior for that option (``ssvep/scores``)
+  reached ``confirm_threshold``, within ``max_lag_s`` of the gaze candidate
+  (either may come first).  A gaze decision is a candidate only when the gaze
+  stayed on it: its margin (leader's share of the in-region gaze minus the
+  runner-up's) is at least ``min_gaze_margin``.  Gaze narrows the options and SSVEP, which needs
+  sustained attention to a flickering option, supplies the intent: looking
+  over the options (the "Midas touch") nominates candidates but never
+  confirms one.  (Sequential gaze-then-SSVEP confirmation as in Stawicki et
+  al. 2017 and the sequential mode of Guo et al. 2023.)
+
+At most one choice per round; a round starts with :meth:`ChoiceFusion.new_round`
+(new options or a request).  Times are seconds on one clock (the node clock).
+"""
+
+from dataclasses import dataclass
+from typing import Dict, Optional, Sequence, Tuple
+
+INPUT_MODES = ('gaze', 'ssvep', 'hybrid')
+
+
+@dataclass(frozen=True)
+class FusionSettings:
+    """
+    How gaze and SSVEP combine.
+
+    :param mode: one of :data:`INPUT_MODES`.
+    :param confirm_threshold: SSVEP posterior of the gaze candidate that confirms it.
+    :param max_lag_s: longest time between the gaze candidate and the SSVEP
+        evidence that confirms it, s.
+    :param min_gaze_margin: gaze margin a decision needs to be a candidate.
+    """
+
+    mode: str = 'gaze'
+    confirm_threshold: float = 0.9
+    max_lag_s: float = 5.0
+    min_gaze_margin: float = 0.5
+
+    def __post_init__(self):
+        """Reject settings that cannot work, with a reason."""
+        if self.mode not in INPUT_MODES:
+            raise ValueError(f"input mode '{self.mode}' is not one of {', '.join(INPUT_MODES)}")
+        if not 0.0 < self.confirm_threshold <= 1.0:
+            raise ValueError(f'confirm_threshold must be in (0, 1], got '
+                             f'{self.confirm_threshold}')
+        if self.max_lag_s < 0:
+            raise ValueError(f'max_lag_s must be >= 0, got {self.max_lag_s}')
+        if not 0.0 <= self.min_gaze_margin <= 1.0:
+            raise ValueError(f'min_gaze_margin must be in [0, 1], got {self.min_gaze_margin}')
+
+
+class ChoiceFusion:
+    """
+    Turn gaze decisions and SSVEP output into at most one choice per round.
+
+    Each input method returns the label to publish as the choice, or None.
+    """
+
+    def __init__(self, settings: FusionSettings = FusionSettings()):
+        """Start with no options offered."""
+        self.settings = settings
+        self._options: Tuple[str, ...] = ()
+        self.new_round(())
+
+    def configure(self, settings: FusionSettings) -> None:
+        """Change the settings (the open round keeps its evidence)."""
+        self.settings = settings
+
+    @property
+    def candidate(self) -> Optional[str]:
+        """Return the gaze candidate waiting for SSVEP confirmation (hybrid), or None."""
+        return self._candidate[0] if self._candidate else None
+
+    @property
+    def chosen(self) -> bool:
+        """Return whether this round's choice has been made."""
+        return self._chosen
+
+    def new_round(self, options: Optional[Sequence[str]] = None) -> None:
+        """Start a round (with new ``options``, or the same ones when None)."""
+        if options is not None:
+            self._options = tuple(options)
+        self._candidate: Optional[Tuple[str, float]] = None
+        self._ssvep_choice: Optional[Tuple[str, float]] = None
+        self._posterior: Dict[str, Tuple[float, float]] = {}
+        self._chosen = False
+
+    def gaze(self, label: Optional[str], t: float, margin: float = 1.0) -> Optional[str]:
+        """
+        Take the gaze decision of a round (None = no choice) at time ``t``.
+
+        :param margin: the decision's gaze margin (hybrid: below
+            ``min_gaze_margin`` it nominates no candidate).
+        """
+        mode = self.settings.mode
+        if mode == 'gaze':
+            return self._choose(label)
+        if mode == 'ssvep' or self._chosen:
+            return None
+        steady = margin >= self.settings.min_gaze_margin
+        self._candidate = (label, t) if label in self._options and steady else None
+        return self._confirm()
+
+    def ssvep_choice(self, label: str, t: float) -> Optional[str]:
+        """Take the SSVEP decoder's choice at time ``t``."""
+        if label not in self._options or self._chosen:
+            return None
+        if self.settings.mode == 'ssvep':
+            return self._choose(label)
+        if self.settings.mode == 'hybrid':
+            self._ssvep_choice = (label, t)
+            return self._confirm()
+        return None
+
+    def ssvep_scores(self, labels: Sequence[str], posterior: Sequence[float],
+                     t: float) -> Optional[str]:
+        """Take one SSVEP scoring step (posterior per label) at time ``t``."""
+        if self.settings.mode != 'hybrid' or self._chosen:
+            return None
+        for label, probability in zip(labels, posterior):
+            if label in self._options:
+                best = self._posterior.get(label)
+                if best is None or probability >= best[0] or \
+                        t - best[1] > self.settings.max_lag_s:
+                    self._posterior[label] = (float(probability), t)
+        return self._confirm()
+
+    def _confirm(self) -> Optional[str]:
+        """Hybrid: choose the gaze candidate if SSVEP evidence close in time confirms it."""
+        if self._candidate is None:
+            return None
+        label, t_gaze = self._candidate
+        lag = self.settings.max_lag_s
+        if self._ssvep_choice is not None:
+            chosen, t = self._ssvep_choice
+            if chosen == label and abs(t - t_gaze) <= lag:
+                return self._choose(label)
+        evidence = self._posterior.get(label)
+        if evidence is not None and evidence[0] >= self.settings.confirm_threshold \
+                and abs(evidence[1] - t_gaze) <= lag:
+            return self._choose(label)
+        return None
+
+    def _choose(self, label: Optional[str]) -> Optional[str]:
+        if label is None or self._chosen:
+            return None
+        if self.settings.mode != 'gaze':
+            self._chosen = True
+        return label

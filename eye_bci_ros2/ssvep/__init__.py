@@ -1,0 +1,1 @@
+"""Pure SSVEP core: EEG layouts, filters, references, decoders, decisions, stimuli."""

@@ -1,0 +1,292 @@
+"""
+SSVEP decoders: FBCCA (no training), TRCA and ensemble TRCA (from a calibration).
+
+All decoders score a window of filter-bank output, shape (B, n, C) (bands,
+samples, channels; :class:`eye_bci_ros2.ssvep.filters.StreamingFilterBank`),
+against K stimuli and return K scores, higher = more likely attended.
+
+- FBCCA (Chen et al. 2015): per sub-band the largest canonical correlation
+  rho between the EEG and the sine/cosine references of each stimulus; score
+  ``sum_m w(m) rho_m^2`` with ``w(m) = m^-1.25 + 0.25``.
+- TRCA (Nakanishi et al. 2018): per sub-band and stimulus a spatial filter
+  w that maximises the covariance between calibration trials (generalised
+  eigenproblem S w = lambda Q w); the score is ``sum_m w(m) r_m``, r the
+  correlation between the filtered window and the filtered trial-average
+  template.  The ensemble variant applies the filters of all stimuli at once.
+
+Windows and templates are aligned on the stimulus epoch: ``start_s`` is the
+time of the window's first sample after the epoch (0 = the window starts at
+stimulus onset).  A TRCA template of stimulus k is periodic with 1/f_k, so a
+window that starts later is compared with the template from
+``start_s mod (1/f_k)`` (nearest sample).
+"""
+
+from dataclasses import dataclass, field
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+from scipy import linalg
+
+from eye_bci_ros2.ssvep.filters import filter_bank_weights
+from eye_bci_ros2.ssvep.references import sine_cosine_references
+
+#: Format version of saved TRCA models.
+MODEL_VERSION = 1
+DECODERS = ('fbcca', 'trca', 'ensemble_trca')
+
+
+def _check_window(window: np.ndarray, bands: int) -> np.ndarray:
+    window = np.asarray(window, dtype=float)
+    if window.ndim != 3 or window.shape[0] != bands:
+        raise ValueError(f'expected a window of shape ({bands}, n, C), got {window.shape}')
+    if window.shape[1] < 2:
+        raise ValueError('a window needs at least 2 samples')
+    return window
+
+
+def canonical_correlations(x: np.ndarray, references: np.ndarray) -> np.ndarray:
+    """
+    Largest canonical correlation between EEG and each reference set.
+
+    :param x: EEG, shape (B, n, C) (any leading batch of sub-bands).
+    :param references: shape (K, n, R).
+    :returns: rho, shape (B, K), in [0, 1].
+    """
+    return _correlations_with_basis(x, reference_basis(references))
+
+
+def reference_basis(references: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of each centred reference set, (K, n, R) (cacheable)."""
+    y = references - references.mean(axis=1, keepdims=True)
+    return np.linalg.qr(y)[0]
+
+
+def _correlations_with_basis(x: np.ndarray, qy: np.ndarray) -> np.ndarray:
+    """Canonical correlations of x (B, n, C) with orthonormal bases qy (K, n, R)."""
+    x = x - x.mean(axis=1, keepdims=True)
+    qx, _ = np.linalg.qr(x)
+    k, n, r = qy.shape
+    # (B, C, n) @ (n, K R): one BLAS product instead of an einsum.
+    flat = np.moveaxis(qy, 1, 0).reshape(n, k * r)
+    product = (np.swapaxes(qx, 1, 2) @ flat).reshape(qx.shape[0], qx.shape[2], k, r)
+    rho = np.linalg.svd(np.moveaxis(product, 2, 1), compute_uv=False)[..., 0]
+    return np.clip(rho, 0.0, 1.0)
+
+
+@dataclass
+class FbccaDecoder:
+    """
+    Filter-bank CCA: no training.
+
+    :param frequencies: stimulus frequencies, Hz, shape (K,).
+    :param rate: sampling rate, Hz.
+    :param bands: sub-bands of the window (as the filter bank).
+    :param harmonics: harmonics in the references.
+    """
+
+    frequencies: Sequence[float]
+    rate: float
+    bands: int = 5
+    harmonics: int = 5
+    _basis: dict = field(default_factory=dict, init=False, repr=False)
+
+    def scores(self, window: np.ndarray, start_s: float = 0.0) -> np.ndarray:
+        """Return the K scores of a window (B, n, C); ``start_s`` is unused (no phase)."""
+        window = _check_window(window, self.bands)
+        n = window.shape[1]
+        basis = self._basis.get(n)
+        if basis is None:
+            if len(self._basis) > 8:  # a sliding window has one length; keep a few
+                self._basis.clear()
+            basis = self._basis[n] = reference_basis(sine_cosine_references(
+                self.frequencies, self.rate, n, self.harmonics))
+        rho = _correlations_with_basis(window, basis)
+        return filter_bank_weights(self.bands) @ (rho ** 2)
+
+
+def trca_filter(trials: np.ndarray) -> np.ndarray:
+    """
+    TRCA spatial filter of one stimulus in one sub-band.
+
+    :param trials: shape (T, n, C), T >= 2 trials time-locked to the onset.
+    :returns: w, shape (C,), unit norm, the eigenvector of the largest
+        eigenvalue of S w = lambda Q w (S: summed covariances between
+        different trials; Q: covariance of the concatenated trials).
+    """
+    trials = np.asarray(trials, dtype=float)
+    if trials.ndim != 3 or trials.shape[0] < 2:
+        raise ValueError(f'TRCA needs at least 2 trials of shape (n, C), got {trials.shape}')
+    centred = trials - trials.mean(axis=1, keepdims=True)
+    total = centred.sum(axis=0)
+    s = total.T @ total - np.einsum('tnc,tnd->cd', centred, centred)
+    concatenated = trials.reshape(-1, trials.shape[2])
+    concatenated = concatenated - concatenated.mean(axis=0)
+    q = concatenated.T @ concatenated
+    q += 1e-9 * np.trace(q) / len(q) * np.eye(len(q))
+    _, vectors = linalg.eigh(s, q)
+    w = vectors[:, -1]
+    return w / np.linalg.norm(w)
+
+
+def _correlation(a: np.ndarray, b: np.ndarray) -> float:
+    a = a.ravel() - a.mean()
+    b = b.ravel() - b.mean()
+    denominator = np.sqrt((a @ a) * (b @ b))
+    return float(a @ b / denominator) if denominator > 0 else 0.0
+
+
+@dataclass
+class TrcaModel:
+    """
+    A fitted (ensemble) TRCA decoder and the settings it was fitted with.
+
+    :param labels: stimulus labels, shape (K,).
+    :param frequencies: Hz, shape (K,); ``phases`` rad, shape (K,).
+    :param rate: sampling rate, Hz.
+    :param filters: spatial filters W, shape (B, K, C).
+    :param templates: trial averages, shape (K, B, L, C).
+    :param channels: channel names the model was fitted on, (C,).
+    :param band: preprocessing pass band, Hz; ``notch_hz`` line notch, Hz.
+    :param ensemble: score with every stimulus's filter at once.
+    """
+
+    labels: Tuple[str, ...]
+    frequencies: np.ndarray
+    phases: np.ndarray
+    rate: float
+    filters: np.ndarray
+    templates: np.ndarray
+    channels: Tuple[str, ...]
+    band: Tuple[float, float] = (6.0, 90.0)
+    notch_hz: float = 50.0
+    ensemble: bool = True
+    _weights: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        """Check shapes and precompute the sub-band weights."""
+        self.labels = tuple(str(label) for label in self.labels)
+        self.channels = tuple(str(name) for name in self.channels)
+        self.frequencies = np.asarray(self.frequencies, dtype=float)
+        self.phases = np.asarray(self.phases, dtype=float)
+        self.filters = np.asarray(self.filters, dtype=float)
+        self.templates = np.asarray(self.templates, dtype=float)
+        k = len(self.labels)
+        if (self.frequencies.shape != (k,) or self.phases.shape != (k,)
+                or self.filters.ndim != 3 or self.filters.shape[1] != k
+                or self.templates.ndim != 4 or self.templates.shape[0] != k
+                or self.templates.shape[1] != self.filters.shape[0]
+                or self.templates.shape[3] != self.filters.shape[2]
+                or len(self.channels) != self.filters.shape[2]):
+            raise ValueError('inconsistent TRCA model: labels, frequencies, phases, filters '
+                             f'{self.filters.shape} and templates {self.templates.shape} '
+                             'do not agree')
+        self._weights = filter_bank_weights(self.bands)
+
+    @property
+    def bands(self) -> int:
+        """Return the number of sub-bands B."""
+        return self.filters.shape[0]
+
+    @property
+    def template_s(self) -> float:
+        """Return the template length, s (the longest useful window)."""
+        return self.templates.shape[2] / self.rate
+
+    @classmethod
+    def fit(cls, epochs: np.ndarray, targets: Sequence[int], labels: Sequence[str],
+            frequencies: Sequence[float], phases: Sequence[float], rate: float,
+            channels: Sequence[str], ensemble: bool = True, **settings) -> 'TrcaModel':
+        """
+        Fit from calibration trials.
+
+        :param epochs: filter-bank output of each trial from stimulus onset,
+            shape (T, B, L, C).
+        :param targets: index of the attended stimulus of each trial, (T,).
+        :param labels: stimulus labels (K,); ``frequencies``, ``phases`` (K,).
+        :param settings: ``band``, ``notch_hz`` used for the filtering.
+        :raises ValueError: when a stimulus has fewer than 2 trials.
+        """
+        epochs = np.asarray(epochs, dtype=float)
+        targets = np.asarray(targets, dtype=int)
+        if epochs.ndim != 4 or len(targets) != len(epochs):
+            raise ValueError(f'epochs must be (T, B, L, C) with one target per trial, got '
+                             f'{epochs.shape} and {len(targets)} targets')
+        k = len(labels)
+        _, bands, length, count = epochs.shape
+        filters = np.zeros((bands, k, count))
+        templates = np.zeros((k, bands, length, count))
+        for target in range(k):
+            chosen = epochs[targets == target]
+            if len(chosen) < 2:
+                raise ValueError(f"stimulus '{labels[target]}' has {len(chosen)} calibration "
+                                 f'trials; TRCA needs at least 2 per stimulus')
+            templates[target] = chosen.mean(axis=0)
+            for band in range(bands):
+                filters[band, target] = trca_filter(chosen[:, band])
+        return cls(tuple(labels), np.asarray(frequencies, float), np.asarray(phases, float),
+                   float(rate), filters, templates, tuple(channels), ensemble=ensemble,
+                   **settings)
+
+    def _template(self, target: int, start_s: float, samples: int) -> np.ndarray:
+        """Template of ``target`` from ``start_s`` after onset, (B, m, C), m <= samples."""
+        period = 1.0 / self.frequencies[target]
+        offset_s = start_s - np.floor(start_s / period) * period
+        offset = int(round(offset_s * self.rate))
+        length = self.templates.shape[2]
+        if offset >= length:
+            offset = 0
+        return self.templates[target, :, offset:offset + samples]
+
+    def scores(self, window: np.ndarray, start_s: float = 0.0) -> np.ndarray:
+        """
+        Return the K scores of a window (B, n, C) that starts ``start_s`` after the epoch.
+
+        Only the part of the window the template covers is used.
+        """
+        window = _check_window(window, self.bands)
+        if window.shape[2] != self.filters.shape[2]:
+            raise ValueError(f'the model was fitted on {self.filters.shape[2]} channels '
+                             f'({", ".join(self.channels)}), the window has {window.shape[2]}')
+        k = len(self.labels)
+        rho = np.zeros((self.bands, k))
+        for target in range(k):
+            template = self._template(target, start_s, window.shape[1])
+            part = window[:, :template.shape[1]]
+            for band in range(self.bands):
+                # (C, K) for the ensemble, (C, 1) for the stimulus's own filter.
+                w = (self.filters[band].T if self.ensemble
+                     else self.filters[band, target][:, None])
+                rho[band, target] = _correlation(part[band] @ w, template[band] @ w)
+        return self._weights @ rho
+
+    def save(self, path: str) -> None:
+        """Write the model to ``path`` (.npz, no pickles)."""
+        np.savez(path, version=MODEL_VERSION, labels=np.array(self.labels, dtype=str),
+                 frequencies=self.frequencies, phases=self.phases, rate=self.rate,
+                 filters=self.filters, templates=self.templates,
+                 channels=np.array(self.channels, dtype=str),
+                 band=np.array(self.band, dtype=float), notch_hz=self.notch_hz,
+                 ensemble=self.ensemble)
+
+    @classmethod
+    def load(cls, path: str, ensemble: Optional[bool] = None) -> 'TrcaModel':
+        """
+        Read a model saved by :meth:`save`.
+
+        :param ensemble: override the scoring variant (None = as saved).
+        :raises ValueError: for a missing, unreadable or inconsistent file.
+        """
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                if int(data['version']) != MODEL_VERSION:
+                    raise ValueError(f"model version {int(data['version'])}, expected "
+                                     f'{MODEL_VERSION}')
+                model = cls(tuple(data['labels'].tolist()), data['frequencies'],
+                            data['phases'], float(data['rate']), data['filters'],
+                            data['templates'], tuple(data['channels'].tolist()),
+                            band=tuple(data['band'].tolist()),
+                            notch_hz=float(data['notch_hz']),
+                            ensemble=bool(data['ensemble']) if ensemble is None else ensemble)
+        except (OSError, KeyError, ValueError, EOFError) as error:
+            raise ValueError(f"cannot read TRCA model '{path}': {error}") from None
+        return model

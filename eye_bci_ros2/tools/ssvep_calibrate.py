@@ -1,0 +1,167 @@
+"""
+``ssvep_calibrate``: record a cue-guided SSVEP calibration and fit a TRCA model.
+
+The person attends each option ``--trials`` times in a seeded random order;
+each trial starts its stimuli at the onset (frame 0 at the onset, the map's
+phases), lasts ``--trial-s`` and is followed by ``--rest-s`` of rest.  The
+model (.npz) is what ``ssvep_decoder`` loads with ``decoder:=ensemble_trca
+model_file:=...``; it remembers the options, their stimuli, the rate, the
+channels and the filter settings, and the decoder refuses a stream or a
+stimulus map that does not match them.
+
+Sources:
+
+- ``--source sim``: the simulated amplifier directly (no LSL), seconds of work;
+- ``--source lsl``: a real LSL EEG stream (``--stream-name`` / ``--source-id``,
+  ``--layout``, ``--channels``), recorded in real time while the tool cues
+  the trials (it prints ``attend <label>`` at each onset, for a person, and
+  with ``--drive-sim`` it starts a simulated outlet itself and makes its
+  simulated person attend the cued option).
+
+The stimulus display is not driven by this tool: with a real person, show
+the map printed at the start (``ssvep/stimuli``) and restart its epoch at
+each cue.
+
+Example::
+
+    ssvep_calibrate --options kitchen,bedroom,bathroom --trials 6 --output model.npz
+"""
+
+import argparse
+import sys
+import time
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from eye_bci_ros2.sim.eeg import calibration_session, EegSimulator, SUBJECTS
+from eye_bci_ros2.ssvep.layouts import LAYOUT_NAMES, LAYOUTS, parse_channels, resolve_channels
+from eye_bci_ros2.ssvep.stimuli import assign_stimuli, StimulusMap
+from eye_bci_ros2.ssvep.training import fit_trca
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command line of ``ssvep_calibrate``."""
+    parser = argparse.ArgumentParser(prog='ssvep_calibrate', description=__doc__.split('\n')[1])
+    parser.add_argument('--options', required=True, help='option labels, comma separated '
+                        '(stimuli assigned in order, as the task assigns them)')
+    parser.add_argument('--trials', type=int, default=5, help='trials per option (>= 2)')
+    parser.add_argument('--trial-s', type=float, default=2.0)
+    parser.add_argument('--rest-s', type=float, default=1.0)
+    parser.add_argument('--output', required=True, help='model file (.npz)')
+    parser.add_argument('--source', choices=('sim', 'lsl'), default='sim')
+    parser.add_argument('--layout', choices=LAYOUT_NAMES, default='generic')
+    parser.add_argument('--channels', default='', help="labels or indices ('' = occipital)")
+    parser.add_argument('--subject', default='s4', choices=[s.name for s in SUBJECTS],
+                        help='simulated subject (sim source, --drive-sim)')
+    parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--stream-name', default='', help="lsl: stream name ('' = layout's)")
+    parser.add_argument('--source-id', default='', help='lsl: source_id')
+    parser.add_argument('--drive-sim', action='store_true',
+                        help='lsl: start a simulated outlet and make it attend the cues')
+    parser.add_argument('--notch-hz', type=float, default=50.0)
+    parser.add_argument('--single', action='store_true',
+                        help='save for plain TRCA scoring (default ensemble)')
+    return parser
+
+
+def record_simulated(args, stimuli: StimulusMap):
+    """Record with the simulator directly: (times, samples, trials, rate, labels)."""
+    subject = next(s for s in SUBJECTS if s.name == args.subject)
+    simulator = EegSimulator(subject, args.layout, seed=args.seed)
+    times, samples, trials = calibration_session(simulator, stimuli, args.trials,
+                                                 args.trial_s, args.rest_s, args.seed)
+    return times, samples, trials, simulator.rate, list(simulator.labels)
+
+
+def record_lsl(args, stimuli: StimulusMap):
+    """Record a real LSL stream while cueing: (times, samples, trials, rate, labels)."""
+    import pylsl  # only this source needs liblsl
+
+    from eye_bci_ros2.sim.eeg_outlet import EegStreamer
+    streamer = None
+    source_id = args.source_id
+    if args.drive_sim:
+        subject = next(s for s in SUBJECTS if s.name == args.subject)
+        source_id = source_id or f'ssvep_calibrate-{time.time_ns()}'
+        streamer = EegStreamer(EegSimulator(subject, args.layout, seed=args.seed),
+                               source_id=source_id).start()
+    try:
+        predicate = f"source_id='{source_id}'" if source_id else "type='EEG'"
+        found = pylsl.resolve_bypred(predicate, 1, 10.0)
+        layout = LAYOUTS[args.layout]
+        found = [info for info in found if not args.stream_name
+                 or info.name() == args.stream_name]
+        if not found:
+            raise ValueError(f'no EEG LSL stream found ({predicate})')
+        inlet = pylsl.StreamInlet(found[0], max_buflen=60)
+        info = inlet.info(timeout=5.0)
+        labels = []
+        channel = info.desc().child('channels').child('channel')
+        while not channel.empty():
+            labels.append(channel.child_value('label'))
+            channel = channel.next_sibling('channel')
+        labels += [''] * (info.channel_count() - len(labels))
+        layout.positions(labels)
+        offset = inlet.time_correction(timeout=5.0)
+        order = np.repeat(np.arange(len(stimuli.labels)), args.trials)
+        np.random.default_rng(args.seed).shuffle(order)
+        times: List[np.ndarray] = []
+        chunks: List[np.ndarray] = []
+        trials: List[Tuple[float, str]] = []
+
+        def pull_until(deadline: float) -> None:
+            while pylsl.local_clock() < deadline:
+                samples, stamps = inlet.pull_chunk(timeout=0.05, max_samples=4096)
+                if stamps:
+                    times.append(np.asarray(stamps) + offset)
+                    chunks.append(np.asarray(samples, dtype=float))
+
+        pull_until(pylsl.local_clock() + args.rest_s)
+        for target in order:
+            label = stimuli.labels[target]
+            onset = pylsl.local_clock()
+            print(f'attend {label}', flush=True)
+            if streamer is not None:
+                streamer.show(StimulusMap(stimuli.labels, stimuli.frequencies,
+                                          stimuli.phases, onset))
+                streamer.attend(label, onset)
+            trials.append((onset, label))
+            pull_until(onset + args.trial_s)
+            if streamer is not None:
+                streamer.attend(None)
+            pull_until(pylsl.local_clock() + args.rest_s)
+        return (np.concatenate(times), np.concatenate(chunks), trials, info.nominal_srate(),
+                labels)
+    finally:
+        if streamer is not None:
+            streamer.stop()
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Run the calibration; 0 on success, 2 on a user error (with the reason)."""
+    args = build_parser().parse_args(argv)
+    try:
+        options = [label.strip() for label in args.options.split(',') if label.strip()]
+        if args.trials < 2:
+            raise ValueError('--trials must be at least 2 (TRCA needs 2 trials per option)')
+        stimuli = assign_stimuli(options)
+        print('stimuli: ' + ', '.join(f'{lb} {f:g} Hz {p:.2f} rad' for lb, f, p in zip(
+            stimuli.labels, stimuli.frequencies, stimuli.phases)), flush=True)
+        record = record_simulated if args.source == 'sim' else record_lsl
+        times, samples, trials, rate, labels = record(args, stimuli)
+        indices, names = resolve_channels(LAYOUTS[args.layout], labels, samples.shape[1],
+                                          parse_channels(args.channels))
+        model = fit_trca(samples[:, indices], times, trials, stimuli, rate, names,
+                         args.trial_s, notch_hz=args.notch_hz, ensemble=not args.single)
+        model.save(args.output)
+    except ValueError as error:
+        print(f'ssvep_calibrate: {error}', file=sys.stderr)
+        return 2
+    print(f'saved TRCA model of {len(options)} options x {args.trials} trials '
+          f"({args.trial_s:g} s, channels {', '.join(names)}, {rate:g} Hz) to {args.output}")
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
