@@ -85,6 +85,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from eye_bci_ros2.evidence import RoundEvidence
+from eye_bci_ros2.experiments.metrics import wolpaw_bits
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeParams, GazeSimulator
@@ -303,29 +304,11 @@ def decide_early(trial: Trial, regions: RegionSet, config: EarlyConfig,
     return evidence.decide(config.method).label, config.window_s
 
 
-def wolpaw_bits(accuracy: float, count: int) -> float:
-    """
-    Return Wolpaw's bits per selection among ``count`` targets at ``accuracy``.
-
-    ``log2 N + P log2 P + (1 - P) log2((1 - P) / (N - 1))``; exactly
-    ``log2 N`` at P = 1 and 0 at or below chance (P <= 1 / N), where the
-    formula no longer describes information.
-    """
-    if not 0.0 <= accuracy <= 1.0:
-        raise ValueError(f'accuracy must be in [0, 1], got {accuracy}')
-    if count < 2 or accuracy <= 1.0 / count:
-        return 0.0
-    bits = math.log2(count) + accuracy * math.log2(accuracy)
-    if accuracy < 1.0:
-        bits += (1.0 - accuracy) * math.log2((1.0 - accuracy) / (count - 1))
-    return bits
-
-
 def itr_bits_per_min(accuracy: float, count: int, seconds: float) -> float:
     """Return Wolpaw's ITR, bits/min, for selections taking ``seconds`` each (> 0)."""
     if not seconds > 0:
         raise ValueError(f'time per selection must be > 0 s, got {seconds}')
-    return wolpaw_bits(accuracy, count) * 60.0 / seconds
+    return wolpaw_bits(count, accuracy) * 60.0 / seconds
 
 
 def summarise(trials: Sequence[Trial], outcomes: Sequence[Tuple[Optional[str], float]],

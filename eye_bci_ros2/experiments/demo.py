@@ -72,6 +72,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from eye_bci_ros2.camera_model import optical_pose_from_ogre, RvizCamera
 from eye_bci_ros2.evidence import Decision, METHODS
 from eye_bci_ros2.experiments import render as demo_render
+from eye_bci_ros2.experiments.metrics import wolpaw_bits
 from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
                                             marker_label, pose_to_arrays)
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
@@ -208,28 +209,6 @@ class DemoResult:
     mean_time_s: float
     itr_bits_per_min: float
     files: List[str]
-
-
-def wolpaw_bits(choices: int, accuracy: float) -> float:
-    """
-    Bits per selection by Wolpaw's formula.
-
-    ``B = log2 N + P log2 P + (1 - P) log2((1 - P) / (N - 1))``, taken as 0
-    below chance (P <= 1/N).
-
-    :param choices: N, the number of choices offered (>= 2).
-    :param accuracy: P in [0, 1].
-    """
-    if choices < 2:
-        return 0.0
-    if not 0.0 <= accuracy <= 1.0:
-        raise ValueError(f'accuracy must be in [0, 1], got {accuracy}')
-    if accuracy <= 1.0 / choices:
-        return 0.0
-    bits = math.log2(choices) + accuracy * math.log2(accuracy)
-    if accuracy < 1.0:
-        bits += (1 - accuracy) * math.log2((1 - accuracy) / (choices - 1))
-    return bits
 
 
 def itr_bits_per_minute(offered_counts: Sequence[int], accuracy: float,

@@ -46,7 +46,7 @@ from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
                                        SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, DEFAULT_MAX_FUTURE_S, MAX_FUTURE_S, RoundScheduler
+from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, RoundScheduler
 
 #: Period of the timer that closes quiet rounds and releases held decisions, s.
 TICK_S = 0.02
@@ -63,50 +63,53 @@ def _open_unit_half(value) -> Optional[str]:
     return None if 0.5 < value < 1.0 else f'must be in the open interval (0.5, 1), got {value}'
 
 
+#: The defaults: those of the rounds' settings (one home).
+DEFAULTS = ArbiterSettings()
+
 PARAMETERS = (
-    ParamSpec('method', 'mean',
+    ParamSpec('method', DEFAULTS.method,
               'Decision rule at the window end: mean = the original rule (mean of the '
               'in-region samples must lie in a region), vote = region with most samples',
               choices=METHODS),
-    ParamSpec('window_s', 1.0,
+    ParamSpec('window_s', DEFAULTS.window_s,
               'Gaze collection time of a round, s of sample stamps from the round start',
               value_range=(0.0, 60.0), check=_positive),
-    ParamSpec('early_decision', False,
+    ParamSpec('early_decision', DEFAULTS.early_decision,
               'Decide before the window ends once the fresh evidence for one region reaches '
               'confidence (and min_samples / dwell_s / min_reaction_s hold); the defaults of '
               'those are the configuration bench/decision.py selects'),
-    ParamSpec('confidence', 0.95,
+    ParamSpec('confidence', DEFAULTS.confidence,
               'Posterior probability of the leading region needed for an early decision',
               value_range=(0.5, 1.0), check=_open_unit_half),
-    ParamSpec('min_samples', 2,
+    ParamSpec('min_samples', DEFAULTS.min_samples,
               'Early decision: fresh in-region samples needed, and the most recent ones the '
               'leading region must hold without interruption',
               value_range=(1, 100000)),
-    ParamSpec('dwell_s', 0.02,
+    ParamSpec('dwell_s', DEFAULTS.dwell_s,
               'Early decision: sample time the uninterrupted run on the leading region must '
               'span, s (keeps a saccade that crosses a region from choosing it, at any '
               'tracker rate)',
               value_range=(0.0, 10.0)),
-    ParamSpec('min_reaction_s', 0.1,
+    ParamSpec('min_reaction_s', DEFAULTS.min_reaction_s,
               'Early decision: shortest reaction to a new display, s; gaze on a region from '
               'before round start + min_reaction_s (a gaze already resting there) counts '
               'only after it has moved to another region; 0 = off. The window-end rule '
               'always uses every sample',
               value_range=(0.0, MAX_REACTION_S)),
-    ParamSpec('hit_rate', 0.9,
+    ParamSpec('hit_rate', DEFAULTS.hit_rate,
               'Evidence model: probability that an in-region sample is on the looked-at region',
               value_range=(0.5, 1.0), check=_open_unit_half),
-    ParamSpec('reorder_s', 0.0,
+    ParamSpec('reorder_s', DEFAULTS.reorder_s,
               'Longest time a decision waits for a regions message that may apply to its '
               'last gaze samples (regions lagging gaze while the camera moves), s; 0 = '
               'decide at once (lowest latency); the wait ends as soon as regions stamped '
               'after those samples arrive',
               value_range=(0.0, 2.0)),
-    ParamSpec('stall_timeout_s', 0.5,
+    ParamSpec('stall_timeout_s', DEFAULTS.stall_timeout_s,
               'When no gaze sample stamped after the window arrives, close the round this '
               'long after the window end (node clock), s',
               value_range=(0.0, 10.0)),
-    ParamSpec('max_future_s', DEFAULT_MAX_FUTURE_S,
+    ParamSpec('max_future_s', DEFAULTS.max_future_s,
               'Drop gaze samples stamped more than this after their arrival (node clock), s: '
               'only a corrupt stamp or a wrong clock does that, and one such sample would '
               'end the round at once; raise it only for a tracker clock known to run ahead',

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from bench import decision, run_all
+from eye_bci_ros2.experiments.metrics import wolpaw_bits
 from eye_bci_ros2.rounds import ArbiterSettings, RoundScheduler
 
 METRIC_KEYS = {'accuracy', 'wrong', 'no_choice', 'median_samples', 'median_ms', 'mean_ms',
@@ -80,20 +81,20 @@ def test_original_rule_decides_at_the_window_end_and_early_rule_before(section):
 def test_itr_is_wolpaw_with_the_mean_time_plus_gaze_shift(section):
     metrics = section['original']['4']['100']
     seconds = metrics['mean_ms'] / 1e3 + decision.GAZE_SHIFT_S
-    expected = decision.wolpaw_bits(metrics['accuracy'], 4) * 60 / seconds
+    expected = wolpaw_bits(4, metrics['accuracy']) * 60 / seconds
     assert metrics['itr_bits_per_min'] == pytest.approx(expected)
 
 
 def test_wolpaw_bits_known_values_and_edges():
-    assert decision.wolpaw_bits(1.0, 4) == pytest.approx(2.0)
-    assert decision.wolpaw_bits(1.0, 9) == pytest.approx(math.log2(9))
+    assert wolpaw_bits(4, 1.0) == pytest.approx(2.0)
+    assert wolpaw_bits(9, 1.0) == pytest.approx(math.log2(9))
     expected = 2 + 0.9 * math.log2(0.9) + 0.1 * math.log2(0.1 / 3)
-    assert decision.wolpaw_bits(0.9, 4) == pytest.approx(expected)
-    assert decision.wolpaw_bits(0.25, 4) == 0.0
-    assert decision.wolpaw_bits(0.1, 4) == 0.0  # below chance: no information, not negative
+    assert wolpaw_bits(4, 0.9) == pytest.approx(expected)
+    assert wolpaw_bits(4, 0.25) == 0.0
+    assert wolpaw_bits(4, 0.1) == 0.0  # below chance: no information, not negative
     assert decision.itr_bits_per_min(1.0, 4, 0.5) == pytest.approx(240.0)
     with pytest.raises(ValueError, match='accuracy'):
-        decision.wolpaw_bits(1.2, 3)
+        wolpaw_bits(3, 1.2)
     with pytest.raises(ValueError, match='time per selection'):
         decision.itr_bits_per_min(1.0, 3, 0.0)
 
