@@ -65,7 +65,7 @@ import rclpy
 from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from sensor_msgs.msg import PointCloud2
+from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -78,9 +78,15 @@ from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_r
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.nodes.runner import make_executor, spin_until as _spin_until
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
+from eye_bci_ros2.nodes.ssvep_decoder import SsvepDecoder
+from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
+from eye_bci_ros2.nodes.ssvep_stimulus_map import SsvepStimulusMap
+from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                       SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.scene import load_scene, Scene
+from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
+from eye_bci_ros2.sim.eeg_outlet import EegStreamer
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
 from eye_bci_ros2.sim.person import GazeParams, ORIGINAL_TOBII_4C, PRESETS
 from eye_bci_ros2.sim.rviz_view import SimRvizView
@@ -103,6 +109,10 @@ QUICK_PERSON = ORIGINAL_TOBII_4C.with_changes(
 ASK_MODES = ('on-arrival', 'on-change')
 #: Attempts per step before the demo gives up.
 MAX_ATTEMPTS = 3
+#: What may choose (the arbiter's input_mode).
+INPUTS = ('gaze', 'ssvep', 'hybrid')
+#: With SSVEP choosing or confirming, ask again after this long without a choice, s.
+SSVEP_RETRY_S = 7.0
 #: Gaze samples that must reach the pipeline before the experiment starts.
 WARMUP_SAMPLES = 20
 
@@ -132,6 +142,9 @@ class DemoOptions:
     :ivar stream_timeout_s: longest wait for the first gaze over LSL, s.
     :ivar pictures: write a PNG per selection.
     :ivar verbose: show the nodes' INFO log lines (else warnings and errors only).
+    :ivar input: what chooses: 'gaze', 'ssvep' (the SSVEP decoder on simulated EEG) or
+        'hybrid' (a gaze candidate confirmed by SSVEP), the arbiter's ``input_mode``.
+    :ivar subject: simulated EEG subject (eye_bci_ros2.sim.eeg.SUBJECTS name).
     """
 
     rounds: int = 4
@@ -147,6 +160,8 @@ class DemoOptions:
     stream_timeout_s: float = 15.0
     pictures: bool = True
     verbose: bool = False
+    input: str = 'gaze'
+    subject: str = 's4'
 
 
 @dataclass
@@ -292,13 +307,15 @@ class ExperimentDriver(Node):
     """
 
     def __init__(self, scene: Scene, script: List[Tuple[str, str]], streamer: GazeStreamer,
-                 arbiter, view, options: DemoOptions, **kwargs):
+                 arbiter, view, options: DemoOptions, eeg=None, **kwargs):
         """
         Subscribe to what the screen shows and what the system decides.
 
         :param arbiter: the ChoiceArbiter node of this process (its
             ``last_decision`` is read after every callback).
         :param view: the SimRvizView node (is the camera still moving?).
+        :param eeg: the simulated EEG (an EegStreamer) for the ssvep and hybrid inputs:
+            it shows the stimuli of ``ssvep/stimuli`` and attends the intended option.
         :param kwargs: passed to :class:`rclpy.node.Node`.
         """
         super().__init__('demo_experiment', **kwargs)
@@ -340,6 +357,15 @@ class ExperimentDriver(Node):
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
         self.create_subscription(String, 'choice_menu/result', self._on_result, EVENT_QOS)
+        self.eeg = eeg
+        # (ROS time s, label) of every choice: what the menu acts on (ssvep, hybrid inputs).
+        self.choices: List[Tuple[float, str]] = []
+        self._seen_choices = 0
+        self.create_subscription(String, 'choice', lambda m: self.choices.append(
+            (self.now_s(), m.data)), EVENT_QOS)
+        if eeg is not None:
+            self.create_subscription(JointState, SSVEP_STIMULI_TOPIC, self._on_stimuli,
+                                     LATCHED_QOS)
 
     def now_s(self) -> float:
         """Return the ROS clock (the clock of the gaze and region stamps), s."""
@@ -395,6 +421,12 @@ class ExperimentDriver(Node):
         self.gaze_stamps.extend(stamps.tolist())
         self.gaze_points.extend(map(tuple, points.tolist()))
 
+    def _on_stimuli(self, message: JointState) -> None:
+        """Flicker what the task assigned, on the simulated EEG's clock (LSL)."""
+        stimuli = msg_to_stimulus_map(message)
+        to_lsl = pylsl.local_clock() - self.now_s()
+        self.eeg.show(replace(stimuli, epoch_s=stimuli.epoch_s + to_lsl))
+
     def _on_result(self, message: String) -> None:
         self.outcomes.append(message.data)
 
@@ -418,6 +450,8 @@ class ExperimentDriver(Node):
         if xy is None:
             return  # not on the screen (yet): keep looking where they were
         self.streamer.set_target(xy, pylsl.local_clock())
+        if self.eeg is not None:
+            self.eeg.attend(self.intended, pylsl.local_clock())
         self._target_path.append((self.now_s(), float(xy[0]), float(xy[1])))
 
     def _new_question(self) -> None:
@@ -483,6 +517,8 @@ class ExperimentDriver(Node):
             return None
         if self._awaiting_arrival and self._camera_arrived():
             self._ask()
+        if self.options.input != 'gaze':
+            return self._poll_choice()
         decision = self.arbiter.last_decision
         if decision is self._seen_decision:
             elapsed = self.now_s() - self.shown_at
@@ -512,12 +548,38 @@ class ExperimentDriver(Node):
                 self.finish()
         return selection
 
+    def _poll_choice(self) -> Optional[Selection]:
+        """With SSVEP choosing or confirming: a selection per ``choice``; ask again if none."""
+        if len(self.choices) == self._seen_choices:
+            if self.asked_at is not None and self.now_s() - self.asked_at > SSVEP_RETRY_S:
+                if self.attempt >= MAX_ATTEMPTS:
+                    raise DemoError(f'no choice after {MAX_ATTEMPTS} attempts at round '
+                                    f'{self.round_index + 1} ({self.step})')
+                self.attempt += 1
+                self.shown_at = self.now_s()
+                self._ask()
+            return None
+        _, label = self.choices[self._seen_choices]
+        self._seen_choices = len(self.choices)
+        self._awaiting_arrival = False
+        gaze = self.arbiter.last_decision or Decision(None, self.options.input, 0, 0, 0.0,
+                                                      math.nan)
+        selection = self._record(replace(gaze, label=label, method=self.options.input))
+        self.selections.append(selection)
+        if self.step == 'tables':
+            self.round_index += 1
+            if self.round_index >= len(self.script):
+                self.finish()
+        return selection
+
     def finish(self) -> None:
         """Stop the experiment: the person looks away from the panel."""
         self.running = False
         self.finished = True
         self.intended = None
         self.streamer.set_target(REST_XY, pylsl.local_clock())
+        if self.eeg is not None:
+            self.eeg.attend(None)
 
     def _record(self, decision: Decision) -> Selection:
         """Turn a decision into a Selection with its picture data."""
@@ -651,6 +713,7 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
         rclpy.init(context=context, domain_id=domain)
         executor = make_executor(context=context)
         nodes: List[Node] = []
+        eeg = None
         try:
             nodes = make_pipeline_nodes(context, overrides={
                 'lsl_gaze_bridge': {'source_id': source_id, 'stats_period_s': 0.0},
@@ -659,15 +722,25 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                     'fov_y_deg': FOV_Y_DEG, 'screen_offset_x': PANEL_OFFSET[0],
                     'screen_offset_y': PANEL_OFFSET[1]},
                 'choice_arbiter': {'method': options.method, 'window_s': options.window_s,
-                                   'early_decision': options.early},
+                                   'early_decision': options.early,
+                                   'input_mode': options.input},
                 'choice_menu': {'scene_file': scene_path, 'repeat': True},
             }, with_menu=True)
             named = dict(zip(NODE_NAMES, nodes))
             view = SimRvizView(context=context, parameter_overrides=[
                 Parameter('transition_time_s', value=float(options.transition_s))])
             nodes.append(view)
+            if options.input != 'gaze':
+                eeg_id = f'eye_bci_demo_eeg-{uuid.uuid4()}'
+                subject = next(s for s in SUBJECTS if s.name == options.subject)
+                eeg = EegStreamer(EegSimulator(subject, seed=options.seed), source_id=eeg_id)
+                eeg.start()
+                nodes.append(SsvepStimulusMap(context=context))
+                nodes.append(SsvepDecoder(context=context, parameter_overrides=[
+                    Parameter('source_id', value=eeg_id),
+                    Parameter('keep_scoring', value=options.input == 'hybrid')]))
             driver = ExperimentDriver(scene, script, streamer, named['choice_arbiter'], view,
-                                      options, context=context)
+                                      options, eeg=eeg, context=context)
             nodes.append(driver)
             for node in nodes:
                 executor.add_node(node)
@@ -681,8 +754,11 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
             executor.shutdown()
             for node in nodes:
                 node.destroy_node()
-            # After the bridge has closed its inlet, so liblsl does not report a broken stream.
+            # After the bridge (and the decoder) closed their inlets, so liblsl does not
+            # report a broken stream (or crash, seen once with an outlet under a live inlet).
             streamer.stop()
+            if eeg is not None:
+                eeg.stop()
             context.try_shutdown()
             for name, level in levels.items():
                 rclpy.logging.set_logger_level(name, level)
@@ -834,6 +910,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--method', choices=METHODS, default=d.method,
                         help=f'decision rule at the window end; mean = the original '
                              f'(default {d.method})')
+    parser.add_argument('--input', choices=INPUTS, default=d.input,
+                        help='what chooses: gaze, ssvep (simulated EEG and the SSVEP decoder) '
+                             f'or hybrid (gaze candidates confirmed by SSVEP) (default {d.input})')
+    parser.add_argument('--subject', default=d.subject,
+                        choices=[subject.name for subject in SUBJECTS],
+                        help=f'simulated EEG subject for --input ssvep/hybrid (default {d.subject})')
     parser.add_argument('--early', action='store_true',
                         help='let the arbiter decide before the window ends when confident')
     parser.add_argument('--ask', choices=ASK_MODES, default=d.ask,
@@ -867,6 +949,7 @@ def build_parser() -> argparse.ArgumentParser:
 def options_from_args(args: argparse.Namespace) -> DemoOptions:
     """Turn parsed arguments into :class:`DemoOptions` (applying --quick)."""
     options = DemoOptions(seed=args.seed, method=args.method, early=args.early, ask=args.ask,
+                          input=args.input, subject=args.subject,
                           transition_s=args.transition_s,
                           window_s=args.window_s, output_dir=args.output_dir,
                           timeout_s=args.timeout_s, stream_timeout_s=args.stream_timeout_s,

@@ -507,7 +507,7 @@ class SsvepDecoder(Node):
 
 def main(args=None):
     """Run the ssvep_decoder node."""
-    spin_node(lambda: SsvepDecoder(), args)
+    spin_node(SsvepDecoder, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':

@@ -76,7 +76,7 @@ class SsvepStimulusMap(Node):
 
 def main(args=None):
     """Run the ssvep_stimulus_map node."""
-    spin_node(lambda: SsvepStimulusMap(), args)
+    spin_node(SsvepStimulusMap, args, help_modules=[__name__])
 
 
 if __name__ == '__main__':

@@ -121,3 +121,20 @@ def test_demo_fails_cleanly_when_no_gaze_arrives(tmp_path, capsys):
     assert code == 1
     assert 'no gaze reached the pipeline within 0.01 s' in capsys.readouterr().err
     assert not os.listdir(tmp_path)
+
+
+@pytest.mark.ros
+@pytest.mark.lsl
+@pytest.mark.parametrize('mode', ['ssvep', 'hybrid'])
+def test_quick_demo_with_ssvep_input_chooses_right(tmp_path, mode):
+    """The room -> table experiment with the SSVEP decoder on simulated EEG choosing."""
+    stdout = io.StringIO()
+    with contextlib.redirect_stdout(stdout):
+        code = demo.main(['--quick', '--input', mode, '--output-dir', str(tmp_path),
+                          '--no-pictures'])
+    printed = stdout.getvalue()
+    assert code == 0, printed[-2000:]
+    summary = json.loads((tmp_path / 'summary.json').read_text())
+    assert [s['correct'] for s in summary['selections']] == [True, True]
+    assert {s['method'] for s in summary['selections']} == {mode}
+    assert summary['itr_bits_per_min'] > 0
