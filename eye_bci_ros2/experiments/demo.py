@@ -142,7 +142,7 @@ class DemoOptions:
     :ivar stream_timeout_s: longest wait for the first gaze over LSL, s.
     :ivar pictures: write a PNG per selection.
     :ivar verbose: show the nodes' INFO log lines (else warnings and errors only).
-    :ivar input: what chooses: 'gaze', 'ssvep' (the SSVEP decoder on simulated EEG) or
+    :ivar input_mode: what chooses: 'gaze', 'ssvep' (the SSVEP decoder on simulated EEG) or
         'hybrid' (a gaze candidate confirmed by SSVEP), the arbiter's ``input_mode``.
     :ivar subject: simulated EEG subject (eye_bci_ros2.sim.eeg.SUBJECTS name).
     """
@@ -160,7 +160,7 @@ class DemoOptions:
     stream_timeout_s: float = 15.0
     pictures: bool = True
     verbose: bool = False
-    input: str = 'gaze'
+    input_mode: str = 'gaze'
     subject: str = 's4'
 
 
@@ -517,7 +517,7 @@ class ExperimentDriver(Node):
             return None
         if self._awaiting_arrival and self._camera_arrived():
             self._ask()
-        if self.options.input != 'gaze':
+        if self.options.input_mode != 'gaze':
             return self._poll_choice()
         decision = self.arbiter.last_decision
         if decision is self._seen_decision:
@@ -562,9 +562,9 @@ class ExperimentDriver(Node):
         _, label = self.choices[self._seen_choices]
         self._seen_choices = len(self.choices)
         self._awaiting_arrival = False
-        gaze = self.arbiter.last_decision or Decision(None, self.options.input, 0, 0, 0.0,
+        gaze = self.arbiter.last_decision or Decision(None, self.options.input_mode, 0, 0, 0.0,
                                                       math.nan)
-        selection = self._record(replace(gaze, label=label, method=self.options.input))
+        selection = self._record(replace(gaze, label=label, method=self.options.input_mode))
         self.selections.append(selection)
         if self.step == 'tables':
             self.round_index += 1
@@ -723,14 +723,14 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                     'screen_offset_y': PANEL_OFFSET[1]},
                 'choice_arbiter': {'method': options.method, 'window_s': options.window_s,
                                    'early_decision': options.early,
-                                   'input_mode': options.input},
+                                   'input_mode': options.input_mode},
                 'choice_menu': {'scene_file': scene_path, 'repeat': True},
             }, with_menu=True)
             named = dict(zip(NODE_NAMES, nodes))
             view = SimRvizView(context=context, parameter_overrides=[
                 Parameter('transition_time_s', value=float(options.transition_s))])
             nodes.append(view)
-            if options.input != 'gaze':
+            if options.input_mode != 'gaze':
                 eeg_id = f'eye_bci_demo_eeg-{uuid.uuid4()}'
                 subject = next(s for s in SUBJECTS if s.name == options.subject)
                 eeg = EegStreamer(EegSimulator(subject, seed=options.seed), source_id=eeg_id)
@@ -738,7 +738,7 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                 nodes.append(SsvepStimulusMap(context=context))
                 nodes.append(SsvepDecoder(context=context, parameter_overrides=[
                     Parameter('source_id', value=eeg_id),
-                    Parameter('keep_scoring', value=options.input == 'hybrid')]))
+                    Parameter('keep_scoring', value=options.input_mode == 'hybrid')]))
             driver = ExperimentDriver(scene, script, streamer, named['choice_arbiter'], view,
                                       options, eeg=eeg, context=context)
             nodes.append(driver)
@@ -910,12 +910,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--method', choices=METHODS, default=d.method,
                         help=f'decision rule at the window end; mean = the original '
                              f'(default {d.method})')
-    parser.add_argument('--input', choices=INPUTS, default=d.input,
+    parser.add_argument('--input', choices=INPUTS, default=d.input_mode,
                         help='what chooses: gaze, ssvep (simulated EEG and the SSVEP decoder) '
-                             f'or hybrid (gaze candidates confirmed by SSVEP) (default {d.input})')
+                             'or hybrid (gaze candidates confirmed by SSVEP) '
+                             f'(default {d.input_mode})')
     parser.add_argument('--subject', default=d.subject,
                         choices=[subject.name for subject in SUBJECTS],
-                        help=f'simulated EEG subject for --input ssvep/hybrid (default {d.subject})')
+                        help='simulated EEG subject for --input ssvep/hybrid '
+                             f'(default {d.subject})')
     parser.add_argument('--early', action='store_true',
                         help='let the arbiter decide before the window ends when confident')
     parser.add_argument('--ask', choices=ASK_MODES, default=d.ask,
@@ -949,7 +951,7 @@ def build_parser() -> argparse.ArgumentParser:
 def options_from_args(args: argparse.Namespace) -> DemoOptions:
     """Turn parsed arguments into :class:`DemoOptions` (applying --quick)."""
     options = DemoOptions(seed=args.seed, method=args.method, early=args.early, ask=args.ask,
-                          input=args.input, subject=args.subject,
+                          input_mode=args.input, subject=args.subject,
                           transition_s=args.transition_s,
                           window_s=args.window_s, output_dir=args.output_dir,
                           timeout_s=args.timeout_s, stream_timeout_s=args.stream_timeout_s,
