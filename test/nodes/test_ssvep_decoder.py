@@ -1,12 +1,14 @@
 """The ssvep_decoder node: real LSL EEG outlet of a simulated person -> ``ssvep/choice``."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from sensor_msgs.msg import JointState
 from ssvep_rig import LABELS, Rig, WAIT_S
 
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
-from eye_bci_ros2.sim.eeg_outlet import EegStreamer
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl, pytest.mark.slow]
 
@@ -120,17 +122,32 @@ def test_missing_labels_say_which_channels_to_set(graph, rig_factory):
     assert graph.spin_until(lambda: rig.node.channels == ('O1', 'O2'), WAIT_S)
 
 
-def test_a_lost_stream_is_reported_and_found_again(graph, rig_factory):
-    rig = rig_factory()
-    rig.streamer.stop()
-    assert rig.log.wait_for(graph, r'lost EEG stream|no EEG samples from')
-    rig.streamer = EegStreamer(EegSimulator(SUBJECTS[6], seed=9), source_id=rig.source_id)
-    rig.streamer.start()
-    assert graph.spin_until(lambda: bool(rig.node.stream) and rig.node.channels, 20.0)
-    graph.spin_for(1.5)
-    rig.offer(attend='kitchen')
-    assert graph.spin_until(lambda: rig.choices.messages, WAIT_S)
-    assert [m.data for m in rig.choices.messages] == ['kitchen']
+def test_a_lost_stream_is_reported_and_found_again(graph, capfd):
+    # The amplifier application runs as its own process, as on a real set-up (sim_eeg), and
+    # dies (SIGKILL: no goodbye) under the connected decoder.
+    rig = Rig(graph, capfd)
+    amplifier = subprocess.Popen(
+        [sys.executable, '-m', 'eye_bci_ros2.sim.eeg_outlet', '--layout', 'generic',
+         '--source-id', rig.source_id], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        assert graph.spin_until(lambda: bool(rig.node.stream) and rig.node.channels, 20.0)
+        graph.spin_for(0.5)
+        mark = rig.log.mark()
+        amplifier.kill()
+        amplifier.wait(10.0)
+        assert rig.log.wait_for(graph, r'lost EEG stream|no EEG samples from', mark)
+        # It comes back: the decoder finds it again and chooses from it.
+        rig.streamer.start()
+        assert graph.spin_until(lambda: bool(rig.node.stream) and rig.node.channels, 20.0)
+        graph.spin_for(1.5)
+        rig.offer(attend='kitchen')
+        assert graph.spin_until(lambda: rig.choices.messages, WAIT_S)
+        assert [m.data for m in rig.choices.messages] == ['kitchen']
+    finally:
+        if amplifier.poll() is None:
+            amplifier.kill()
+            amplifier.wait(10.0)
+        rig.stop()
 
 
 def test_bad_parameters_are_refused_with_a_reason(graph, rig_factory):
