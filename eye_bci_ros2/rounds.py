@@ -325,12 +325,14 @@ class RoundScheduler:
         """
         Take a batch of gaze samples (one ``gaze/samples`` message), in arrival order.
 
-        The same as taking them one by one: samples with an implausible stamp
-        are dropped (class doc, "Stamps"; a NaN or infinite stamp too,
-        counted in :attr:`samples_bad_stamp`), and the decision is the one the
-        sample completing it makes.  In the steady state (the batch in stamp
-        order after everything before it, regions older than its first
-        sample) the whole batch is classified and weighed at once.
+        Samples with an implausible stamp are dropped (class doc, "Stamps"; a
+        NaN or infinite stamp too, counted in :attr:`samples_bad_stamp`).  In
+        the steady state (the batch in stamp order after everything before it,
+        regions older than its first sample) the batch is classified and
+        weighed at once, and the decision is the one its first confident
+        sample makes, as one by one.  Otherwise the round is rebuilt once from
+        all its samples in stamp order, so the decision weighs every sample
+        that has arrived.
 
         :param stamps: shape (N,), acquisition times, s.
         :param points: shape (N, 2), screen px (NaN or infinite: in no region).
@@ -373,13 +375,7 @@ class RoundScheduler:
             return None
         if self._steady(round_, stamps):
             return self._take_batch(round_, stamps, points, now)
-        decision = None
-        for stamp, (x, y) in zip(stamps.tolist(), points.tolist()):
-            round_ = self._round
-            if round_ is None:
-                break
-            decision = self._take(round_, stamp, x, y, now) or decision
-        return decision
+        return self._take_unsteady(round_, stamps, points, now)
 
     def _remember(self, stamps: np.ndarray, points: np.ndarray, now: float) -> None:
         """Keep recent samples for a round that starts at a past stamp."""
@@ -547,35 +543,30 @@ class RoundScheduler:
 
     # -- rounds ---------------------------------------------------------------------------
 
-    def _take(self, round_: _Round, stamp: float, x: float, y: float,
-              now: float) -> Optional[Decision]:
-        """Add one sample stamped at or after the round start."""
+    def _take_unsteady(self, round_: _Round, stamps: np.ndarray, points: np.ndarray,
+                       now: float) -> Optional[Decision]:
+        """
+        Add a batch that is not steady: out of stamp order, or regions may be late.
+
+        The round's in-window samples are logged and its evidence rebuilt once from the
+        whole log in stamp order (O(round) per batch, not per sample), so a burst of
+        late samples costs one rebuild.
+        """
         settings = self.settings
-        if stamp >= round_.start + settings.window_s:
-            if round_.window_closed:
-                return None
-            round_.window_closed = True
-            if round_.pending is not None:
-                return None
-            return self._propose(round_, round_.evidence.decide(settings.method), now)
+        inside = stamps < round_.start + settings.window_s
         log = round_.log
-        if len(log) >= MAX_ROUND_SAMPLES:
+        if len(log) + int(np.count_nonzero(inside)) >= MAX_ROUND_SAMPLES:
             self._on_log('warning', 'round_full',
                          f'{len(log)} samples in one round: closing it now')
             round_.window_closed = True
             return self._finish(round_.evidence.decide(settings.method))
-        in_order = not stamp < log.max_stamp
-        log.append(stamp, x, y)
-        if round_.pending is not None:
-            return None
-        if not in_order:
-            return self._reclassify(round_, now)
-        decision = round_.evidence.add(
-            np.array([[x, y]]), np.array([stamp]), self._regions_at(stamp),
-            settings.confidence if settings.early_decision else None)
-        if decision is None:
-            return None
-        return self._propose(round_, decision, now)
+        log.extend(stamps[inside], points[inside])
+        closes = not inside.all()
+        if round_.pending is not None or round_.window_closed:
+            round_.window_closed = round_.window_closed or closes
+            return None   # held for late regions, or already decided at the window end
+        round_.window_closed = closes
+        return self._reclassify(round_, now)
 
     def _regions_at(self, stamp: float) -> RegionSet:
         """Return the region set shown at ``stamp`` (the newest in the steady state)."""
