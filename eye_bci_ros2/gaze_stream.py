@@ -24,8 +24,9 @@ import numpy as np
 
 from eye_bci_ros2.gaze_profiles import GazeConfig, PROFILE_NAMES, PROFILES
 
-#: Inlet buffer, s of gaze; liblsl drops the oldest samples beyond it, uncounted.
-INLET_BUFFER_S = 60
+#: Inlet buffer, s of gaze (a 100 000-sample burst of a 1200 Hz tracker is 83 s); liblsl
+#: drops the oldest samples beyond it, uncounted.
+INLET_BUFFER_S = 120
 #: Rate assumed to size the inlet buffer of an irregular-rate stream, Hz
 #: (EyeLink-class trackers send 2000 Hz).
 IRREGULAR_BUFFER_RATE_HZ = 2000.0
