@@ -19,9 +19,8 @@ from typing import Any, Dict, List, Optional
 from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.utilities import remove_ros_args
 
-from eye_bci_ros2.nodes.runner import spin_nodes
+from eye_bci_ros2.nodes.runner import non_ros_args, spin_nodes
 
 #: (node name, module, class) of each pipeline node, in start-up order.
 PIPELINE = (
@@ -86,7 +85,7 @@ def make_pipeline_nodes(context: Optional[Context] = None,
 def main(args=None):
     """Run the pipeline nodes (and the menu with --with-menu) until Ctrl-C or shutdown."""
     argv = list(sys.argv if args is None else args)
-    with_menu = WITH_MENU in remove_ros_args(argv)[1:]
+    with_menu = WITH_MENU in non_ros_args(argv)[1:]
     composed = PIPELINE + ((MENU,) if with_menu else ())
     spin_nodes(lambda: make_pipeline_nodes(with_menu=with_menu),
                [arg for arg in argv if arg != WITH_MENU],

@@ -84,6 +84,8 @@ MAX_PULLS_PER_POLL = 8
 WARN_THROTTLE_S = 5.0
 #: "Still looking" at most this often, s.
 LOOKING_LOG_PERIOD_S = 10.0
+#: The first "still looking" report (naming the streams seen) this long after looking began, s.
+FIRST_REPORT_S = 1.5
 #: Tries at reading the ROS and LSL clocks together, and a bracket good enough, s.
 CLOCK_READS = 3
 CLOCK_BRACKET_S = 20e-6
@@ -425,6 +427,8 @@ class LslGazeBridge(Node):
         if not candidates:
             if self._all_streams is None:
                 self._all_streams = _resolver('')
+                # The first report once that resolver has heard the network (~1 s).
+                self._last_looking_log = now - LOOKING_LOG_PERIOD_S + FIRST_REPORT_S
             if now - self._last_looking_log >= LOOKING_LOG_PERIOD_S:
                 self._last_looking_log = now
                 seen = self._all_streams.results() if self._all_streams is not None else []

@@ -116,6 +116,14 @@ def spin_for(executor: Executor, seconds: float, step_s: float = 0.01) -> None:
         executor.spin_once(timeout_sec=min(step_s, max(0.0, end - time.monotonic())))
 
 
+def non_ros_args(argv: List[str]) -> List[str]:
+    """Return ``argv`` without its ROS arguments (all of it if rcl cannot parse them)."""
+    try:
+        return remove_ros_args(argv)
+    except Exception:  # noqa: B902 - rclpy.init reports the reason in one line
+        return [argv[0]] if argv else []
+
+
 def _stop_on_signals(stop: threading.Event) -> None:
     """Make SIGINT and SIGTERM only ask the spin loop to stop (module doc, "Stopping")."""
     for signum in STOP_SIGNALS:
@@ -150,6 +158,8 @@ def help_text(modules: Sequence[str], usage: str) -> str:
             for spec in specs:
                 parts.append(f'  {spec.name} (default {spec.default!r}): '
                              f'{spec.description.splitlines()[0]}')
+        elif module.__name__ != __name__:
+            parts += ['', 'parameters: the README tables, or ros2 param describe on the node']
         parts.append('')
     parts.append(f'executor: {EXECUTOR_ENV}=events (default) or single.  Ctrl-C or SIGTERM '
                  'stop it cleanly.')
@@ -173,7 +183,7 @@ def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] =
         and the program's name).
     """
     argv = list(sys.argv if args is None else args)
-    if {'-h', '--help'} & set(remove_ros_args(argv)[1:]):
+    if {'-h', '--help'} & set(non_ros_args(argv)[1:]):
         program = os.path.splitext(os.path.basename(argv[0]))[0] if argv else 'NODE'
         print(help_text(help_modules, usage or f'ros2 run eye_bci_ros2 {program}'))
         sys.exit(0)

@@ -1,0 +1,102 @@
+"""
+The executables as a user starts them: --help, start-up errors, stopping, stream reports.
+
+Each runs as its own process (``python -m``, what the console scripts call) on a private
+domain, the way ``ros2 run`` and ``ros2 launch`` start them.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+from domain_coordinator import domain_id
+from lsl_outlets import make_outlet, unique_id
+import pytest
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+NODES = ('lsl_gaze_bridge', 'camera_tracker', 'marker_projector', 'choice_arbiter',
+         'choice_menu', 'eye_bci')
+
+
+def start(module, *args, domain):
+    """Start ``python -m eye_bci_ros2.nodes.<module> args`` with piped output."""
+    return subprocess.Popen(
+        [sys.executable, '-m', f'eye_bci_ros2.nodes.{module}', *args],
+        env=dict(os.environ, ROS_DOMAIN_ID=str(domain)), stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True)
+
+
+def run(module, *args, timeout=60):
+    """Run an executable to its end; return (status, stdout, stderr)."""
+    with domain_id() as domain:
+        process = start(module, *args, domain=domain)
+        out, err = process.communicate(timeout=timeout)
+    return process.returncode, out, err
+
+
+@pytest.mark.parametrize('module', NODES)
+def test_help_says_what_it_subscribes_publishes_and_its_parameters(module):
+    status, out, err = run(module, '--help')
+    assert status == 0, err
+    assert 'usage: ros2 run eye_bci_ros2' in out
+    assert 'parameters' in out and 'publish' in out
+
+
+@pytest.mark.parametrize('args, reason', [
+    (['-p', 'method:=median'], 'median'),
+    (['-p', 'window_s:=abc'], 'window_s'),
+    (['--params-file', '/no/such/file.yaml'], 'params file'),
+])
+def test_a_start_up_error_is_one_line_and_status_1(args, reason):
+    status, out, err = run('choice_arbiter', '--ros-args', *args)
+    assert status == 1
+    # liblsl and the nodes may log before; the reason is one line, the last.
+    last = err.strip().splitlines()[-1]
+    assert last.startswith('cannot start:') and reason in last, err[-2000:]
+    assert 'Traceback' not in err
+
+
+def test_eye_bci_refuses_a_bad_override_with_one_line():
+    status, _, err = run('eye_bci', '--ros-args', '-p', 'image_width:=abc')
+    assert status == 1 and 'Traceback' not in err
+    assert err.strip().splitlines()[-1].startswith('cannot start: invalid parameter override')
+
+
+@pytest.mark.parametrize('signals', [('INT',), ('TERM',), ('INT', 'INT'), ('TERM', 'INT')],
+                         ids=lambda s: '+'.join(s))
+@pytest.mark.parametrize('module', ['marker_projector', 'eye_bci'])
+def test_stops_cleanly_on_sigint_and_sigterm_even_twice(module, signals):
+    with domain_id() as domain:
+        process = start(module, domain=domain)
+        try:
+            time.sleep(2.5)   # up and spinning
+            for index, name in enumerate(signals):
+                process.send_signal(getattr(signal, f'SIG{name}'))
+                time.sleep(0.002 * index)
+            out, err = process.communicate(timeout=15)
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.communicate()
+    assert process.returncode == 0, err[-2000:]
+    assert 'Traceback' not in err and 'Exception' not in err, err[-2000:]
+
+
+def test_the_bridge_names_the_streams_it_sees_when_none_matches():
+    outlet, info = make_outlet('custom', stream_type=unique_id('other-type'))
+    with domain_id() as domain:
+        process = start('lsl_gaze_bridge', '--ros-args', '-p', 'profile:=tobii_pro',
+                        '-p', 'resolve_period_s:=0.2', domain=domain)
+        try:
+            time.sleep(4.0)
+        finally:
+            process.send_signal(signal.SIGINT)
+            out, err = process.communicate(timeout=15)
+    text = out + err
+    assert process.returncode == 0
+    assert 'looking for an LSL gaze stream' in text
+    assert f"type '{info.type()}'" in text and 'select with' in text, text[-3000:]
+    del outlet
