@@ -1,7 +1,7 @@
 """
 Calibration of the RViz camera intrinsic from world/pixel pairs: pure numpy, no rclpy.
 
-Frames and units (DESIGN.md): world points in m (the RViz fixed frame), pixels
+Frames and units (docs/DESIGN.md): world points in m (the RViz fixed frame), pixels
 in *image* px (top-left of the render panel, u right, v down), the External is
 the 4x4 world -> optical camera transform (z forward, x right, y down).
 

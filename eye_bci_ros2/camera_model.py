@@ -2,7 +2,7 @@
 The RViz camera as a pinhole model: pure numpy, no rclpy.
 
 Shaped like image_geometry's ``PinholeCameraModel``, for the camera that RViz
-renders the scene with.  Conventions (DESIGN.md):
+renders the scene with.  Conventions (docs/DESIGN.md):
 
 * world: the RViz fixed frame, m.
 * optical camera frame (REP-103): z forward, x right, y down, m.

@@ -8,7 +8,7 @@ time stamps in seconds (any clock, as long as samples and regions share it); reg
 A *round* is one question: the regions offered, the gaze samples that fall
 after its start, and one decision.  Three rules are provided:
 
-* ``mean`` (the original rule, DESIGN.md): drop the samples that are outside
+* ``mean`` (the original rule, docs/DESIGN.md): drop the samples that are outside
   every region, average the rest, choose the region that contains the mean;
   no choice when no sample is in a region or the mean falls in none.
 * ``vote``: the region (label) holding most in-region samples; a tie between

@@ -1,7 +1,7 @@
 """
 Projection geometry of the RViz camera: pure numpy, no rclpy.
 
-Conventions (see DESIGN.md):
+Conventions (see docs/DESIGN.md):
 
 * world: the RViz fixed frame, metres.
 * camera (optical, REP-103): origin at the eye, z forward, x right, y down, metres.
