@@ -5,7 +5,7 @@ LSL outlet (xy_pixels, the original sender's layout) -> lsl_gaze_bridge ->
 ``gaze``; camera_tracker (static default view) -> ``camera/pose``; cube
 markers on ``choices`` -> marker_projector -> ``choices/regions``;
 choice_arbiter -> ``choice``.  The gaze is aimed at a marker through the
-analytic projection of DESIGN.md (computed here from geometry.look_at and
+analytic projection of docs/DESIGN.md (computed here from geometry.look_at and
 calibration.rviz_intrinsic, not by the nodes' code path).
 """
 
