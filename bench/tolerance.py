@@ -66,8 +66,8 @@ from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.scene import load_scene
 from eye_bci_ros2.sim.person import (CONSUMER_TRACKER, GazeParams, GazeSimulator,
-                                     ORIGINAL_TOBII_4C, ScreenGeometry)
-from eye_bci_ros2.tolerance import DEFAULT_RATIO, extend_to_nearby, GazeErrorModel
+                                     ORIGINAL_TOBII_4C)
+from eye_bci_ros2.tolerance import DEFAULT_RATIO, GazeErrorModel, TolerantRegions
 from eye_bci_ros2.validation import (apply_correction, fit_correction, samples_per_target,
                                      target_layout)
 
@@ -106,44 +106,6 @@ QUICK_TRIALS = 20
 #: Trials of the binary search (the accuracy test's default K).
 SEARCH_TRIALS = 20
 MIDWAY_SEED = 3_000_000
-
-
-class TolerantRegions(RegionSet):
-    """
-    A ``RegionSet`` that classifies by the tolerant rule (the hook the arbiter needs).
-
-    :param model: gaze-error model, degrees.
-    :param ratio: nearest / second-nearest distance ratio, (0, 1].
-    :param screen: the person's screen, for degrees -> px at each sample.
-    :param size_aware: the tolerance counts from the option's centre.
-    """
-
-    def __init__(self, labels, polygons, stamp: float = 0.0, model: GazeErrorModel = MODEL,
-                 ratio: float = RATIO, screen: Optional[ScreenGeometry] = None,
-                 size_aware: bool = False):
-        """Prepare the regions and the rule."""
-        super().__init__(labels, polygons, stamp)
-        self.model = model
-        self.ratio = ratio
-        self.size_aware = size_aware
-        self.screen = screen if screen is not None else ScreenGeometry()
-
-    @classmethod
-    def of(cls, regions: RegionSet, **rule) -> 'TolerantRegions':
-        """Return ``regions`` with the tolerant rule."""
-        return cls(regions.labels, regions.polygons, regions.stamp, **rule)
-
-    def classify(self, points) -> np.ndarray:
-        """Region index of each point (N, 2) px by the tolerant rule, -1 = none."""
-        points = np.asarray(points, dtype=float).reshape(-1, 2)
-        inside = super().classify(points)
-        return extend_to_nearby(inside, points, self.polygons,
-                                self.model.tolerance_px(points, self.screen), self.ratio,
-                                size_aware=self.size_aware)
-
-    def classify_one(self, x: float, y: float) -> int:
-        """Region index of one point, tolerant rule."""
-        return int(self.classify(np.array([[x, y]]))[0])
 
 
 def model_for(params: GazeParams) -> GazeErrorModel:

@@ -51,6 +51,7 @@ from typing import Optional, Tuple, Union
 import numpy as np
 
 from eye_bci_ros2.geometry import polygon_signed_area, PolygonSet
+from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, px_per_degree_at, ScreenGeometry
 
 #: Default ratio of nearest to second-nearest distance below which a near sample counts.
@@ -314,3 +315,41 @@ def extend_to_nearby(region, points, polygons, tolerance_px: Union[float, np.nda
         shrink = half_sizes(polygons) if size_aware else None
         out[outside] = nearby(polygon_distances(points[outside], polygons), sub, ratio, shrink)
     return out
+
+
+class TolerantRegions(RegionSet):
+    """
+    A ``RegionSet`` that classifies by the tolerant rule (the arbiter's classifier).
+
+    :param model: gaze-error model, degrees.
+    :param ratio: nearest / second-nearest distance ratio, (0, 1].
+    :param screen: the person's screen, for degrees -> px at each sample.
+    :param size_aware: the tolerance counts from the option's centre.
+    """
+
+    def __init__(self, labels, polygons, stamp: float = 0.0,
+                 model: GazeErrorModel = GazeErrorModel(), ratio: float = DEFAULT_RATIO,
+                 screen: Optional[ScreenGeometry] = None, size_aware: bool = False):
+        """Prepare the regions and the rule."""
+        super().__init__(labels, polygons, stamp)
+        self.model = model
+        self.ratio = ratio
+        self.size_aware = size_aware
+        self.screen = screen if screen is not None else DEFAULT_VIEWING
+
+    @classmethod
+    def of(cls, regions: RegionSet, **rule) -> 'TolerantRegions':
+        """Return ``regions`` with the tolerant rule."""
+        return cls(regions.labels, regions.polygons, regions.stamp, **rule)
+
+    def classify(self, points) -> np.ndarray:
+        """Region index of each point (N, 2) px by the tolerant rule, -1 = none."""
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        inside = super().classify(points)
+        return extend_to_nearby(inside, points, self.polygons,
+                                self.model.tolerance_px(points, self.screen), self.ratio,
+                                size_aware=self.size_aware)
+
+    def classify_one(self, x: float, y: float) -> int:
+        """Region index of one point, tolerant rule."""
+        return int(self.classify(np.array([[x, y]]))[0])

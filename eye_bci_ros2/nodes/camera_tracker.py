@@ -39,6 +39,7 @@ from rclpy.validate_topic_name import validate_topic_name
 
 from eye_bci_ros2.camera_model import look_at_pose, optical_pose_from, POSE_CONVENTIONS
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
+from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
@@ -66,9 +67,6 @@ POSE_TYPES = {'geometry_msgs/msg/Pose': Pose, 'geometry_msgs/msg/PoseStamped': P
 #: publisher is found, then (to follow a publisher that changes type).
 DISCOVERY_PERIOD_S = 0.2
 WATCH_PERIOD_S = 1.0
-
-#: How often the same warning about bad input may be logged, s.
-WARN_PERIOD_S = 5.0
 
 
 def static_view(values: Dict[str, Any]) -> Tuple[List[float], List[float], List[float], str]:

@@ -30,8 +30,7 @@ confirms it within ``max_lag_s`` (``ssvep/choice`` of the same label, or
 ``confirm_threshold`` for it).
 """
 
-import time
-from typing import Dict, Optional
+from typing import Optional
 
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, PointCloud2
@@ -41,6 +40,7 @@ from visualization_msgs.msg import MarkerArray
 from eye_bci_ros2.evidence import Decision, MAX_REACTION_S, METHODS
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
 from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
+from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
@@ -50,9 +50,6 @@ from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, RoundScheduler
 
 #: Period of the timer that closes quiet rounds and releases held decisions, s.
 TICK_S = 0.02
-
-#: Throttle period of repeatable warnings, s.
-WARN_PERIOD_S = 5.0
 
 
 def _positive(value) -> Optional[str]:
@@ -148,7 +145,7 @@ class ChoiceArbiter(Node):
         """Declare parameters, topics and the round timer."""
         super().__init__('choice_arbiter', **kwargs)
         self._config = declare_parameters(self, PARAMETERS, self._on_parameters)
-        self._warned: Dict[str, float] = {}
+        self._warnings = KeyedWarnings(self.get_logger())
         self._tracker = RoundScheduler(ArbiterSettings(**self._config), self._publish, self._log)
         self._publisher = self.create_publisher(String, 'choice', EVENT_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
@@ -264,11 +261,7 @@ class ChoiceArbiter(Node):
         if level != 'warning':
             self.get_logger().info(text)
             return
-        now = time.monotonic()
-        if now - self._warned.get(key, -WARN_PERIOD_S) < WARN_PERIOD_S:
-            return
-        self._warned[key] = now
-        self.get_logger().warning(text)
+        self._warnings.warn(key, text)
 
     # -- input modes: gaze / ssvep / hybrid (issue 11; eye_bci_ros2.fusion) -------------------
 

@@ -61,6 +61,7 @@ from eye_bci_ros2.menu import (Action, Log, MenuProtocol, Offer, ProtocolSetting
                                Result, ROOMS_NS, TABLES_NS)
 from eye_bci_ros2.nodes.conversions import (arrays_to_pose, cube_marker,
                                             marker_array_to_regions, pose_to_arrays)
+from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
@@ -186,7 +187,7 @@ class ChoiceMenu(Node):
             self._perform(handler())
         except Exception as error:  # a message must never kill the node
             self.get_logger().error(f'failed to handle {what}: {error}',
-                                    throttle_duration_sec=5.0)
+                                    throttle_duration_sec=WARN_PERIOD_S)
 
     def _on_choice(self, message: String) -> None:
         self._guard(f"choice '{message.data}'",
@@ -196,7 +197,7 @@ class ChoiceMenu(Node):
         if message.header.frame_id and message.header.frame_id != self._world_frame:
             self.get_logger().warning(
                 f"camera/pose in frame '{message.header.frame_id}', not '{self._world_frame}'"
-                ': ignored', throttle_duration_sec=5.0)
+                ': ignored', throttle_duration_sec=WARN_PERIOD_S)
             return
         self._guard('camera/pose', lambda: self._protocol.on_camera_pose(
             *pose_to_arrays(message.pose), self._now()))

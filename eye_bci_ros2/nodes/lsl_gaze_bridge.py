@@ -64,6 +64,7 @@ from eye_bci_ros2.gaze_profiles import (
 from eye_bci_ros2.gaze_stream import (acquisition_stamps_ns, describe_stream, how_to_choose,
                                       inlet_buflen, report_unmatched)
 from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_point
+from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import GAZE_POINT_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC, VIEW_QOS
@@ -80,8 +81,6 @@ LOST_IGNORE_S = 2.5 * RESOLVER_FORGET_S
 #: Most chunks pulled per poll, so a huge backlog cannot hog the executor (8 chunks of
 #: the default 1024 samples per 2 ms poll drain a burst at 4 million samples/s).
 MAX_PULLS_PER_POLL = 8
-#: Repeating warnings at most this often, s.
-WARN_THROTTLE_S = 5.0
 #: "Still looking" at most this often, s.
 LOOKING_LOG_PERIOD_S = 10.0
 #: The first "still looking" report (naming the streams seen) this long after looking began, s.
@@ -387,7 +386,7 @@ class LslGazeBridge(Node):
             self._connect_newest(now)
         except Exception as exc:  # noqa: B902 - a node never dies on a stream
             self.get_logger().warning(f'LSL maintenance failed: {exc}',
-                                      throttle_duration_sec=WARN_THROTTLE_S)
+                                      throttle_duration_sec=WARN_PERIOD_S)
 
     def _report_others(self, connection: _Connection,
                        candidates: List[pylsl.StreamInfo]) -> None:
@@ -467,7 +466,7 @@ class LslGazeBridge(Node):
             full = inlet.info(timeout=INFO_TIMEOUT_S)
         except LslTimeoutError:
             self.get_logger().warning(f'no description from {describe_stream(info)} yet; retrying',
-                                      throttle_duration_sec=WARN_THROTTLE_S)
+                                      throttle_duration_sec=WARN_PERIOD_S)
             return
         except LostError:
             self._ignored[info.uid()] = now + LOST_IGNORE_S
@@ -570,7 +569,7 @@ class LslGazeBridge(Node):
             self._drop_lost(connection)
         except Exception as exc:  # noqa: B902 - a node never dies on a sample
             self.get_logger().warning(f'failed to read {connection.description}: {exc}',
-                                      throttle_duration_sec=WARN_THROTTLE_S)
+                                      throttle_duration_sec=WARN_PERIOD_S)
 
     def _clock_pair(self) -> Tuple[int, float]:
         """
@@ -604,7 +603,7 @@ class LslGazeBridge(Node):
             self._counters['layout'] += count
             self.get_logger().warning(
                 f'dropping gaze samples: {connection.mapping_error}',
-                throttle_duration_sec=WARN_THROTTLE_S)
+                throttle_duration_sec=WARN_PERIOD_S)
             return
 
         # Map LSL time to the ROS clock at the moment of the pull (gaze_stream).
@@ -616,7 +615,7 @@ class LslGazeBridge(Node):
             self._counters['bad_stamp'] += int(np.count_nonzero(~good_stamp))
             self.get_logger().warning(
                 f'dropping gaze samples with unusable LSL timestamps from '
-                f'{connection.description}', throttle_duration_sec=WARN_THROTTLE_S)
+                f'{connection.description}', throttle_duration_sec=WARN_PERIOD_S)
             samples, stamps_ns = samples[good_stamp], stamps_ns[good_stamp]
 
         batch = convert(samples, connection.mapping)
@@ -628,7 +627,7 @@ class LslGazeBridge(Node):
                                 for reason, number in batch.dropped.items() if number)
             self.get_logger().warning(
                 f'dropped invalid gaze samples ({reasons} in the last chunk; totals: '
-                f'{self._drop_totals()})', throttle_duration_sec=WARN_THROTTLE_S)
+                f'{self._drop_totals()})', throttle_duration_sec=WARN_PERIOD_S)
         if not len(batch.xy):
             return
         stamps_ns = stamps_ns[batch.keep]

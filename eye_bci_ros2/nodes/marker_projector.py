@@ -30,7 +30,6 @@ around the panel centre); ``projection`` and the panel size can come from an
 ``rviz_config`` file (see :func:`camera_from_parameters`).
 """
 
-import time
 from typing import Any, Dict, List, Optional, Tuple
 
 from geometry_msgs.msg import PoseStamped
@@ -44,6 +43,7 @@ from eye_bci_ros2.camera_model import (OrthographicCamera, parse_intrinsic, rviz
                                        RvizCamera)
 from eye_bci_ros2.geometry import external_from_pose
 from eye_bci_ros2.nodes.conversions import pose_to_arrays, regions_to_marker_array
+from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
@@ -57,8 +57,6 @@ MAX_IMAGE_SIDE = 16384
 #: (``find_panel``); px, fractional on a scaled (HiDPI) screen.
 DEFAULT_SCREEN_OFFSET = (320.0, 180.0)
 
-#: How often the same warning about bad input may be logged, s.
-WARN_PERIOD_S = 5.0
 
 #: Problems listed in one warning about a MarkerArray.
 MAX_LISTED = 5
@@ -318,7 +316,7 @@ class MarkerProjector(Node):
         self._expiry: Dict[Key, Time] = {}  # markers with a lifetime: when they go
         self._expiry_timer = self.create_timer(EXPIRY_CHECK_S, self._expire)
         self._expiry_timer.cancel()
-        self._warned: Dict[str, float] = {}
+        self._warnings = KeyedWarnings(self.get_logger())
         self._last_stamp: Optional[Time] = None
         self._publisher = self.create_publisher(MarkerArray, 'choices/regions', LATCHED_QOS)
         self.create_subscription(MarkerArray, 'choices', self._on_markers, CHOICES_QOS)
@@ -424,14 +422,7 @@ class MarkerProjector(Node):
 
     def _warn(self, text: str) -> None:
         """Log a warning, the same text at most once per WARN_PERIOD_S."""
-        now = time.monotonic()
-        if now - self._warned.get(text, -np.inf) < WARN_PERIOD_S:
-            return
-        if len(self._warned) > 100:
-            self._warned = {key: at for key, at in self._warned.items()
-                            if now - at < WARN_PERIOD_S}
-        self._warned[text] = now
-        self.get_logger().warning(text)
+        self._warnings.warn(text, text)
 
     def _publish(self, stamp: Optional[Time] = None) -> None:
         """Publish the regions of every marker, stamped ``stamp`` (default now)."""

@@ -42,6 +42,7 @@ from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
+from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.ssvep_messages import (msg_to_stimulus_map, scores_to_msg,
@@ -55,8 +56,6 @@ from eye_bci_ros2.ssvep.layouts import (ANY, LAYOUT_NAMES, LAYOUTS, parse_channe
 from eye_bci_ros2.ssvep.online import OnlineDecoder, OnlineSettings
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
 
-#: Repeating warnings at most this often, s.
-WARN_PERIOD_S = 5.0
 #: A resolver forgets a stream this long after it stopped answering, s.
 RESOLVER_FORGET_S = 2.0
 #: Longest wait for a stream's full description when connecting, s.
@@ -186,7 +185,7 @@ class SsvepDecoder(Node):
         super().__init__('ssvep_decoder', **kwargs)
         self._params = declare_parameters(self, PARAMETERS, self._on_parameters, _check_all)
         self._model = _load_model(self._params)
-        self._warned: Dict[str, float] = {}
+        self._warnings = KeyedWarnings(self.get_logger())
         self._choice_pub = self.create_publisher(String, SSVEP_CHOICE_TOPIC, EVENT_QOS)
         self._scores_pub = self.create_publisher(JointState, SSVEP_SCORES_TOPIC, SCORES_QOS)
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
@@ -277,11 +276,7 @@ class SsvepDecoder(Node):
 
     def _warn(self, key: str, text: str) -> None:
         """Log a warning of kind ``key`` at most once per WARN_PERIOD_S."""
-        now = time.monotonic()
-        if now - self._warned.get(key, -math.inf) < WARN_PERIOD_S:
-            return
-        self._warned[key] = now
-        self.get_logger().warning(text)
+        self._warnings.warn(key, text)
 
     # -- the stream --------------------------------------------------------------------------
 

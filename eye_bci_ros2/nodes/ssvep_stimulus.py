@@ -17,7 +17,6 @@ flips land on retraces.
 """
 
 import threading
-import time
 from typing import Any, Dict, Optional
 
 from rclpy.node import Node
@@ -25,12 +24,12 @@ from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
+from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
 from eye_bci_ros2.nodes.topics import LATCHED_QOS, SSVEP_STIMULI_TOPIC
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
 
-WARN_PERIOD_S = 5.0
 
 PARAMETERS = (
     ParamSpec('refresh_hz', 60.0, "the display's refresh rate, Hz (frame k = epoch + k / "
@@ -64,7 +63,7 @@ class SsvepStimulus(Node):
             self._params['gamma'], self._params['vsync'], visible, fullscreen)
         self._lock = threading.Lock()
         self._pending: Dict[str, Any] = {}
-        self._warned: Dict[str, float] = {}
+        self._warnings = KeyedWarnings(self.get_logger())
         self._reported_drops = 0
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
         self.create_subscription(JointState, SSVEP_STIMULI_TOPIC, self._on_stimuli, LATCHED_QOS)
@@ -76,10 +75,7 @@ class SsvepStimulus(Node):
         return self.get_clock().now().nanoseconds * 1e-9
 
     def _warn(self, key: str, text: str) -> None:
-        now = time.monotonic()
-        if now - self._warned.get(key, -WARN_PERIOD_S) >= WARN_PERIOD_S:
-            self._warned[key] = now
-            self.get_logger().warning(text)
+        self._warnings.warn(key, text)
 
     def _on_regions(self, msg: MarkerArray) -> None:
         try:

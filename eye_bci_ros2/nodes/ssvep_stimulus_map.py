@@ -18,6 +18,7 @@ from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
+from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.ssvep_messages import stimulus_map_to_msg
@@ -71,7 +72,7 @@ class SsvepStimulusMap(Node):
             self._publisher.publish(stimulus_map_to_msg(stimuli))
         except ValueError as error:
             self.get_logger().warning(f'no stimulus map for the options: {error}',
-                                      throttle_duration_sec=5.0)
+                                      throttle_duration_sec=WARN_PERIOD_S)
 
 
 def main(args=None):

@@ -29,6 +29,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from eye_bci_ros2.nodes.conversions import pose_to_arrays
+from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import LATCHED_QOS
@@ -122,14 +123,15 @@ class ViewAnimatedBridge(Node):
         if frame != self._params['world_frame']:
             self.get_logger().warning(
                 f"ignoring camera/goal in frame '{frame}': expected "
-                f"'{self._params['world_frame']}' (no tf2 here)", throttle_duration_sec=5.0)
+                f"'{self._params['world_frame']}' (no tf2 here)",
+                throttle_duration_sec=WARN_PERIOD_S)
             return
         try:
             eye, focus, up = view_from_optical_pose(
                 *pose_to_arrays(message.pose), self._params['fallback_distance_m'])
         except ValueError as error:
             self.get_logger().warning(f'ignoring camera/goal: {error}',
-                                      throttle_duration_sec=5.0)
+                                      throttle_duration_sec=WARN_PERIOD_S)
             return
         self._publisher.publish(self._trajectory_type(
             view_trajectory=[self.movement(eye, focus, up)]))

@@ -29,6 +29,7 @@ from rclpy.node import Node
 
 from eye_bci_ros2 import geometry
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
+from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
@@ -128,7 +129,7 @@ class SimRvizView(Node):
         if frame and frame != self._world_frame:
             self.get_logger().warning(
                 f"ignoring camera/goal in frame '{frame}': this view is in "
-                f"'{self._world_frame}' (no tf here)", throttle_duration_sec=5.0)
+                f"'{self._world_frame}' (no tf here)", throttle_duration_sec=WARN_PERIOD_S)
             return
         position, quaternion = pose_to_arrays(message.pose)
         now = self._now()
@@ -139,7 +140,7 @@ class SimRvizView(Node):
             self._animation = ViewAnimation(start, goal, now, self._transition_time_s)
         except ValueError as error:
             self.get_logger().warning(f'ignoring invalid camera/goal: {error}',
-                                      throttle_duration_sec=5.0)
+                                      throttle_duration_sec=WARN_PERIOD_S)
             return
         self._on_timer()
         if self._animation is not None:

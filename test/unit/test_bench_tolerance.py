@@ -1,14 +1,10 @@
 """The tolerance benchmark's pieces (bench/tolerance.py), on hand-made cases and a few trials."""
 
-import os
-import sys
-
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
-
-from bench import decision, tolerance  # noqa: E402
-from eye_bci_ros2.sim.person import CONSUMER_TRACKER, ScreenGeometry  # noqa: E402
+from bench import decision, tolerance
+from eye_bci_ros2.sim.person import CONSUMER_TRACKER, ScreenGeometry
+from eye_bci_ros2.tolerance import TolerantRegions
 
 SCREEN = ScreenGeometry()
 PERSON = CONSUMER_TRACKER
@@ -20,7 +16,7 @@ def _regions():
 
 
 def test_tolerant_regions_count_near_samples_and_not_midway():
-    regions = tolerance.TolerantRegions.of(_regions(), screen=SCREEN, ratio=0.5)
+    regions = TolerantRegions.of(_regions(), screen=SCREEN, ratio=0.5)
     centres = decision.layout(3, 100)
     near = centres[0] + [0.0, 70.0]            # 20 px below the first square
     midway = (centres[0] + centres[1]) / 2     # 25 px from both
@@ -53,11 +49,11 @@ def test_share_test_keeps_the_early_decision_early_on_a_real_look():
 
 
 def test_size_aware_tolerance_is_none_for_large_options():
-    regions = tolerance.TolerantRegions.of(_regions(), screen=SCREEN, size_aware=True)
+    regions = TolerantRegions.of(_regions(), screen=SCREEN, size_aware=True)
     near = decision.layout(3, 100)[0] + [0.0, 70.0]   # 20 px outside a 100 px option
     assert regions.classify_one(*near) == -1
-    small = tolerance.TolerantRegions(['x'], decision.squares(np.array([[960.0, 540.0]]), 8),
-                                      screen=SCREEN, size_aware=True)
+    small = TolerantRegions(['x'], decision.squares(np.array([[960.0, 540.0]]), 8),
+                            screen=SCREEN, size_aware=True)
     assert small.classify_one(960.0, 570.0) == 0     # 26 px outside an 8 px option
 
 
