@@ -7,7 +7,7 @@ stamp order, as ``bench/decision.py`` and the accuracy test do), named in
 :data:`RULES`:
 
 * ``mean`` (the original), ``vote``, ``early`` (the node's early decision,
-  :class:`bench.decision.EarlyConfig` defaults, mean at the window end):
+  :data:`bench.decision.NODE_DEFAULT`, mean at the window end):
   inside-only classification, today's code;
 * ``tol_*``: the same code given a :class:`TolerantRegions` (a ``RegionSet``
   whose ``classify`` and ``classify_one`` apply
@@ -60,10 +60,10 @@ from typing import Dict, Optional, Sequence
 import numpy as np
 
 from bench import decision
-from eye_bci_ros2.evidence import RoundEvidence
 from eye_bci_ros2.experiments import accuracy_test
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.regions import RegionSet
+from eye_bci_ros2.rounds import ArbiterSettings
 from eye_bci_ros2.scene import load_scene
 from eye_bci_ros2.sim.person import (CONSUMER_TRACKER, GazeParams, GazeSimulator,
                                      ORIGINAL_TOBII_4C)
@@ -119,7 +119,7 @@ def model_for(params: GazeParams) -> GazeErrorModel:
                           k_sigma=MODEL.k_sigma)
 
 
-def _decide(rule: str, points, stamps, regions: RegionSet, config: decision.EarlyConfig,
+def _decide(rule: str, points, stamps, regions: RegionSet, config: ArbiterSettings,
             params: GazeParams) -> Optional[str]:
     """
     Label chosen by a rule of :data:`RULES` for one trial (window 0..config.window_s).
@@ -138,8 +138,7 @@ def _decide(rule: str, points, stamps, regions: RegionSet, config: decision.Earl
     points, stamps = points[keep], stamps[keep]
 
     def evidence():
-        return RoundEvidence(0.0, hit_rate=config.hit_rate, min_samples=config.min_samples,
-                             dwell_s=config.dwell_s, min_reaction_s=config.min_reaction_s)
+        return config.evidence(0.0)
 
     if base == 'early':
         made = _early(points, stamps, regions, config, share > 0)
@@ -160,7 +159,7 @@ EARLY_SHARE_S = 0.1
 EARLY_SHARE = 0.8
 
 
-def _early(points, stamps, regions: RegionSet, config: decision.EarlyConfig,
+def _early(points, stamps, regions: RegionSet, config: ArbiterSettings,
            share_test: bool):
     """
     Run the node's early decision, optionally with the share test at every sample (_decide).
@@ -171,8 +170,7 @@ def _early(points, stamps, regions: RegionSet, config: decision.EarlyConfig,
     the samples of the last :data:`EARLY_SHARE_S`) until one passes both
     (what a change in ``RoundEvidence._first_confident`` would do).
     """
-    evidence = RoundEvidence(0.0, hit_rate=config.hit_rate, min_samples=config.min_samples,
-                             dwell_s=config.dwell_s, min_reaction_s=config.min_reaction_s)
+    evidence = config.evidence(0.0)
     if not share_test:
         return evidence.add(points, stamps, regions, config.confidence)
     # The share of each sample's own label over the samples of the last EARLY_SHARE_S.
@@ -230,7 +228,7 @@ def smallest(rules: Sequence[str] = tuple(RULES), trials: int = SEARCH_TRIALS,
     """
     scenario = accuracy_test.RoomScenario(load_scene(default_scene_path()))
     settings = accuracy_test.TrialSettings(params=params)
-    config = decision.EarlyConfig(window_s=settings.window_s)
+    config = decision.NODE_DEFAULT.replace(window_s=settings.window_s)
     data = []
     for trial in range(trials):
         target = trial % len(scenario.labels)
@@ -299,7 +297,7 @@ def midway(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
            params: GazeParams = CONSUMER_TRACKER, counts=(3, 4, 9),
            sizes=decision.SIZES) -> Dict[str, Dict]:
     """Wrong choices (any choice) with the gaze midway between two options, per rule and cell."""
-    config = decision.EarlyConfig()
+    config = decision.NODE_DEFAULT
     table: Dict[str, Dict] = {rule: {} for rule in rules}
     seeds = range(MIDWAY_SEED, MIDWAY_SEED + trials)
     for count in counts:
@@ -319,7 +317,7 @@ def other_target(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
                  params: GazeParams = CONSUMER_TRACKER, counts=(3, 4, 9),
                  sizes=decision.SIZES) -> Dict[str, Dict]:
     """Accuracy and wrong fraction in bench/decision.py's stress scenario, per rule."""
-    config = decision.EarlyConfig()
+    config = decision.NODE_DEFAULT
     out: Dict[str, Dict] = {rule: {'wrong': 0, 'correct': 0, 'trials': 0} for rule in rules}
     seeds = range(decision.TEST_SEED, decision.TEST_SEED + trials)
     for count in counts:
@@ -373,7 +371,7 @@ def speed(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
     The decision time is the deciding sample's stamp for an early decision,
     the window end otherwise (as ``bench/decision.py`` counts it).
     """
-    config = decision.EarlyConfig()
+    config = decision.NODE_DEFAULT
     seeds = range(decision.TEST_SEED, decision.TEST_SEED + trials)
     out: Dict[str, Dict[str, list]] = {rule: {'correct': [], 'ms': []} for rule in rules}
     for count in counts:
