@@ -45,7 +45,8 @@ from typing import Callable, Dict, List, Optional, Sequence, TextIO, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.camera_model import RvizCamera
+from eye_bci_ros2.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET, RVIZ_FOV_Y_DEG,
+                                       RvizCamera)
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.experiments.trials import decide_trial, RULES, settings_for
 from eye_bci_ros2.geometry import polygon_signed_area
@@ -56,9 +57,9 @@ from eye_bci_ros2.scene import load_scene, Scene
 from eye_bci_ros2.sim.person import GazeParams, GazeSimulator, ORIGINAL_TOBII_4C, PRESETS
 
 #: RViz render panel (W, H) px, its offset (X0, Y0) on the 1920x1080 screen, vertical FOV.
-PANEL_SIZE = (1280, 720)
-PANEL_OFFSET = (320, 180)
-FOV_Y_DEG = 45.0
+PANEL_SIZE = DEFAULT_IMAGE_SIZE
+PANEL_OFFSET = DEFAULT_PANEL_OFFSET
+FOV_Y_DEG = RVIZ_FOV_Y_DEG
 #: Decision rules the curve can show ('early' = early decision, mean at the window end).
 CURVE_METHODS = RULES
 #: Marker sizes of the curve, px.
