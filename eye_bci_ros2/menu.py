@@ -32,7 +32,9 @@ When a question is asked (``choice/request``), all of these at once:
    false) for ``pause_after_s`` or more; it resumes when ``gaze/on_screen``
    is true again, and the question is asked again.
 
-Each question is asked once (one ``Request``).  A choice counts only when it
+Each question is asked once (one ``Request``), and again when the arbiter
+reports that its round ended without a choice (``choice/none``,
+:meth:`MenuProtocol.on_no_choice`).  A choice counts only when it
 answers the question: it arrives while the menu is asking, at least
 ``min_answer_s`` after the request (a decision made before the request, in
 flight when it went out, is not an answer: the arbiter's early rule needs
@@ -368,6 +370,15 @@ class MenuProtocol:
         if self.settings.repeat:
             return actions + self._offer_rooms(now)
         return actions + self._finish()
+
+    def on_no_choice(self, reason: str, now: float) -> List[Action]:
+        """Take an arbiter round that ended without a choice: ask the open question again."""
+        if self.finished or self._asked_at is None or self._paused:
+            return []
+        if now - self._asked_at < self.settings.min_answer_s:
+            return []  # the round the request replaced, or one in flight with it
+        self._asked_at = now
+        return [Log('info', f'no choice ({reason}): asking again'), Request()]
 
     def tick(self, now: float) -> List[Action]:
         """Apply the timed rules (settle, look-away time, pause); call it periodically."""

@@ -24,25 +24,25 @@ RViz projection, the true panel offset, and the marker the menu currently
 shows on ``choices``), not from ``choices/regions``.  While the camera moves
 the target moves with the marker.  If the system picks the wrong room, the
 scripted table is not on the screen: the person then looks at the table with
-the same number in the room shown.  A round that ends with no choice (e.g.
-the mean fell between regions) is asked again with ``choice/request`` and
-counts as a wrong attempt.
+the same number in the room shown; if it picks ``back``, the rooms come again
+and the person looks at the scripted room again.
 
-When is the question asked?  The arbiter starts a round as soon as the
-offered labels change, i.e. when the menu shows the new markers and the camera
-starts to move.  The person's gaze then still rests where the previous marker
-was for a reaction time, and the new markers sweep across the screen, so
-those samples can land on a wrong marker (with the mean rule the mean is
-pulled towards it).  The original experiment presented the tables after the
-camera had zoomed in, so by default (``--ask on-arrival``) the experimenter
-asks each question with ``choice/request`` once the simulated RViz camera has
-arrived (this replaces the round the label change started).  ``--ask
-on-change`` leaves the rounds to the arbiter alone and shows that effect.
+The protocol is the shipped nodes' (:mod:`eye_bci_ros2.menu`): the
+``choice_menu`` asks (``choice/request``) only once the camera has arrived
+at the view of the new options (from ``camera/pose``) and the gaze has left
+the option just chosen (or ``look_away_s`` passed), and acts only on a choice
+that answers the question (``choice_menu/answer``).  The driver here asks
+nothing: it is the scripted person and the experimenter's notebook.  A
+selection is an answer the menu acted on; the arbiter's rounds without a
+choice in between are counted (``no_choice_rounds``), their time is in the
+selection's.  ``--ask on-change`` sets the menu's ``ask_on_arrival`` false
+(every valid choice counts at once, as before the protocol) and shows what
+the protocol prevents: rounds that start while the camera still moves.
 
 Each selection is printed; at the end a summary: accuracy, mean decision
-time (question to decision), mean time per selection (new options on the
-screen, camera move included, to decision) and the information transfer rate
-by Wolpaw's formula with the latter.  ``demo_output/`` receives a
+time (question to answer), mean time per selection (new options on the
+screen, camera move and look-away included, to the answer) and the
+information transfer rate by Wolpaw's formula with the latter.  ``demo_output/`` receives a
 picture of the screen per selection, ``summary.json`` and ``selections.csv``.
 """
 
@@ -74,6 +74,7 @@ from eye_bci_ros2.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET,
 from eye_bci_ros2.evidence import Decision, METHODS
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
+from eye_bci_ros2.menu import BACK_LABEL
 from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
                                             marker_label, pose_to_arrays)
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
@@ -109,12 +110,10 @@ QUICK_PERSON = ORIGINAL_TOBII_4C.with_changes(
     name='quick_low_noise')
 #: When questions are asked (see the module doc).
 ASK_MODES = ('on-arrival', 'on-change')
-#: Attempts per step before the demo gives up.
+#: Answers per step the time limit of the whole run allows for.
 MAX_ATTEMPTS = 3
 #: What may choose (the arbiter's input_mode).
 INPUTS = ('gaze', 'ssvep', 'hybrid')
-#: With SSVEP choosing or confirming, ask again after this long without a choice, s.
-SSVEP_RETRY_S = 7.0
 #: Gaze samples that must reach the pipeline before the experiment starts.
 WARMUP_SAMPLES = 20
 
@@ -136,9 +135,8 @@ class DemoOptions:
     :ivar output_dir: where pictures and summaries go ('' = none written).
     :ivar preset: simulated person and tracker (gaze_model preset name, or
         'quick_low_noise').
-    :ivar ask: 'on-arrival' (ask with choice/request once the camera has
-        arrived) or 'on-change' (the round the arbiter starts when the
-        options change).
+    :ivar ask: 'on-arrival' (the menu's protocol: ask once the camera has
+        arrived) or 'on-change' (the menu's ``ask_on_arrival`` false).
     :ivar transition_s: duration of the simulated RViz camera moves, s.
     :ivar timeout_s: longest wait for one decision, s.
     :ivar stream_timeout_s: longest wait for the first gaze over LSL, s.
@@ -169,13 +167,14 @@ class DemoOptions:
 @dataclass
 class Selection:
     """
-    One round of the arbiter: a question, the person's intent, the system's answer.
+    One answer the menu acted on: the question, the person's intent, the system's choice.
 
     Times are s; screen points px.  ``time_to_decision_s`` is the arbiter's
     (sample time from its round start to the last sample used);
-    ``decision_time_s`` runs from the question (the round start) to the
-    decision; ``selection_time_s`` from the moment the options appeared
-    (camera move included; for a repeated question, from the repetition).
+    ``decision_time_s`` runs from the question (``choice/request``) to the
+    answer; ``selection_time_s`` from the moment the options appeared (camera
+    move included) to the answer.  ``no_choice_rounds``: the arbiter's rounds
+    that ended without a choice while the question was open.
     """
 
     round_index: int
@@ -195,6 +194,7 @@ class Selection:
     counts: Dict[str, int]
     reason: str
     camera_eye: Tuple[float, float, float]
+    no_choice_rounds: int = 0
     picture: str = ''
     # Drawing data, not written to the summary.
     screen: Optional[demo_render.ScreenPicture] = field(default=None, repr=False)
@@ -304,12 +304,13 @@ class ExperimentDriver(Node):
     The simulated person and the experimenter's notebook, as a node.
 
     Watches what the (simulated) screen shows and makes the person look at
-    the scripted marker; asks the questions; records the offered choices,
-    the gaze the pipeline received and every decision of the arbiter.
+    the scripted marker; records the offered choices, the questions the menu
+    asks, the gaze the pipeline received, the arbiter's decisions and the
+    menu's answers (module doc).  It asks nothing.
     """
 
     def __init__(self, scene: Scene, script: List[Tuple[str, str]], streamer: GazeStreamer,
-                 arbiter, view, options: DemoOptions, eeg=None, **kwargs):
+                 arbiter, view, options: DemoOptions, eeg=None, menu=None, **kwargs):
         """
         Subscribe to what the screen shows and what the system decides.
 
@@ -318,6 +319,7 @@ class ExperimentDriver(Node):
         :param view: the SimRvizView node (is the camera still moving?).
         :param eeg: the simulated EEG (an EegStreamer) for the ssvep and hybrid inputs:
             it shows the stimuli of ``ssvep/stimuli`` and attends the intended option.
+        :param menu: the ChoiceMenu node of this process (its state, for messages).
         :param kwargs: passed to :class:`rclpy.node.Node`.
         """
         super().__init__('demo_experiment', **kwargs)
@@ -326,6 +328,7 @@ class ExperimentDriver(Node):
         self.streamer = streamer
         self.arbiter = arbiter
         self.view = view
+        self.menu = menu
         self.options = options
         self._base_camera = RvizCamera.from_look_at(
             *scene.overview.as_tuple(), image_size=PANEL_SIZE, fov_y_deg=FOV_Y_DEG,
@@ -344,27 +347,22 @@ class ExperimentDriver(Node):
         self.intended: Optional[str] = None
         self.round_index = 0
         self.step = 'rooms'
-        self.attempt = 1
-        # ROS-clock times, s: options shown, labels changed (arbiter's round
-        # start), question asked with choice/request (None: not asked).
+        # ROS-clock times, s: options shown, the menu's last question (None: not asked).
         self.shown_at = math.nan
-        self.changed_at = math.nan
         self.asked_at: Optional[float] = None
-        self._awaiting_arrival = False
         self._seen_decision: Optional[Decision] = None
+        self._no_choice = 0
         self._target_path: List[Tuple[float, float, float]] = []
-        self._request = self.create_publisher(Empty, 'choice/request', EVENT_QOS)
+        self.create_subscription(Empty, 'choice/request', self._on_request, EVENT_QOS)
+        self.create_subscription(String, 'choice_menu/answer', self._on_answer, EVENT_QOS)
         self.create_subscription(MarkerArray, 'choices', self._on_choices, LATCHED_QOS)
         self.create_subscription(Pose, 'rviz/current_camera_pose', self._on_camera, LATCHED_QOS)
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
         self.create_subscription(String, 'choice_menu/result', self._on_result, EVENT_QOS)
         self.eeg = eeg
-        # (ROS time s, label) of every choice: what the menu acts on (ssvep, hybrid inputs).
-        self.choices: List[Tuple[float, str]] = []
-        self._seen_choices = 0
-        self.create_subscription(String, 'choice', lambda m: self.choices.append(
-            (self.now_s(), m.data)), EVENT_QOS)
+        # Answers the menu acted on, not yet recorded (label, ROS time s).
+        self._answers: List[Tuple[str, float]] = []
         if eeg is not None:
             self.create_subscription(JointState, SSVEP_STIMULI_TOPIC, self._on_stimuli,
                                      LATCHED_QOS)
@@ -375,8 +373,9 @@ class ExperimentDriver(Node):
 
     @property
     def question_start(self) -> float:
-        """Return when the arbiter's current round started (ROS clock, s)."""
-        return self.asked_at if self.asked_at is not None else self.changed_at
+        """Return when the open question was asked (ROS clock, s; the options' time if later)."""
+        asked = self.asked_at if self.asked_at is not None else self.shown_at
+        return max(asked, self.shown_at) if math.isfinite(self.shown_at) else asked
 
     # -- what the screen shows ------------------------------------------------------------
 
@@ -412,11 +411,15 @@ class ExperimentDriver(Node):
     def _on_regions(self, message: MarkerArray) -> None:
         labels, polygons = marker_array_to_regions(message)
         stamp = _seconds(message.markers[0].header.stamp) if message.markers else self.now_s()
-        previous = self.region_history[-1].label_set if self.region_history else None
         self.region_history.append(RegionSet(labels, polygons, stamp))
-        if labels and frozenset(labels) != previous:
-            # The arbiter starts a round at this stamp (new labels).
-            self.changed_at = stamp
+
+    def _on_request(self, message: Empty) -> None:
+        """Note when the menu asks its question (the arbiter starts a round)."""
+        self.asked_at = self.now_s()
+
+    def _on_answer(self, message: String) -> None:
+        """Keep a choice the menu acted on, for :meth:`poll` (after the arbiter's callback)."""
+        self._answers.append((message.data, self.now_s()))
 
     def _on_gaze(self, message: PointCloud2) -> None:
         stamps, points = gaze_batch_arrays(message)
@@ -462,34 +465,11 @@ class ExperimentDriver(Node):
         if set(self.offered) == set(self.scene.room_labels):
             self.step, self.intended = 'rooms', room
         else:
-            shown_room = self.offered[0].split('/')[0]
+            shown_room = next(label for label in self.offered if '/' in label).split('/')[0]
             self.step, self.intended = 'tables', f'{shown_room}/{table}'
-        self.attempt = 1
         self.shown_at = self.now_s()
-        self.asked_at = None
-        self._awaiting_arrival = self.options.ask == 'on-arrival'
+        self._no_choice = 0
         self._target_path = []
-
-    def _expected_view(self):
-        """Return the scene view that shows the current options."""
-        if self.step == 'rooms':
-            return self.scene.overview
-        return self.scene.room(self.offered[0].split('/')[0]).view
-
-    def _camera_arrived(self) -> bool:
-        """Tell whether the simulated RViz camera rests at the view of the options."""
-        if self.view.moving:
-            return False
-        eye, focus, _ = self.view.current_view()
-        expected = self._expected_view()
-        return bool(np.allclose(eye, expected.eye, atol=1e-3)
-                    and np.allclose(focus, expected.focus, atol=1e-3))
-
-    def _ask(self) -> None:
-        """Ask the arbiter for a fresh decision on what is shown now."""
-        self._awaiting_arrival = False
-        self.asked_at = self.now_s()
-        self._request.publish(Empty())
 
     # -- the experiment -------------------------------------------------------------------
 
@@ -500,79 +480,55 @@ class ExperimentDriver(Node):
                 and self.arbiter.last_decision is not None)
 
     def begin(self) -> None:
-        """Start the script: the person looks at the first room and is asked."""
+        """Start the script: the person looks at the first room (the menu asks)."""
         self._seen_decision = self.arbiter.last_decision
         self.running = True
         self.round_index = 0
+        self._answers = []
         self._new_question()
         self._look()
-        self._ask()
 
     def poll(self) -> Optional[Selection]:
         """
-        Ask when the view has arrived; check for a new decision, record it, move on.
+        Count the arbiter's rounds; record the menu's answer, move the script on.
 
         :returns: the new selection, or None.
-        :raises DemoError: too many attempts without a choice, or a timeout.
+        :raises DemoError: no answer within the timeout.
         """
         if not self.running:
             return None
-        if self._awaiting_arrival and self._camera_arrived():
-            self._ask()
-        if self.options.input_mode != 'gaze':
-            return self._poll_choice()
         decision = self.arbiter.last_decision
-        if decision is self._seen_decision:
+        if decision is not self._seen_decision:
+            self._seen_decision = decision
+            if decision is not None and decision.label is None and self.asked_at is not None:
+                self._no_choice += 1
+        if not self._answers:
             elapsed = self.now_s() - self.shown_at
             if elapsed > self.options.timeout_s:
                 raise DemoError(
-                    f'no decision within {self.options.timeout_s:g} s of the options '
-                    f'appearing (round {self.round_index + 1}, {self.step}); gaze samples '
-                    f'received so far: {len(self.gaze_stamps)}')
+                    f'no answer within {self.options.timeout_s:g} s of the options '
+                    f'appearing (round {self.round_index + 1}, {self.step}; menu state '
+                    f"'{self.menu_state()}'; {self._no_choice} rounds without a choice); gaze "
+                    f'samples received so far: {len(self.gaze_stamps)}')
             return None
-        self._seen_decision = decision
-        # A decision before the question was asked (--ask on-change, or the
-        # label-change round won the race) stands: the menu acts on it.
-        self._awaiting_arrival = False
-        selection = self._record(decision)
+        label, answered_at = self._answers.pop(0)
+        # The arbiter's decision the menu acted on (its choice), else one naming the answer.
+        gaze = decision if decision is not None and decision.label == label else None
+        if gaze is None:
+            gaze = Decision(label, self.options.input_mode, 0, 0, 0.0, math.nan)
+        elif self.options.input_mode != 'gaze':
+            gaze = replace(gaze, method=self.options.input_mode)
+        selection = self._record(gaze, answered_at)
         self.selections.append(selection)
-        if selection.chosen is None:
-            if self.attempt >= MAX_ATTEMPTS:
-                raise DemoError(f'no choice after {MAX_ATTEMPTS} attempts at round '
-                                f'{self.round_index + 1} ({self.step}): {decision.reason}')
-            self.attempt += 1
-            self.shown_at = self.now_s()
-            self._target_path = self._target_path[-1:]
-            self._ask()
-        elif self.step == 'tables':
+        if self.step == 'tables' and label != BACK_LABEL:
             self.round_index += 1
             if self.round_index >= len(self.script):
                 self.finish()
         return selection
 
-    def _poll_choice(self) -> Optional[Selection]:
-        """With SSVEP choosing or confirming: a selection per ``choice``; ask again if none."""
-        if len(self.choices) == self._seen_choices:
-            if self.asked_at is not None and self.now_s() - self.asked_at > SSVEP_RETRY_S:
-                if self.attempt >= MAX_ATTEMPTS:
-                    raise DemoError(f'no choice after {MAX_ATTEMPTS} attempts at round '
-                                    f'{self.round_index + 1} ({self.step})')
-                self.attempt += 1
-                self.shown_at = self.now_s()
-                self._ask()
-            return None
-        _, label = self.choices[self._seen_choices]
-        self._seen_choices = len(self.choices)
-        self._awaiting_arrival = False
-        gaze = self.arbiter.last_decision or Decision(None, self.options.input_mode, 0, 0, 0.0,
-                                                      math.nan)
-        selection = self._record(replace(gaze, label=label, method=self.options.input_mode))
-        self.selections.append(selection)
-        if self.step == 'tables':
-            self.round_index += 1
-            if self.round_index >= len(self.script):
-                self.finish()
-        return selection
+    def menu_state(self) -> str:
+        """Return what the menu waits for (its node's state), '' when unknown."""
+        return getattr(self.menu, 'state', '') if self.menu is not None else ''
 
     def finish(self) -> None:
         """Stop the experiment: the person looks away from the panel."""
@@ -583,15 +539,17 @@ class ExperimentDriver(Node):
         if self.eeg is not None:
             self.eeg.attend(None)
 
-    def _record(self, decision: Decision) -> Selection:
-        """Turn a decision into a Selection with its picture data."""
-        now = self.now_s()
+    def _record(self, decision: Decision, now: float) -> Selection:
+        """Turn the answer's decision into a Selection with its picture data."""
         start = self.question_start
+        attempt = 1 + sum(1 for earlier in self.selections
+                          if (earlier.round_index, earlier.step) == (self.round_index + 1,
+                                                                     self.step))
         target = self.target_xy()
         if target is None and self._target_path:
             target = np.array(self._target_path[-1][1:])
         selection = Selection(
-            round_index=self.round_index + 1, step=self.step, attempt=self.attempt,
+            round_index=self.round_index + 1, step=self.step, attempt=attempt,
             offered=list(self.offered), intended=self.intended, chosen=decision.label,
             method=decision.method, samples_used=decision.samples_used,
             in_region_samples=decision.in_region_samples,
@@ -599,7 +557,8 @@ class ExperimentDriver(Node):
             decision_time_s=now - start, selection_time_s=now - self.shown_at,
             target_xy=None if target is None else (float(target[0]), float(target[1])),
             mean_point=decision.mean_point, counts=dict(decision.counts),
-            reason=decision.reason, camera_eye=tuple(float(v) for v in self.camera.eye))
+            reason=decision.reason, camera_eye=tuple(float(v) for v in self.camera.eye),
+            no_choice_rounds=self._no_choice)
         selection.screen = self._picture(selection, decision, start)
         return selection
 
@@ -694,8 +653,9 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
             'vote': 'vote (the region holding most in-region gaze samples)'}[options.method]
     log(f'decision rule: {rule}, window {options.window_s:g} s'
         + (', early decision on (confidence 0.95)' if options.early else ''))
-    asking = {'on-arrival': 'asked (choice/request) once the camera move has ended',
-              'on-change': 'asked by the arbiter itself when the options change'}
+    asking = {'on-arrival': "the menu's protocol: asked (choice/request) once the camera has "
+                            'arrived and the gaze has left the last choice',
+              'on-change': 'every valid choice counts at once (menu ask_on_arrival false)'}
     log(f'questions: {asking[options.ask]}; camera moves take {options.transition_s:g} s')
     log('script: ' + ', '.join(f'{room}/{table}' for room, table in script))
     # Lost samples are left out, as the original C# sender (Tobii's gaze point
@@ -726,9 +686,10 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                 'choice_arbiter': {'method': options.method, 'window_s': options.window_s,
                                    'early_decision': options.early,
                                    'input_mode': options.input_mode},
-                'choice_menu': {'scene_file': scene_path, 'repeat': True},
+                'choice_menu': {'scene_file': scene_path, 'repeat': True,
+                                'ask_on_arrival': options.ask == 'on-arrival'},
             }, with_menu=True)
-            named = dict(zip(NODE_NAMES, nodes))
+            named = dict(zip(NODE_NAMES + ('choice_menu',), nodes))
             view = SimRvizView(context=context, parameter_overrides=[
                 Parameter('transition_time_s', value=float(options.transition_s))])
             nodes.append(view)
@@ -742,7 +703,8 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                     Parameter('source_id', value=eeg_id),
                     Parameter('keep_scoring', value=options.input_mode == 'hybrid')]))
             driver = ExperimentDriver(scene, script, streamer, named['choice_arbiter'], view,
-                                      options, eeg=eeg, context=context)
+                                      options, eeg=eeg, menu=named['choice_menu'],
+                                      context=context)
             nodes.append(driver)
             for node in nodes:
                 executor.add_node(node)

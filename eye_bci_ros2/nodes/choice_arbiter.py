@@ -6,7 +6,8 @@ Subscribes ``gaze/samples`` (sensor_msgs/PointCloud2 batches, frame
 :mod:`eye_bci_ros2.nodes.conversions`), ``choices/regions``
 (visualization_msgs/MarkerArray, latched) and ``choice/request``
 (std_msgs/Empty); publishes ``choice`` (std_msgs/String, the region's label:
-its text if set, else ``ns/id``).
+its text if set, else ``ns/id``) and ``choice/none`` (std_msgs/String, why a
+round ended without a choice; input mode gaze), so a menu can ask again.
 
 The rounds (when they start and end, which samples and regions they weigh,
 when a decision is final, what is dropped as implausible) are
@@ -43,8 +44,9 @@ from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_re
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
-                                       SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
+                                       LATCHED_QOS, NO_CHOICE_TOPIC, REQUEST_TOPIC, SCORES_QOS,
+                                       SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, RoundScheduler
 
@@ -147,10 +149,11 @@ class ChoiceArbiter(Node):
         self._config = declare_parameters(self, PARAMETERS, self._on_parameters)
         self._warnings = KeyedWarnings(self.get_logger())
         self._tracker = RoundScheduler(ArbiterSettings(**self._config), self._publish, self._log)
-        self._publisher = self.create_publisher(String, 'choice', EVENT_QOS)
+        self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
+        self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
-        self.create_subscription(Empty, 'choice/request', self._on_request, EVENT_QOS)
+        self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
         self._timer = self.create_timer(TICK_S, self._on_tick)
         self._init_fusion()
         self.get_logger().info(
@@ -255,6 +258,14 @@ class ChoiceArbiter(Node):
         label = self._fusion.gaze(decision.label, self._now(), decision.margin)
         if label is not None:
             self._publisher.publish(String(data=label))
+            return
+        # A round that cannot lead to a choice: no gaze choice (gaze), no candidate (hybrid).
+        mode = self._fusion.settings.mode
+        if (mode == 'gaze' and decision.label is None) or (
+                mode == 'hybrid' and self._fusion.candidate is None
+                and not self._fusion.chosen):
+            reason = decision.reason or f"gaze on '{decision.label}' too unsteady for a candidate"
+            self._none_publisher.publish(String(data=reason))
 
     def _log(self, level: str, key: str, text: str) -> None:
         """Log ``text``; warnings of one ``key`` at most once per WARN_PERIOD_S."""

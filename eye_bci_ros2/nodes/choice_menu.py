@@ -32,6 +32,8 @@ Topics:
 * subscribes ``choice`` std_msgs/String: the label chosen; a choice that is
   not an answer (not asked, paused, made before the question) or not one of
   the current options is logged and ignored;
+* subscribes ``choice/none`` std_msgs/String: the arbiter's round ended
+  without a choice; an open question is asked again;
 * subscribes ``camera/pose`` geometry_msgs/PoseStamped (optical, the
   camera_tracker's): whether the camera has arrived;
 * subscribes ``choices/regions`` visualization_msgs/MarkerArray: the screen
@@ -67,7 +69,8 @@ from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_POINT_TOPIC, LATCHED_QOS, VIEW_QOS
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_POINT_TOPIC, LATCHED_QOS,
+                                       NO_CHOICE_TOPIC, REQUEST_TOPIC, VIEW_QOS)
 from eye_bci_ros2.scene import CubeMarker, load_scene, Scene, View
 
 __all__ = ['ChoiceMenu', 'main', 'resolve_scene_path', 'ROOMS_NS', 'TABLES_NS']
@@ -147,9 +150,10 @@ class ChoiceMenu(Node):
         self._goal_pub = self.create_publisher(PoseStamped, 'camera/goal', LATCHED_QOS)
         self._result_pub = self.create_publisher(String, 'choice_menu/result', EVENT_QOS)
         self._answer_pub = self.create_publisher(String, 'choice_menu/answer', EVENT_QOS)
-        self._request_pub = self.create_publisher(Empty, 'choice/request', EVENT_QOS)
+        self._request_pub = self.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
         self._state_pub = self.create_publisher(String, 'choice_menu/state', LATCHED_QOS)
-        self.create_subscription(String, 'choice', self._on_choice, EVENT_QOS)
+        self.create_subscription(String, CHOICE_TOPIC, self._on_choice, EVENT_QOS)
+        self.create_subscription(String, NO_CHOICE_TOPIC, self._on_no_choice, EVENT_QOS)
         self.create_subscription(PoseStamped, 'camera/pose', self._on_pose, LATCHED_QOS)
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
         self.create_subscription(PointStamped, GAZE_POINT_TOPIC, self._on_gaze_point,
@@ -195,6 +199,10 @@ class ChoiceMenu(Node):
     def _on_choice(self, message: String) -> None:
         self._guard(f"choice '{message.data}'",
                     lambda: self._protocol.on_choice(message.data, self._now()))
+
+    def _on_no_choice(self, message: String) -> None:
+        self._guard('choice/none',
+                    lambda: self._protocol.on_no_choice(message.data, self._now()))
 
     def _on_pose(self, message: PoseStamped) -> None:
         if message.header.frame_id and message.header.frame_id != self._world_frame:

@@ -14,6 +14,13 @@ GAZE_SAMPLES_TOPIC = 'gaze/samples'
 #: geometry_msgs/PointStamped, the newest sample, at most ``point_rate_hz``.
 GAZE_POINT_TOPIC = 'gaze/point'
 
+#: The arbiter's choice (std_msgs/String, the label) and a round that ended without one
+#: (std_msgs/String, the reason; input mode gaze), both EVENT_QOS; ``choice/request``
+#: (std_msgs/Empty) asks for a round.
+CHOICE_TOPIC = 'choice'
+NO_CHOICE_TOPIC = 'choice/none'
+REQUEST_TOPIC = 'choice/request'
+
 #: SSVEP (eye_bci_ros2.nodes.ssvep_messages): each option's stimulus (latched,
 #: sensor_msgs/JointState), the decoder's per-option posterior and score per step
 #: (JointState, SCORES_QOS) and its choice (std_msgs/String, EVENT_QOS).

@@ -5,7 +5,7 @@ import pytest
 
 from eye_bci_ros2.camera_model import look_at_pose, rviz_intrinsic
 from eye_bci_ros2.geometry import project_points
-from eye_bci_ros2.menu import (ASKING, BACK_LABEL, back_marker, FINISHED, LOOK_AWAY,
+from eye_bci_ros2.menu import (Answer, ASKING, BACK_LABEL, back_marker, FINISHED, LOOK_AWAY,
                                MenuProtocol, Offer, PAUSED, ProtocolSettings, READY, Request,
                                Result, WAITING_FOR_CAMERA)
 from eye_bci_ros2.nodes.package_files import default_scene_path
@@ -187,3 +187,27 @@ def test_bad_settings_and_poses_say_why():
     menu = MenuProtocol(SCENE)
     menu.start(0.0)
     assert 'ignored' in menu.on_camera_pose([np.nan, 0, 0], [0, 0, 0, 1], 0.1)[0].text
+
+
+def test_a_round_without_a_choice_asks_the_question_again():
+    menu = asked_menu()                      # asked at 0.5 s
+    assert menu.on_no_choice('no sample in any region', 0.55) == []  # the replaced round
+    again = menu.on_no_choice('no sample in any region', 1.6)
+    assert len(kinds(again, Request)) == 1 and menu.state == ASKING
+    assert menu.asked_at == 1.6
+    # Only the answer to the new question counts; once answered nothing is asked again.
+    assert kinds(menu.on_choice('kitchen', 1.65), Offer) == []
+    assert kinds(menu.on_choice('kitchen', 1.8), Answer) == [Answer('kitchen')]
+    assert menu.on_no_choice('late round', 1.9) == []
+
+
+def test_every_choice_the_menu_acts_on_is_an_answer():
+    menu = asked_menu(back_option=True)
+    assert kinds(menu.on_choice('kitchen', 1.0), Answer) == [Answer('kitchen')]
+    arrive(menu, KITCHEN.view, 2.0)
+    menu.tick(4.0)                           # look-away pause over: asked again
+    actions = menu.on_choice('kitchen/table_2', 4.5)
+    assert kinds(actions, Answer) == [Answer('kitchen/table_2')]
+    assert [r.label for r in kinds(actions, Result)] == ['kitchen/table_2']
+    ignored = menu.on_choice('office', 4.6)  # not asked: ignored, no answer
+    assert kinds(ignored, Answer) == []
