@@ -17,7 +17,7 @@ benchmarks, where the options appear at t = 0).
 """
 
 from dataclasses import dataclass
-from typing import Optional
+from typing import Optional, Sequence, Union
 
 import numpy as np
 
@@ -64,14 +64,18 @@ class Outcome:
     decision: Decision
 
 
-def decide_trial(points, stamps, regions: RegionSet, settings: ArbiterSettings,
-                 start: float = 0.0, chunk: Optional[int] = None) -> Outcome:
+def decide_trial(points, stamps, regions: Union[RegionSet, Sequence[RegionSet]],
+                 settings: ArbiterSettings, start: float = 0.0,
+                 chunk: Optional[int] = None) -> Outcome:
     """
     Decide one round of valid gaze samples as the choice_arbiter does (module doc).
 
     :param points: measured gaze, screen px, shape (N, 2) (lost samples removed).
     :param stamps: their acquisition stamps, s, shape (N,), non-decreasing.
-    :param regions: the options shown during the round.
+    :param regions: the options shown during the round: one set, or the sets
+        shown one after the other (stamps ascending, e.g. while the camera
+        moves): each sample is weighed with the set shown at its stamp, as
+        the node does (a sample before the first set takes the first).
     :param settings: the node's settings (the rule).
     :param start: the round start, s.
     :param chunk: feed the samples in batches of this many (as the bridge's
@@ -82,12 +86,22 @@ def decide_trial(points, stamps, regions: RegionSet, settings: ArbiterSettings,
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     in_window = stamps < start + settings.window_s
     stamps, points = stamps[in_window], points[in_window]
+    history = [regions] if isinstance(regions, RegionSet) else list(regions)
+    shown = np.maximum(np.searchsorted([r.stamp for r in history], stamps, side='right') - 1,
+                       0)
     evidence = settings.evidence(start)
     confidence = settings.confidence if settings.early_decision else None
     step = max(len(stamps) if chunk is None else int(chunk), 1)
-    for low in range(0, len(stamps), step):
-        made = evidence.add(points[low:low + step], stamps[low:low + step], regions, confidence)
-        if made is not None:
-            return Outcome(made.label, start + made.time_to_decision, made)
+    for segment in np.split(np.arange(len(stamps)), np.flatnonzero(np.diff(shown)) + 1):
+        if not segment.size:
+            continue
+        region_set = history[shown[segment[0]]]
+        for low in range(0, len(segment), step):
+            rows = segment[low:low + step]
+            made = evidence.add(points[rows], stamps[rows], region_set, confidence)
+            if made is not None:
+                return Outcome(made.label, start + made.time_to_decision, made)
+    if not len(stamps):   # no sample: the round still knows what was offered
+        evidence.add(points, stamps, history[-1])
     made = evidence.decide(settings.method)
     return Outcome(made.label, start + settings.window_s, made)
