@@ -54,6 +54,10 @@ from eye_bci_ros2.geometry import polygon_signed_area, PolygonSet
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, px_per_degree_at, ScreenGeometry
 
+#: How a decision rule classifies samples: 'tolerant' (this module) or 'inside' (the original:
+#: only samples inside an option count for it).
+CLASSIFICATIONS = ('tolerant', 'inside')
+
 #: Default ratio of nearest to second-nearest distance below which a near sample counts.
 DEFAULT_RATIO = 0.5
 

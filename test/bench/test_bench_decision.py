@@ -13,7 +13,7 @@ import pytest
 
 from bench import decision, run_all
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
-from eye_bci_ros2.rounds import ArbiterSettings, RoundScheduler
+from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE, RoundScheduler
 
 METRIC_KEYS = {'accuracy', 'wrong', 'no_choice', 'median_samples', 'median_ms', 'mean_ms',
                'itr_bits_per_min', 'trials', 'not_landed'}
@@ -149,7 +149,7 @@ def test_benchmark_decisions_are_the_node_trackers_decisions(scenario):
                if name != 'window_s')
     for early in (True, False):
         for trial in trials:
-            settings = ArbiterSettings(early_decision=early, **asdict(config))
+            settings = ArbiterSettings(early_decision=early, **ORIGINAL_RULE, **asdict(config))
             tracker = RoundScheduler(settings)
             tracker.add_regions(regions, now=0.0)
             made = None
