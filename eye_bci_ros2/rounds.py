@@ -409,7 +409,7 @@ class RoundScheduler:
 
     @property
     def evidence(self) -> Optional[RoundEvidence]:
-        """Return the open round's evidence (read it only), or None."""
+        """Return the open round's RoundEvidence, or None; read it, never change it."""
         return self._round.evidence if self._round is not None else None
 
     @property
