@@ -227,3 +227,14 @@ def test_feedback_state_label_at_and_progress():
 def test_bad_rule_settings_raise_with_a_reason(changed, name):
     with pytest.raises(ValueError, match=name):
         ArbiterSettings(**changed)
+
+
+def test_the_default_rule_is_the_benchmarks_size_mean_share_rule():
+    from bench import decision, tolerance
+    from eye_bci_ros2.sim.person import ORIGINAL_TOBII_4C
+    bench_rule = tolerance.settings_for('size_mean/s', decision.EarlyConfig(), ORIGINAL_TOBII_4C)
+    default = ArbiterSettings()
+    for name in ('classification', 'ratio', 'size_aware', 'min_share', 'k_sigma', 'method'):
+        assert getattr(bench_rule, name) == getattr(default, name), name
+    original = tolerance.settings_for('mean', decision.EarlyConfig(), ORIGINAL_TOBII_4C)
+    assert {name: getattr(original, name) for name in ORIGINAL_RULE} == ORIGINAL_RULE
