@@ -5,9 +5,11 @@ import math
 import numpy as np
 import pytest
 
+from bench import decision, tolerance
 from eye_bci_ros2.evidence import decide_mean, EARLY_SHARE_S, RoundEvidence
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE, RoundScheduler
+from eye_bci_ros2.sim.person import ORIGINAL_TOBII_4C
 from eye_bci_ros2.tolerance import TolerantRegions
 
 RATE_HZ = 100.0
@@ -230,8 +232,6 @@ def test_bad_rule_settings_raise_with_a_reason(changed, name):
 
 
 def test_the_default_rule_is_the_benchmarks_size_mean_share_rule():
-    from bench import decision, tolerance
-    from eye_bci_ros2.sim.person import ORIGINAL_TOBII_4C
     bench_rule = tolerance.settings_for('size_mean/s', decision.EarlyConfig(), ORIGINAL_TOBII_4C)
     default = ArbiterSettings()
     for name in ('classification', 'ratio', 'size_aware', 'min_share', 'k_sigma', 'method'):
