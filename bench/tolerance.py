@@ -153,7 +153,7 @@ def _decide(rule: str, points, stamps, regions: RegionSet, config: decision.Earl
     Label chosen by a rule of :data:`RULES` for one trial (window 0..config.window_s).
 
     The node's decision code with the rule's settings (:func:`settings_for`):
-    the regions as its classifier (``ArbiterSettings.regions``), the share
+    the regions classified by the rule (``ArbiterSettings.regions``), the share
     test in :class:`eye_bci_ros2.evidence.RoundEvidence` (``min_share``: a
     window-end choice needs that share of the window's valid samples, an
     early one ``evidence.EARLY_SHARE`` of the last ``EARLY_SHARE_S``); an
@@ -162,7 +162,7 @@ def _decide(rule: str, points, stamps, regions: RegionSet, config: decision.Earl
     settings = settings_for(rule, config, params)
     keep = stamps < config.window_s
     evidence = settings.evidence(0.0)
-    made = evidence.add(points[keep], stamps[keep], settings.regions(regions),
+    made = evidence.add(points[keep], stamps[keep], regions,
                         settings.confidence if settings.early_decision else None)
     return (made or evidence.decide(settings.method)).label
 

@@ -79,7 +79,7 @@ live stream (the choice_arbiter node's logic without ROS).
 
 from dataclasses import dataclass, field
 import math
-from typing import Dict, Optional, Tuple
+from typing import Callable, Dict, Optional, Tuple
 
 import numpy as np
 
@@ -323,11 +323,16 @@ class RoundEvidence:
         this fraction of the valid samples on its label, and an early one
         :data:`EARLY_SHARE` of the last :data:`EARLY_SHARE_S`; in [0, 1], 0 =
         off (the original rule).  Fixed for the round.
+    :param classifier: turns each region set given to :meth:`add` into the
+        one that classifies the samples (and the window-end mean), e.g.
+        :meth:`eye_bci_ros2.rounds.ArbiterSettings.regions` (the tolerant
+        rule); once per set.  None: the sets as given.
     """
 
     def __init__(self, start: float = 0.0, hit_rate: float = DEFAULT_HIT_RATE,
                  min_samples: int = 10, dwell_s: float = 0.0, min_reaction_s: float = 0.0,
-                 min_share: float = 0.0):
+                 min_share: float = 0.0,
+                 classifier: Optional[Callable[[RegionSet], RegionSet]] = None):
         """Start an empty round."""
         check_hit_rate(hit_rate)
         check_min_share(min_share)
@@ -342,6 +347,8 @@ class RoundEvidence:
         self.dwell_s = float(dwell_s)
         self.min_reaction_s = float(min_reaction_s)
         self.min_share = float(min_share)
+        self._classifier = classifier
+        self._classified: Dict[int, tuple] = {}
         self.labels: list = []
         self.samples = 0
         #: Of those, samples with finite coordinates (the share test's denominator).
@@ -419,6 +426,16 @@ class RoundEvidence:
         """Posterior of each offered label (module doc)."""
         return dict(zip(self.labels, posterior_from_counts(self._counts, self.hit_rate).tolist()))
 
+    def regions_for(self, region_set: RegionSet) -> RegionSet:
+        """Return ``region_set`` as this round classifies it (its ``classifier``)."""
+        if self._classifier is None or not len(region_set):
+            return region_set
+        cached = self._classified.get(id(region_set))
+        if cached is None or cached[0] is not region_set:
+            cached = self._classified[id(region_set)] = (region_set,
+                                                         self._classifier(region_set))
+        return cached[1]
+
     def _label_ids(self, region_set: RegionSet) -> Tuple[np.ndarray, np.ndarray]:
         """
         Map each region of a set to its round label id; give each label's centroid.
@@ -468,6 +485,7 @@ class RoundEvidence:
             raise ValueError(f'{len(points)} gaze points but {len(stamps)} stamps')
         if confidence is not None and not 0.5 < confidence < 1.0:
             raise ValueError(f'confidence must be in (0.5, 1), got {confidence}')
+        region_set = self.regions_for(region_set)
         ids, label_centroids = self._label_ids(region_set)
         if self._latest is None or region_set.stamp >= self._latest.stamp:
             self._latest = region_set

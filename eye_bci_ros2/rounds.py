@@ -252,12 +252,12 @@ class ArbiterSettings:
         """
         Return an empty :class:`RoundEvidence` for a round starting at ``start`` s.
 
-        Feed it region sets from :meth:`regions`: the share test is here, the
-        classification there.
+        It weighs with the whole rule: the share test, and every region set
+        given to it classified by :meth:`regions` (once per set).
         """
         return RoundEvidence(start, hit_rate=self.hit_rate, min_samples=self.min_samples,
                              dwell_s=self.dwell_s, min_reaction_s=self.min_reaction_s,
-                             min_share=self.min_share)
+                             min_share=self.min_share, classifier=self.regions)
 
     def replace(self, **changed) -> 'ArbiterSettings':
         """Return a copy with ``changed`` fields (unknown names are ignored)."""
@@ -275,25 +275,12 @@ class _Round:
         # The settings the round weighs with: its rule (RULE_FIELDS) stays for the round.
         self.settings = settings
         self.evidence = settings.evidence(start)
-        # Each region set as the round's rule classifies it, by id (see classifier).
-        self._classifiers: dict = {}
         # In-window samples as they arrived, for re-classification.
         self.log = SampleLog()
         self.window_closed = False
         # A decision made but not yet final (reorder_s > 0), and until when it may wait.
         self.pending: Optional[Decision] = None
         self.deadline = math.inf
-
-    def classifier(self, region_set: RegionSet) -> RegionSet:
-        """Return ``region_set`` with the round's rule (converted once per set)."""
-        if not len(region_set):
-            return region_set
-        cached = self._classifiers.get(id(region_set))
-        if cached is not None and cached[0] is region_set:
-            return cached[1]
-        converted = self.settings.regions(region_set)
-        self._classifiers[id(region_set)] = (region_set, converted)
-        return converted
 
 
 #: ``on_log(level, key, text)``: level 'info' or 'warning'; key names the kind of message.
@@ -423,7 +410,7 @@ class RoundScheduler:
             return None
         newest = self._history[-1]
         if self._round is not None:
-            return self._round.classifier(newest)
+            return self._round.evidence.regions_for(newest)
         cached = self._classifier
         if cached is None or cached[0] is not newest or cached[1] != self.settings:
             cached = self._classifier = (newest, self.settings, self.settings.regions(newest))
@@ -623,7 +610,7 @@ class RoundScheduler:
         if inside:
             round_.log.extend(stamps[:inside], points[:inside])
             decision = round_.evidence.add(
-                points[:inside], stamps[:inside], round_.classifier(self._regions_at(stamps[0])),
+                points[:inside], stamps[:inside], self._regions_at(stamps[0]),
                 settings.confidence if settings.early_decision else None)
         if decision is not None:
             decision = self._propose(round_, decision, now)
@@ -785,8 +772,7 @@ class RoundScheduler:
                 shown = np.full(len(stamps), -1)
             bounds = np.flatnonzero(np.diff(shown)) + 1
             for lo, hi in zip(np.r_[0, bounds], np.r_[bounds, len(stamps)]):
-                regions = round_.classifier(self._history[shown[lo]]) if shown[lo] >= 0 \
-                    else _EMPTY_REGIONS
+                regions = self._history[shown[lo]] if shown[lo] >= 0 else _EMPTY_REGIONS
                 if evidence.add(points[lo:hi], stamps[lo:hi], regions, confidence) is not None:
                     break
         round_.evidence = evidence
