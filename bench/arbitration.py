@@ -32,13 +32,14 @@ from eye_bci_ros2 import geometry
 
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE, RoundScheduler
+from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
 
 #: Metrics shown in the printed table (the JSON has them all).
 TABLE_COLUMNS = ('samples_per_s', 'per_message_samples_per_s',
                  'per_message_tracker_samples_per_s', 'reference_samples_per_s', 'speedup',
                  'in_region_fraction', 'agrees')
 #: Screen size, px.
-SCREEN_SIZE = (1920, 1080)
+SCREEN_SIZE = (DEFAULT_VIEWING.width_px, DEFAULT_VIEWING.height_px)
 #: Region counts R of a run.
 REGION_COUNTS = (3, 10, 100)
 #: Samples per chunk of the batch path.

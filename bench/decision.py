@@ -43,7 +43,7 @@ Rules:
   round start (the original system); decision at the window end.
 * ``vote``: majority of the in-region samples of the same window.
 * ``node_default``: the node with ``early_decision: true`` and every other
-  parameter at its default (:class:`EarlyConfig` defaults are
+  parameter at its default (:data:`NODE_DEFAULT`: the
   :class:`~eye_bci_ros2.rounds.ArbiterSettings` defaults, the node's).
 * ``best``: early decision with the configuration (confidence, min_samples,
   dwell_s, min_reaction_s, hit_rate) picked by a grid search on separate
@@ -74,7 +74,7 @@ time from fixation onset + :data:`GAZE_SHIFT_S` for the gaze shift.
 """
 
 import argparse
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 import itertools
 import json
 import math
@@ -84,8 +84,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.evidence import RoundEvidence
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
+from eye_bci_ros2.experiments.trials import decide_trial, ORIGINAL, settings_for
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeParams, GazeSimulator
@@ -140,38 +140,18 @@ QUICK_GRID = {
 }
 #: Tuning ITRs this close (relative) to the best count as equal (tuning-set noise).
 ITR_TOLERANCE = 0.01
+#: The node's early decision at its defaults (every trial's rule is the node's settings).
+NODE_DEFAULT = settings_for('early', ArbiterSettings(window_s=WINDOW_S))
+#: The settings an early-decision configuration is reported by (the tuned ones and their context).
+EARLY_FIELDS = ('confidence', 'min_samples', 'dwell_s', 'hit_rate', 'method', 'window_s',
+                'min_reaction_s')
+#: The fixed rules compared (module doc); ``best`` is tuned.
+RULES = {'original': ORIGINAL.replace(window_s=WINDOW_S),
+         'vote': settings_for('vote', ORIGINAL.replace(window_s=WINDOW_S)),
+         'node_default': NODE_DEFAULT}
 #: Start-of-trial scenarios (module doc).
 SCENARIOS = ('new_menu', 'other_target')
 _SCENARIO_CODE = {'new_menu': 0, 'other_target': 1}
-
-
-_NODE = ArbiterSettings()
-
-
-@dataclass(frozen=True)
-class EarlyConfig:
-    """
-    Parameters of the node's early decision (``choice_arbiter`` parameters).
-
-    The defaults are the node's defaults (the ``node_default`` rule).
-
-    :param confidence: posterior needed, in (0.5, 1).
-    :param min_samples: fresh in-region samples needed and held by the leader.
-    :param dwell_s: span of the leader's uninterrupted run, s.
-    :param hit_rate: evidence model h, in (0.5, 1).
-    :param method: rule at the window end without an early decision.
-    :param window_s: the round's window, s.
-    :param min_reaction_s: runs starting earlier after the round start are
-        not evidence for the early decision, s.
-    """
-
-    confidence: float = _NODE.confidence
-    min_samples: int = _NODE.min_samples
-    dwell_s: float = _NODE.dwell_s
-    hit_rate: float = _NODE.hit_rate
-    method: str = _NODE.method
-    window_s: float = WINDOW_S
-    min_reaction_s: float = _NODE.min_reaction_s
 
 
 @dataclass
@@ -266,42 +246,23 @@ def simulate_trials(count: int, size: float, seeds: Sequence[int],
     return trials
 
 
-def decide_window(trial: Trial, regions: RegionSet, method: str) -> Tuple[Optional[str], float]:
-    """
-    Decide a trial with a window rule ('mean' = original, or 'vote'), as the node does.
-
-    :returns: (label or None, decision time s = the window end).
-    """
-    evidence = RoundEvidence(0.0)
-    evidence.add(trial.points, trial.stamps, regions)
-    return evidence.decide(method).label, WINDOW_S
+def early_fields(settings: ArbiterSettings) -> Dict[str, object]:
+    """Return the early-decision settings of a rule (:data:`EARLY_FIELDS`), for the report."""
+    return {name: getattr(settings, name) for name in EARLY_FIELDS}
 
 
-def decide_early(trial: Trial, regions: RegionSet, config: EarlyConfig,
-                 chunk: Optional[int] = None) -> Tuple[Optional[str], float]:
+def decide(trial: Trial, regions: RegionSet, settings: ArbiterSettings,
+           chunk: Optional[int] = None) -> Tuple[Optional[str], float]:
     """
-    Decide a trial with the node's early decision.
+    Decide a trial as the node does (:func:`eye_bci_ros2.experiments.trials.decide_trial`).
 
-    :param chunk: feed the samples in chunks of this many (the node feeds
-        them one by one as they arrive, through
-        :class:`~eye_bci_ros2.rounds.RoundScheduler`); None = all at
-        once, which gives the same decision because :meth:`RoundEvidence.add`
-        stops at the first sample that passes.
-    :returns: (label or None, decision time s: the deciding sample's stamp,
-        or the window end when the fallback rule decided).
+    :param settings: the rule: the node's settings (early decision or a window rule).
+    :param chunk: feed the samples in batches of this many; None = all at once.
+    :returns: (label or None, decision time s: the deciding sample's stamp for
+        an early decision, else the window end).
     """
-    evidence = RoundEvidence(0.0, hit_rate=config.hit_rate, min_samples=config.min_samples,
-                             dwell_s=config.dwell_s, min_reaction_s=config.min_reaction_s)
-    in_window = trial.stamps < config.window_s
-    stamps, points = trial.stamps[in_window], trial.points[in_window]
-    step = len(stamps) if chunk is None else int(chunk)
-    decision = None
-    for lo in range(0, len(stamps), max(step, 1)):
-        decision = evidence.add(points[lo:lo + step], stamps[lo:lo + step], regions,
-                                config.confidence)
-        if decision is not None:
-            return decision.label, evidence.start + decision.time_to_decision
-    return evidence.decide(config.method).label, config.window_s
+    outcome = decide_trial(trial.points, trial.stamps, regions, settings, chunk=chunk)
+    return outcome.label, outcome.time_s
 
 
 def itr_bits_per_min(accuracy: float, count: int, seconds: float) -> float:
@@ -361,17 +322,13 @@ def evaluate(rule, data: Dict) -> Dict[str, Dict[str, Dict[str, float]]]:
     """
     Apply a rule to simulated cells.
 
-    :param rule: 'original', 'vote' or an :class:`EarlyConfig`.
+    :param rule: the node's settings deciding the trials (:data:`RULES`, or a tuned one).
     :param data: ``{(N, S): (RegionSet, [Trial])}``.
     :returns: ``{'N': {'S': metrics}}``.
     """
     table: Dict[str, Dict[str, Dict[str, float]]] = {}
     for (count, size), (regions, trials) in data.items():
-        if isinstance(rule, EarlyConfig):
-            outcomes = [decide_early(trial, regions, rule) for trial in trials]
-        else:
-            method = {'original': 'mean', 'vote': 'vote'}[rule]
-            outcomes = [decide_window(trial, regions, method) for trial in trials]
+        outcomes = [decide(trial, regions, rule) for trial in trials]
         table.setdefault(str(count), {})[str(size)] = summarise(trials, outcomes, count)
     return table
 
@@ -381,7 +338,7 @@ def _cells_of(table) -> List[Tuple[int, Dict[str, float]]]:
     return [(int(size), metrics) for row in table.values() for size, metrics in row.items()]
 
 
-def tune(sets: Dict[str, Dict], grid: Dict[str, Sequence]) -> Tuple[EarlyConfig,
+def tune(sets: Dict[str, Dict], grid: Dict[str, Sequence]) -> Tuple[ArbiterSettings,
                                                                     Dict[str, object]]:
     """
     Pick the early-decision configuration on the tuning cells.
@@ -395,19 +352,19 @@ def tune(sets: Dict[str, Dict], grid: Dict[str, Sequence]) -> Tuple[EarlyConfig,
     the highest ITR (then the first in grid order).
 
     :param sets: tuning sets by name, each ``{(N, S): (RegionSet, [Trial])}``.
-    :param grid: values to search per :class:`EarlyConfig` field.
+    :param grid: values to search per early-decision setting (:data:`GRID`).
     :returns: the configuration and a summary of the search.
     """
     names = ('confidence', 'min_samples', 'dwell_s', 'min_reaction_s', 'hit_rate')
     scored = []
     for values in itertools.product(*(grid[name] for name in names)):
-        config = EarlyConfig(**dict(zip(names, values)))
+        config = NODE_DEFAULT.replace(**dict(zip(names, values)))
         cells = [cell for data in sets.values() for cell in _cells_of(evaluate(config, data))]
         feasible = all(m['accuracy'] >= GOAL_ACCURACY for size, m in cells if size >= GOAL_SIZE)
         score = float(np.mean([m['itr_bits_per_min'] for _, m in cells]))
         wrong = int(round(sum(m['wrong'] * m['trials'] for _, m in cells)))
         scored.append((feasible, score, wrong, config))
-    table = [dict(asdict(config), feasible=feasible, mean_itr_bits_per_min=round(score, 2),
+    table = [dict(early_fields(config), feasible=feasible, mean_itr_bits_per_min=round(score, 2),
                   wrong=wrong) for feasible, score, wrong, config in scored]
     any_feasible = any(entry[0] for entry in scored)
     candidates = [entry for entry in scored if entry[0] or not any_feasible]
@@ -505,12 +462,11 @@ def run(quick: bool = False, trials: Optional[int] = None, tuning_trials: Option
                                                      FAST_PARAMS)
     config, search = tune(tuning, grid)
     del tuning
-    node_default = EarlyConfig()
-    rules = {'original': 'original', 'vote': 'vote', 'node_default': node_default,
-             'best': config}
+    node_default = NODE_DEFAULT
+    rules = dict(RULES, best=config)
     test = _simulate(cells, TEST_SEED, trials, 'new_menu')
     section: Dict = {name: evaluate(rule, test) for name, rule in rules.items()}
-    section['best']['config'] = asdict(config)
+    section['best']['config'] = early_fields(config)
     section['best']['search'] = search
     stress_best = None
     if stress:
@@ -542,7 +498,7 @@ def run(quick: bool = False, trials: Optional[int] = None, tuning_trials: Option
         'fixation_onset': f'first sample with the true eye within {LANDED_DEG} deg of the '
                           'target centre',
         'window_s': WINDOW_S, 'gaze_shift_s': GAZE_SHIFT_S,
-        'node_default': asdict(node_default),
+        'node_default': early_fields(node_default),
         'trials_per_cell': trials, 'tuning_trials_per_cell_and_scenario': tuning_trials,
         'fast_trials_per_cell_and_scenario': fast_trials,
         'test_seeds': [TEST_SEED, TEST_SEED + max(trials, fast_trials) - 1],

@@ -61,6 +61,7 @@ from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.runner import make_executor, spin_for, spin_until
 from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
+from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
 
 #: Goals of issue 13 (2-core machine).
 GOAL_TOTAL_CPU_PERCENT = 20.0     # four nodes at 1200 Hz
@@ -83,8 +84,7 @@ def push_loop(conn, name: str, source_id: str, rate: float) -> None:
     n samples at the aim stamped evenly in [t0, t1) (LSL clock) in one chunk,
     ``None`` = stop.  Out: ``('ready',)``, ``('burst', pushed_at)``, ``('done', n)``.
     """
-    info = pylsl.StreamInfo(name, 'bench-gaze', 2, rate, pylsl.cf_float32, source_id)
-    outlet = pylsl.StreamOutlet(info, 0, 360)
+    outlet = open_outlet(stream_info(name, 'bench-gaze', 2, rate, source_id))
     conn.send(('ready',))
     aim = np.array(OFF_PX)
     rng = np.random.default_rng(7)

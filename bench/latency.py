@@ -75,6 +75,7 @@ from eye_bci_ros2.nodes.conversions import cube_marker, marker_array_to_regions
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.runner import make_executor, spin_for, spin_until
 from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
+from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
 
 #: Push rate of the simulated tracker, Hz.
 RATE_HZ = 1200.0
@@ -115,9 +116,8 @@ def encode_xy_pixels(screen_xy: Sequence[float]) -> List[float]:
 def make_outlet(name: str, source_id: str, rate: float) -> pylsl.StreamOutlet:
     """Open an LSL outlet laid out as the ``xy_pixels`` profile (2 float32 channels)."""
     spec = PROFILES['xy_pixels']
-    info = pylsl.StreamInfo(name, spec.stream_type, len(spec.channel_labels), rate,
-                            pylsl.cf_float32, source_id)
-    return pylsl.StreamOutlet(info)
+    return open_outlet(stream_info(name, spec.stream_type, len(spec.channel_labels), rate,
+                                   source_id, spec.channel_format))
 
 
 def push_loop(conn, name: str, source_id: str, rate: float) -> None:

@@ -60,6 +60,7 @@ from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.runner import executor_kind, make_executor, spin_until
 from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
+from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
 
 #: Static RViz view of the soak (world frame ``map``, m).
 EYE, FOCUS, UP = [0.0, -8.0, 12.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]
@@ -157,9 +158,9 @@ class Soak:
         """Create the nodes and the LSL outlet."""
         self.args = args
         stream_id = uuid.uuid4().hex
-        info = pylsl.StreamInfo(f'soak-{stream_id}', f'soak-gaze-{stream_id}', 2, args.rate,
-                                pylsl.cf_float32, f'soak-source-{stream_id}')
-        self.outlet = pylsl.StreamOutlet(info, 0, 360)
+        info = stream_info(f'soak-{stream_id}', f'soak-gaze-{stream_id}', 2, args.rate,
+                           f'soak-source-{stream_id}')
+        self.outlet = open_outlet(info)
         bridge = {'profile': 'custom', 'stream_type': info.type(), 'stream_name': info.name(),
                   'source_id': info.source_id(), 'stats_period_s': 0.0}
         self.nodes = [

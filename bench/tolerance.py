@@ -7,7 +7,7 @@ stamp order, as ``bench/decision.py`` and the accuracy test do), named in
 :data:`RULES`:
 
 * ``mean`` (the original), ``vote``, ``early`` (the node's early decision,
-  :class:`bench.decision.EarlyConfig` defaults, mean at the window end):
+  :data:`bench.decision.NODE_DEFAULT`, mean at the window end):
   inside-only classification, today's code;
 * ``tol_*``: the same code given a :class:`TolerantRegions` (a ``RegionSet``
   whose ``classify`` and ``classify_one`` apply
@@ -124,22 +124,19 @@ def model_for(params: GazeParams) -> GazeErrorModel:
                           k_sigma=MODEL.k_sigma)
 
 
-def settings_for(rule: str, config: decision.EarlyConfig,
-                 params: GazeParams) -> ArbiterSettings:
+def settings_for(rule: str, config: ArbiterSettings, params: GazeParams) -> ArbiterSettings:
     """
     Return the choice_arbiter settings of a rule of :data:`RULES` for one simulated person.
 
-    The early decision's parameters and the window are ``config``'s; the rule's
-    classification, ratio, size awareness and share test are the rule's; the
-    gaze-error model is :func:`model_for` the person, on the person's screen.
+    ``config``'s early decision and window (``bench/decision.py``'s
+    ``NODE_DEFAULT``); the rule's method, classification, ratio, size awareness
+    and share test; the gaze-error model :func:`model_for` the person, on the
+    person's screen.
     """
     base, tolerant, ratio, share, size_aware = RULES[rule]
     model, screen = model_for(params), params.person.screen
-    return ArbiterSettings(
-        method=config.method if base == 'early' else base, window_s=config.window_s,
-        early_decision=base == 'early', confidence=config.confidence,
-        min_samples=config.min_samples, dwell_s=config.dwell_s, hit_rate=config.hit_rate,
-        min_reaction_s=config.min_reaction_s,
+    return config.replace(
+        method=config.method if base == 'early' else base, early_decision=base == 'early',
         classification='tolerant' if tolerant else 'inside', accuracy_deg=model.accuracy_deg,
         precision_deg=model.precision_deg, k_sigma=model.k_sigma, ratio=ratio,
         size_aware=size_aware, min_share=share, screen_width_mm=screen.width_mm,
@@ -147,7 +144,7 @@ def settings_for(rule: str, config: decision.EarlyConfig,
         screen_width=screen.width_px, screen_height=screen.height_px)
 
 
-def _decide(rule: str, points, stamps, regions: RegionSet, config: decision.EarlyConfig,
+def _decide(rule: str, points, stamps, regions: RegionSet, config: ArbiterSettings,
             params: GazeParams) -> Optional[str]:
     """
     Label chosen by a rule of :data:`RULES` for one trial (window 0..config.window_s).
@@ -167,7 +164,7 @@ def _decide(rule: str, points, stamps, regions: RegionSet, config: decision.Earl
     return (made or evidence.decide(settings.method)).label
 
 
-def _early(points, stamps, regions: RegionSet, config: decision.EarlyConfig,
+def _early(points, stamps, regions: RegionSet, config: ArbiterSettings,
            share_test: bool):
     """
     Run the node's early decision (``RoundEvidence.add(..., confidence)``), or None.
@@ -199,7 +196,7 @@ def smallest(rules: Sequence[str] = tuple(RULES), trials: int = SEARCH_TRIALS,
     """
     scenario = accuracy_test.RoomScenario(load_scene(default_scene_path()))
     settings = accuracy_test.TrialSettings(params=params)
-    config = decision.EarlyConfig(window_s=settings.window_s)
+    config = decision.NODE_DEFAULT.replace(window_s=settings.window_s)
     data = []
     for trial in range(trials):
         target = trial % len(scenario.labels)
@@ -268,7 +265,7 @@ def midway(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
            params: GazeParams = CONSUMER_TRACKER, counts=(3, 4, 9),
            sizes=decision.SIZES) -> Dict[str, Dict]:
     """Wrong choices (any choice) with the gaze midway between two options, per rule and cell."""
-    config = decision.EarlyConfig()
+    config = decision.NODE_DEFAULT
     table: Dict[str, Dict] = {rule: {} for rule in rules}
     seeds = range(MIDWAY_SEED, MIDWAY_SEED + trials)
     for count in counts:
@@ -288,7 +285,7 @@ def other_target(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
                  params: GazeParams = CONSUMER_TRACKER, counts=(3, 4, 9),
                  sizes=decision.SIZES) -> Dict[str, Dict]:
     """Accuracy and wrong fraction in bench/decision.py's stress scenario, per rule."""
-    config = decision.EarlyConfig()
+    config = decision.NODE_DEFAULT
     out: Dict[str, Dict] = {rule: {'wrong': 0, 'correct': 0, 'trials': 0} for rule in rules}
     seeds = range(decision.TEST_SEED, decision.TEST_SEED + trials)
     for count in counts:
@@ -342,7 +339,7 @@ def speed(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
     The decision time is the deciding sample's stamp for an early decision,
     the window end otherwise (as ``bench/decision.py`` counts it).
     """
-    config = decision.EarlyConfig()
+    config = decision.NODE_DEFAULT
     seeds = range(decision.TEST_SEED, decision.TEST_SEED + trials)
     out: Dict[str, Dict[str, list]] = {rule: {'correct': [], 'ms': []} for rule in rules}
     for count in counts:

@@ -28,6 +28,7 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from eye_bci_ros2 import geometry
 from eye_bci_ros2.camera_model import rviz_intrinsic  # noqa: F401 - in the calibration API too
 from eye_bci_ros2.geometry import MIN_DEPTH
 
@@ -303,12 +304,12 @@ def project(projection, points) -> np.ndarray:
     :param projection: shape (3, 4), any scale or sign.
     :param points: shape (N, 3), m.
     :returns: shape (N, 2), image px; inf where the point is on the focal plane.
+        A point behind the camera is projected like one in front (a DLT's sign
+        is arbitrary; :func:`eye_bci_ros2.geometry.apply_projection`).
     """
     projection = _matrix('projection', projection, (3, 4))
     points = _as_array('points', points, 3)
-    homogeneous = points @ projection[:, :3].T + projection[:, 3]
-    with np.errstate(divide='ignore', invalid='ignore'):
-        uv = homogeneous[:, :2] / homogeneous[:, 2:3]
+    uv, _ = geometry.apply_projection(projection, points)
     uv[~np.isfinite(uv)] = np.inf
     return uv
 

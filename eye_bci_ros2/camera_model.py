@@ -26,6 +26,11 @@ from eye_bci_ros2 import geometry
 #: of an RViz window on a 1920x1080 screen (side panels and toolbars take the rest).
 DEFAULT_IMAGE_SIZE = (1280, 720)
 
+#: Where that panel's top-left corner sits on the 1920x1080 screen
+#: (:data:`eye_bci_ros2.visual_angle.DEFAULT_VIEWING`), px: (X0, Y0), the
+#: marker_projector's default screen offset.
+DEFAULT_PANEL_OFFSET = (320, 180)
+
 #: RViz2 (Ogre 1.12) renders with this vertical field of view, degrees.
 RVIZ_FOV_Y_DEG = 45.0
 

@@ -18,7 +18,7 @@ ROS clock.
 """
 
 import math
-from typing import Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -80,6 +80,21 @@ def describe_stream(info) -> str:
     rate_text = f'{rate:g} Hz' if rate > 0 else 'irregular rate'
     return (f"'{info.name()}' (type '{info.type()}', source_id '{info.source_id()}', "
             f'{info.channel_count()} ch, {rate_text}, host {info.hostname()})')
+
+
+def channel_labels(info) -> List[str]:
+    """
+    Return a stream's channel labels (desc/channels/channel/label), '' where a channel has none.
+
+    Any LSL stream (gaze or EEG): ``info`` is a full ``StreamInfo`` (from an
+    inlet's ``info()``), whose ``desc()`` holds what the application wrote.
+    """
+    labels = []
+    channel = info.desc().child('channels').child('channel')
+    while not channel.empty():
+        labels.append(channel.child_value('label').strip())
+        channel = channel.next_sibling('channel')
+    return labels
 
 
 def how_to_choose(info, current_source_id: str) -> str:

@@ -162,12 +162,30 @@ def project_points(points, intrinsic, external) -> Tuple[np.ndarray, np.ndarray]
     """
     points = _finite_array('points', points, (3,)).reshape(-1, 3)
     projection = _matrix('intrinsic', intrinsic, (3, 4)) @ _matrix('external', external, (4, 4))
-    homogeneous = points @ projection[:, :3].T + projection[:, 3]
-    depth = homogeneous[:, 2]
-    with np.errstate(divide='ignore', invalid='ignore'):
-        uv = homogeneous[:, :2] / depth[:, None]
+    uv, depth = apply_projection(projection, points)
     uv[depth <= MIN_DEPTH] = np.nan
     return uv, depth
+
+
+def apply_projection(projection: np.ndarray, points: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Divide by depth: image px of points under a 3x4 projection (the one perspective formula).
+
+    :param projection: shape (3, 4), e.g. ``intrinsic @ external[:3]``.
+    :param points: shape (N, 3), world frame, m (validated by the caller).
+    :returns: ``(uv, w)``: uv shape (N, 2) px (inf or NaN where w = 0), w
+        shape (N,) the homogeneous third coordinate: the depth along the
+        optical axis for an RViz intrinsic.  What a point behind the camera
+        gets is the caller's rule: :func:`project_points` knows the depth
+        and sets NaN; a DLT matrix has an arbitrary scale and sign, so
+        :func:`eye_bci_ros2.calibration.project` cannot tell behind from in
+        front.
+    """
+    homogeneous = points @ projection[:, :3].T + projection[:, 3]
+    w = homogeneous[:, 2]
+    with np.errstate(divide='ignore', invalid='ignore'):
+        uv = homogeneous[:, :2] / w[:, None]
+    return uv, w
 
 
 def orthographic_intrinsic(width, height, scale_px_per_m) -> np.ndarray:

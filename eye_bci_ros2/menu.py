@@ -133,6 +133,13 @@ class Result:
 
 
 @dataclass(frozen=True)
+class Answer:
+    """A choice the menu acted on: it answered the question (``choice_menu/answer``)."""
+
+    label: str
+
+
+@dataclass(frozen=True)
 class Log:
     """A line for the node's log: level 'info' or 'warning'."""
 
@@ -140,7 +147,7 @@ class Log:
     text: str
 
 
-Action = Union[Offer, Request, Result, Log]
+Action = Union[Offer, Request, Result, Answer, Log]
 
 
 def _quaternion_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
@@ -352,10 +359,12 @@ class MenuProtocol:
             self._look_away = _LookAway(now, self._region_of(label))
         if self.room is None:
             room = self.scene.room(label)
-            return [Log('info', f"room chosen: '{label}'")] + self._offer_tables(room, now)
+            return [Answer(label), Log('info', f"room chosen: '{label}'"),
+                    *self._offer_tables(room, now)]
         if label == BACK_LABEL:
-            return [Log('info', 'back to the rooms')] + self._offer_rooms(now)
-        actions: List[Action] = [Result(label), Log('info', f"outcome: '{label}'")]
+            return [Answer(label), Log('info', 'back to the rooms'), *self._offer_rooms(now)]
+        actions: List[Action] = [Answer(label), Result(label),
+                                 Log('info', f"outcome: '{label}'")]
         if self.settings.repeat:
             return actions + self._offer_rooms(now)
         return actions + self._finish()

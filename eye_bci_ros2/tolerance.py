@@ -51,7 +51,7 @@ from typing import Optional, Tuple, Union
 import numpy as np
 
 from eye_bci_ros2.geometry import polygon_signed_area, PolygonSet
-from eye_bci_ros2.regions import RegionSet
+from eye_bci_ros2.regions import polygon_centroids, RegionSet
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, px_per_degree_at, ScreenGeometry
 
 #: How a decision rule classifies samples: 'tolerant' (this module) or 'inside' (the original:
@@ -254,20 +254,6 @@ def half_sizes(polygons) -> np.ndarray:
     return np.sqrt(area) / 2.0
 
 
-def _area_centroids(filled: np.ndarray) -> np.ndarray:
-    """Area centroids of polygons (R, K, 2) -> (R, 2); the vertex mean when flat."""
-    x, y = filled[..., 0], filled[..., 1]
-    x_next, y_next = np.roll(x, -1, axis=1), np.roll(y, -1, axis=1)
-    cross = x * y_next - x_next * y
-    area = cross.sum(axis=1) / 2.0
-    with np.errstate(divide='ignore', invalid='ignore'):
-        centroids = np.stack([((x + x_next) * cross).sum(axis=1),
-                              ((y + y_next) * cross).sum(axis=1)], axis=1) / (6.0 * area[:, None])
-    flat = ~(np.abs(area) > 1e-12)
-    centroids[flat] = filled[flat].mean(axis=1)
-    return centroids
-
-
 def classify_tolerant(points, polygons, tolerance_px: Union[float, np.ndarray],
                       ratio: float = DEFAULT_RATIO, *, size_aware: bool = False) -> np.ndarray:
     """
@@ -291,7 +277,7 @@ def classify_tolerant(points, polygons, tolerance_px: Union[float, np.ndarray],
     several = np.flatnonzero(inside.sum(axis=1) > 1)
     if several.size:
         filled, _ = fill_padding(polygons)
-        centre = _area_centroids(filled)
+        centre = polygon_centroids(filled)
         delta = points[several, None, :] - centre[None]
         squared = np.where(inside[several], np.sum(delta * delta, axis=2), np.inf)
         region[several] = np.argmin(squared, axis=1)

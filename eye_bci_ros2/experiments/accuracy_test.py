@@ -45,8 +45,10 @@ from typing import Callable, Dict, List, Optional, Sequence, TextIO, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.camera_model import RvizCamera
+from eye_bci_ros2.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET, RVIZ_FOV_Y_DEG,
+                                       RvizCamera)
 from eye_bci_ros2.experiments import render as demo_render
+from eye_bci_ros2.experiments.trials import decide_trial, RULES, settings_for
 from eye_bci_ros2.geometry import polygon_signed_area
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.regions import RegionSet
@@ -55,11 +57,11 @@ from eye_bci_ros2.scene import load_scene, Scene
 from eye_bci_ros2.sim.person import GazeParams, GazeSimulator, ORIGINAL_TOBII_4C, PRESETS
 
 #: RViz render panel (W, H) px, its offset (X0, Y0) on the 1920x1080 screen, vertical FOV.
-PANEL_SIZE = (1280, 720)
-PANEL_OFFSET = (320, 180)
-FOV_Y_DEG = 45.0
+PANEL_SIZE = DEFAULT_IMAGE_SIZE
+PANEL_OFFSET = DEFAULT_PANEL_OFFSET
+FOV_Y_DEG = RVIZ_FOV_Y_DEG
 #: Decision rules the curve can show ('early' = early decision, mean at the window end).
-CURVE_METHODS = ('mean', 'vote', 'early')
+CURVE_METHODS = RULES
 #: Marker sizes of the curve, px.
 DEFAULT_SIZES = (4, 5, 6, 7, 8, 10, 12, 14, 16, 20, 24, 28, 32, 40, 48, 64, 80, 100, 128,
                  160, 200, 250, 300)
@@ -282,6 +284,8 @@ def run_trials(scenario: RoomScenario, size_px: float, trials: int, seed: int,
     unknown = [m for m in methods if m not in CURVE_METHODS]
     if unknown:
         raise ValueError(f"unknown method {unknown[0]!r}: use {', '.join(CURVE_METHODS)}")
+    base = settings.arbiter.replace(window_s=settings.window_s)
+    rules = [settings_for(method, base) for method in methods]
     regions = scenario.regions(size_px)
     count = len(methods)
     correct = np.zeros((trials, count), dtype=bool)
@@ -294,14 +298,8 @@ def run_trials(scenario: RoomScenario, size_px: float, trials: int, seed: int,
                                    initial_xy=scenario.start_xy)
         valid = trace.valid
         points, stamps = trace.xy[valid], trace.t[valid]
-        for column, method in enumerate(methods):
-            evidence = settings.arbiter.evidence(0.0)
-            if method == 'early':
-                decision = evidence.add(points, stamps, regions, settings.arbiter.confidence) \
-                    or evidence.decide('mean')
-            else:
-                evidence.add(points, stamps, regions)
-                decision = evidence.decide(method)
+        for column, rule in enumerate(rules):
+            decision = decide_trial(points, stamps, regions, rule).decision
             correct[trial, column] = decision.label == scenario.labels[target]
             no_choice[trial, column] = decision.label is None
             decision_s[trial, column] = decision.time_to_decision

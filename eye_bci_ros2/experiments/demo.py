@@ -69,7 +69,8 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.camera_model import optical_pose_from_ogre, RvizCamera
+from eye_bci_ros2.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET,
+                                       optical_pose_from_ogre, RVIZ_FOV_Y_DEG, RvizCamera)
 from eye_bci_ros2.evidence import Decision, METHODS
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
@@ -90,14 +91,15 @@ from eye_bci_ros2.sim.eeg_outlet import EegStreamer
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
 from eye_bci_ros2.sim.person import GazeParams, ORIGINAL_TOBII_4C, PRESETS
 from eye_bci_ros2.sim.rviz_view import SimRvizView
+from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
 
 #: The person's screen, px (the Linux machine of the original report).
-SCREEN_SIZE = (1920, 1080)
+SCREEN_SIZE = (DEFAULT_VIEWING.width_px, DEFAULT_VIEWING.height_px)
 #: The RViz render panel, px, and where its top-left sits on the screen (X0, Y0).
-PANEL_SIZE = (1280, 720)
-PANEL_OFFSET = (320, 180)
+PANEL_SIZE = DEFAULT_IMAGE_SIZE
+PANEL_OFFSET = DEFAULT_PANEL_OFFSET
 #: Vertical field of view RViz renders with, degrees.
-FOV_Y_DEG = 45.0
+FOV_Y_DEG = RVIZ_FOV_Y_DEG
 #: Where the person looks before and after the experiment: a corner of the
 #: screen, off the render panel, so no question can be answered by accident.
 REST_XY = (160.0, 90.0)

@@ -21,6 +21,8 @@ Topics:
 * publishes ``camera/goal`` geometry_msgs/PoseStamped (latched): optical
   camera pose (z forward, x right, y down) of the view to show;
 * publishes ``choice_menu/result`` std_msgs/String: each outcome;
+* publishes ``choice_menu/answer`` std_msgs/String: each choice the menu acted
+  on (a room, a table or ``back``; the arbiter's other choices are ignored);
 * publishes ``choice/request`` std_msgs/Empty: the question, once per step
   when the protocol's conditions hold (and again after an unusable choice,
   or after a pause);
@@ -57,7 +59,7 @@ from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.camera_model import look_at_pose
-from eye_bci_ros2.menu import (Action, Log, MenuProtocol, Offer, ProtocolSettings, Request,
+from eye_bci_ros2.menu import (Action, Answer, Log, MenuProtocol, Offer, ProtocolSettings, Request,
                                Result, ROOMS_NS, TABLES_NS)
 from eye_bci_ros2.nodes.conversions import (arrays_to_pose, cube_marker,
                                             marker_array_to_regions, pose_to_arrays)
@@ -144,6 +146,7 @@ class ChoiceMenu(Node):
         self._choices_pub = self.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
         self._goal_pub = self.create_publisher(PoseStamped, 'camera/goal', LATCHED_QOS)
         self._result_pub = self.create_publisher(String, 'choice_menu/result', EVENT_QOS)
+        self._answer_pub = self.create_publisher(String, 'choice_menu/answer', EVENT_QOS)
         self._request_pub = self.create_publisher(Empty, 'choice/request', EVENT_QOS)
         self._state_pub = self.create_publisher(String, 'choice_menu/state', LATCHED_QOS)
         self.create_subscription(String, 'choice', self._on_choice, EVENT_QOS)
@@ -231,6 +234,8 @@ class ChoiceMenu(Node):
                 self._request_pub.publish(Empty())
             elif isinstance(action, Result):
                 self._result_pub.publish(String(data=action.label))
+            elif isinstance(action, Answer):
+                self._answer_pub.publish(String(data=action.label))
             elif isinstance(action, Log):
                 if action.level == 'warning':
                     self.get_logger().warning(action.text, throttle_duration_sec=1.0)

@@ -61,8 +61,8 @@ from eye_bci_ros2.gaze_profiles import (
     ANY, build_config, convert, DEFAULT_PROFILE, DROP_REASONS, GazeConfig, GazeMapping,
     NO_CONFIDENCE, ORIGINS, PROFILE_NAMES, resolve_mapping, stream_matches, UNITS,
     xpath_predicate)
-from eye_bci_ros2.gaze_stream import (acquisition_stamps_ns, describe_stream, how_to_choose,
-                                      inlet_buflen, report_unmatched)
+from eye_bci_ros2.gaze_stream import (acquisition_stamps_ns, channel_labels, describe_stream,
+                                      how_to_choose, inlet_buflen, report_unmatched)
 from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_point
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
@@ -181,16 +181,6 @@ def _check_all(values: Dict[str, Any]) -> Optional[str]:
     except ValueError as exc:
         return str(exc)
     return None
-
-
-def _channel_labels(info: pylsl.StreamInfo) -> List[str]:
-    """Labels from desc/channels/channel/label, '' where a channel has none."""
-    labels = []
-    channel = info.desc().child('channels').child('channel')
-    while not channel.empty():
-        labels.append(channel.child_value('label').strip())
-        channel = channel.next_sibling('channel')
-    return labels
 
 
 def _resolver(predicate: str) -> Optional[pylsl.ContinuousResolver]:
@@ -479,7 +469,7 @@ class LslGazeBridge(Node):
         connection = _Connection(
             inlet=inlet, uid=full.uid(), source_id=full.source_id(),
             created_at=full.created_at(),
-            description=describe_stream(full), labels=_channel_labels(full),
+            description=describe_stream(full), labels=channel_labels(full),
             buffer=self._make_buffer(inlet), connected_at=now,
             nominal_srate=full.nominal_srate())
         self._connection = connection

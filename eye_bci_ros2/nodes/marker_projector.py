@@ -39,8 +39,8 @@ from rclpy.node import Node
 from rclpy.time import Time
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.camera_model import (OrthographicCamera, parse_intrinsic, rviz_intrinsic,
-                                       RvizCamera)
+from eye_bci_ros2.camera_model import (DEFAULT_PANEL_OFFSET, OrthographicCamera,
+                                       parse_intrinsic, rviz_intrinsic, RvizCamera)
 from eye_bci_ros2.geometry import external_from_pose
 from eye_bci_ros2.nodes.conversions import pose_to_arrays, regions_to_marker_array
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
@@ -55,7 +55,7 @@ MAX_IMAGE_SIDE = 16384
 #: Where the default 1280x720 render panel sits: centred on a 1920x1080 screen,
 #: as in the default scene (config/scene.yaml).  Measure it for a real RViz
 #: (``find_panel``); px, fractional on a scaled (HiDPI) screen.
-DEFAULT_SCREEN_OFFSET = (320.0, 180.0)
+DEFAULT_SCREEN_OFFSET = tuple(float(v) for v in DEFAULT_PANEL_OFFSET)
 
 
 #: Problems listed in one warning about a MarkerArray.

@@ -41,6 +41,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
+from eye_bci_ros2.gaze_stream import channel_labels
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
@@ -166,15 +167,6 @@ def _describe(info: pylsl.StreamInfo) -> str:
     rate = info.nominal_srate()
     return (f"'{info.name()}' (type '{info.type()}', source_id '{info.source_id()}', "
             f"{info.channel_count()} ch, {f'{rate:g} Hz' if rate > 0 else 'irregular rate'})")
-
-
-def _labels(info: pylsl.StreamInfo):
-    labels = []
-    channel = info.desc().child('channels').child('channel')
-    while not channel.empty():
-        labels.append(channel.child_value('label').strip())
-        channel = channel.next_sibling('channel')
-    return labels
 
 
 class SsvepDecoder(Node):
@@ -346,7 +338,7 @@ class SsvepDecoder(Node):
             except LslTimeoutError:
                 pass
         self._inlet, self._uid, self._stream = inlet, full.uid(), _describe(full)
-        self._labels = _labels(full)
+        self._labels = channel_labels(full)
         self._rate = full.nominal_srate()
         self._connected_at = self._last_sample_at = now
         self._time_correction = None

@@ -17,7 +17,6 @@ Pure pylsl + numpy, runs without ROS::
 import argparse
 import logging
 import sys
-import threading
 import time
 from typing import Callable, List, Optional, Sequence, Tuple
 
@@ -25,6 +24,7 @@ import numpy as np
 import pylsl
 
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
+from eye_bci_ros2.sim.lsl_outlet import OutletThread, stream_info
 from eye_bci_ros2.ssvep.layouts import ANY, LAYOUT_NAMES
 from eye_bci_ros2.ssvep.stimuli import assign_stimuli, StimulusMap
 
@@ -35,7 +35,7 @@ _LOG = logging.getLogger(__name__)
 ChunkHook = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
-class EegStreamer:
+class EegStreamer(OutletThread):
     """
     A real LSL EEG outlet fed by a simulator from a background thread.
 
@@ -61,33 +61,16 @@ class EegStreamer:
                 name = 'sim_eeg'
         stream_type = 'EEG' if layout.stream_type == ANY else layout.stream_type
         rate = simulator.rate if nominal_rate is None else float(nominal_rate)
-        self.info = pylsl.StreamInfo(name, stream_type, len(simulator.labels), rate,
-                                     pylsl.cf_float32, source_id)
-        self._describe()
-        self.chunk_s = chunk_ms / 1e3
+        # The channel description the layout's application writes (none for some).
+        labels = simulator.labels if layout.labelled else ()
+        info = stream_info(name, stream_type, len(simulator.labels), rate, source_id,
+                           application=f'eye_bci_ros2 sim_eeg ({layout.name})',
+                           labels=labels, unit='microvolts', types=['EEG'] * len(labels))
+        info.desc().child('acquisition').append_child_value('subject', simulator.subject.name)
+        super().__init__(info, chunk_ms / 1e3, 'EEG')
         self.on_push = on_push
         self.samples_pushed = 0
-        self.error: Optional[BaseException] = None
-        self._outlet: Optional[pylsl.StreamOutlet] = None
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread: Optional[threading.Thread] = None
         self._pending: List[Tuple[str, object, Optional[float]]] = []
-
-    def _describe(self) -> None:
-        """Write the channel description the layout's application writes."""
-        layout = self.simulator.layout
-        desc = self.info.desc()
-        if layout.labelled:
-            channels = desc.append_child('channels')
-            for label in self.simulator.labels:
-                channel = channels.append_child('channel')
-                channel.append_child_value('label', label)
-                channel.append_child_value('unit', 'microvolts')
-                channel.append_child_value('type', 'EEG')
-        acquisition = desc.append_child('acquisition')
-        acquisition.append_child_value('application', f'eye_bci_ros2 sim_eeg ({layout.name})')
-        acquisition.append_child_value('subject', self.simulator.subject.name)
 
     def describe(self) -> str:
         """One line saying what is streamed."""
@@ -97,35 +80,25 @@ class EegStreamer:
                 f'{self.info.nominal_srate():g} Hz ({sim.layout.name} layout), subject '
                 f'{sim.subject.name} (SSVEP {sim.subject.ssvep_uv:g} uV at Oz)')
 
-    @property
-    def running(self) -> bool:
-        """Whether the streaming thread is alive."""
-        return self._thread is not None and self._thread.is_alive()
+    def _begin(self, t0: float) -> None:
+        """Start the amplifier at ``t0`` with what was set before start()."""
+        self.simulator.start(t0, None)
+        for kind, value, t in self._pending:
+            self._apply(kind, value, t0 if t is None else max(t, t0))
+        self._pending = []
 
-    def start(self) -> 'EegStreamer':
-        """Open the outlet and start streaming; returns self."""
-        if self.running:
-            raise RuntimeError('the EEG streamer is already running')
-        self._outlet = pylsl.StreamOutlet(self.info)
-        self._stop.clear()
-        with self._lock:
-            t0 = pylsl.local_clock()
-            self.simulator.start(t0, None)
-            for kind, value, t in self._pending:
-                self._apply(kind, value, t0 if t is None else max(t, t0))
-            self._pending = []
-        self._thread = threading.Thread(target=self._loop, args=(t0,), name='sim_eeg',
-                                        daemon=True)
-        self._thread.start()
-        return self
+    def _acquire(self, now: float) -> Tuple[np.ndarray, np.ndarray]:
+        """Every sample acquired up to ``now``: times (n,), samples (n, C)."""
+        return self.simulator.next_chunk(now)
 
-    def stop(self, timeout: float = 5.0) -> None:
-        """Stop the thread and close the outlet (the stream disappears)."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout)
-        self._thread = None
-        self._outlet = None
+    def _push(self, data: Tuple[np.ndarray, np.ndarray]) -> None:
+        """Push one chunk (after the fault hook) with its acquisition stamps."""
+        times, samples = data
+        if len(times):
+            if self.on_push is not None:
+                samples = self.on_push(times, samples)
+            self._outlet.push_chunk(np.asarray(samples, dtype=np.float32), times.tolist())
+            self.samples_pushed += len(times)
 
     def show(self, stimuli: Optional[StimulusMap]) -> None:
         """Show a stimulus map; its ``epoch_s`` on ``pylsl.local_clock()`` (thread-safe)."""
@@ -147,38 +120,6 @@ class EegStreamer:
             self.simulator.set_stimuli(value)
         else:
             self.simulator.set_attended(value, t)
-
-    def wait_for_consumers(self, timeout: float) -> bool:
-        """Wait until an inlet is connected (False after timeout s)."""
-        outlet = self._outlet
-        return outlet is not None and outlet.wait_for_consumers(timeout)
-
-    def _loop(self, t0: float) -> None:
-        """Push every sample acquired so far on a fixed grid of wake-ups."""
-        k = 1
-        try:
-            while not self._stop.wait(max(0.0, t0 + k * self.chunk_s - pylsl.local_clock())):
-                now = pylsl.local_clock()
-                with self._lock:
-                    times, samples = self.simulator.next_chunk(now)
-                if len(times):
-                    if self.on_push is not None:
-                        samples = self.on_push(times, samples)
-                    self._outlet.push_chunk(np.asarray(samples, dtype=np.float32),
-                                            times.tolist())
-                    self.samples_pushed += len(times)
-                k = max(k + 1, int((now - t0) / self.chunk_s) + 1)
-        except Exception as exc:  # noqa: B902 - report any failure instead of dying silently
-            self.error = exc
-            _LOG.error('EEG streaming stopped: %s', exc)
-
-    def __enter__(self) -> 'EegStreamer':
-        """Start streaming."""
-        return self.start()
-
-    def __exit__(self, *exc) -> None:
-        """Stop streaming."""
-        self.stop()
 
 
 def parse_attend(text: str) -> List[Tuple[float, Optional[str]]]:

@@ -27,10 +27,8 @@ the start; ``null`` = nothing to look at; optional ``repeat_s`` loops it::
 """
 
 import argparse
-import logging
 import math
 import sys
-import threading
 import time
 from typing import Callable, List, Optional, Sequence, Tuple
 
@@ -38,6 +36,7 @@ import numpy as np
 import pylsl
 import yaml
 
+from eye_bci_ros2.sim.lsl_outlet import OutletThread, stream_info
 from eye_bci_ros2.sim.person import (
     CONSUMER_TRACKER, GazeParams, GazeSimulator, GazeTrace, PRESETS, Target)
 
@@ -50,16 +49,13 @@ STREAM_TYPE = 'Gaze'
 STREAM_NAME = 'eye_tracking_device'
 DEFAULT_SOURCE_ID = 'sim_gaze'
 
-_LOG = logging.getLogger(__name__)
 
-
-class GazeStreamer:
+class GazeStreamer(OutletThread):
     """
     A real LSL outlet fed by a :class:`GazeSimulator` from a background thread.
 
-    The thread wakes every ``chunk_ms`` on a fixed grid of the steady LSL
-    clock (no cumulative drift; a late wake-up catches up in one bigger
-    chunk) and pushes every sample acquired up to ``now - delay_ms``.
+    Every ``chunk_ms`` (:class:`~eye_bci_ros2.sim.lsl_outlet.OutletThread`'s
+    fixed grid) it pushes every sample acquired up to ``now - delay_ms``.
 
     :param simulator: the person; default ``GazeSimulator(params, seed)``.
     :param params: used when ``simulator`` is None.
@@ -104,43 +100,34 @@ class GazeStreamer:
         #: Person's screen px -> source px, per axis.
         self.scale = source / screen.size_px
         self.source_size = (int(source[0]), int(source[1]))
-        self.chunk_s = chunk_ms / 1e3
         self.delay_s = tracker.delay_ms / 1e3
         self.send_lost = bool(send_lost)
         self.on_chunk = on_chunk
         self._initial_xy = initial_xy
         self._pending_target: Optional[Tuple[Target, Optional[float]]] = None
-        self.info = pylsl.StreamInfo(name, stream_type, 2, rate, pylsl.cf_float32, source_id)
-        self._describe(self.info)
-        self._outlet: Optional[pylsl.StreamOutlet] = None
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread: Optional[threading.Thread] = None
+        super().__init__(self._stream_info(name, stream_type, rate, source_id),
+                         chunk_ms / 1e3, 'gaze')
         #: Samples pushed, and samples the tracker lost (sent as NaN or left
         #: out), since start().
         self.samples_pushed = 0
         self.samples_lost = 0
         #: Last measured sample (t, (x, y) person's screen px), or None.
         self.last_sample: Optional[Tuple[float, np.ndarray]] = None
-        #: The exception that stopped the streaming thread, if any.
-        self.error: Optional[BaseException] = None
 
-    def _describe(self, info: pylsl.StreamInfo) -> None:
-        """Write channels, screen and simulation settings into the stream description."""
-        channels = info.desc().append_child('channels')
-        for label in ('x', 'y'):
-            channel = channels.append_child('channel')
-            channel.append_child_value('label', label)
-            channel.append_child_value('type', 'Screen' + label.upper())
-            channel.append_child_value('unit', 'pixels')
+    def _stream_info(self, name: str, stream_type: str, rate: float,
+                     source_id: str) -> pylsl.StreamInfo:
+        """Describe the stream: channels, screen and simulation settings."""
+        info = stream_info(name, stream_type, 2, rate, source_id,
+                           application='eye_bci_ros2 sim_gaze', labels=('x', 'y'),
+                           unit='pixels', types=('ScreenX', 'ScreenY'))
         screen = info.desc().append_child('screen')
         screen.append_child_value('width', str(self.source_size[0]))
         screen.append_child_value('height', str(self.source_size[1]))
         screen.append_child_value('origin', 'top_left')
-        acquisition = info.desc().append_child('acquisition')
-        acquisition.append_child_value('application', 'eye_bci_ros2 sim_gaze')
+        acquisition = info.desc().child('acquisition')
         acquisition.append_child_value('preset', self.simulator.params.name)
         acquisition.append_child_value('seed', str(self.simulator.seed))
+        return info
 
     def describe(self) -> str:
         """One line saying what is streamed."""
@@ -160,45 +147,18 @@ class GazeStreamer:
         """Person's screen px (N, 2) -> the sender's screen px (N, 2), float32."""
         return (np.asarray(xy, dtype=float) * self.scale).astype(np.float32)
 
-    @property
-    def running(self) -> bool:
-        """Whether the streaming thread is alive."""
-        return self._thread is not None and self._thread.is_alive()
-
-    @property
-    def outlet(self) -> Optional[pylsl.StreamOutlet]:
-        """Return the LSL outlet while streaming, else None."""
-        return self._outlet
-
-    def start(self) -> 'GazeStreamer':
-        """Open the outlet and start streaming; returns self."""
-        if self.running:
-            raise RuntimeError('the gaze streamer is already running')
-        self._outlet = pylsl.StreamOutlet(self.info)
-        self._stop.clear()
-        self.error = None
+    def _begin(self, t0: float) -> None:
+        """Start the person at ``t0`` with the target given before start(), if any."""
         self.samples_pushed = self.samples_lost = 0
         self.last_sample = None
-        with self._lock:
-            t0 = pylsl.local_clock()
-            self.simulator.start(t0, self._initial_xy)
-            if self._pending_target is not None:
-                xy, t = self._pending_target
-                self.simulator.set_target(xy, t0 if t is None else max(t, t0))
-        self._thread = threading.Thread(target=self._loop, args=(t0,), name='sim_gaze',
-                                        daemon=True)
-        self._thread.start()
-        return self
+        self.simulator.start(t0, self._initial_xy)
+        if self._pending_target is not None:
+            xy, t = self._pending_target
+            self.simulator.set_target(xy, t0 if t is None else max(t, t0))
 
-    def stop(self, timeout: float = 5.0) -> None:
-        """Stop the thread, join it and close the outlet (the stream disappears)."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout)
-            if self._thread.is_alive():
-                raise RuntimeError(f'the gaze streaming thread did not stop within {timeout} s')
-        self._thread = None
-        self._outlet = None
+    def _acquire(self, now: float) -> GazeTrace:
+        """Return the samples acquired up to ``now - delay_ms`` (the tracker's latency)."""
+        return self.simulator.next_chunk(now - self.delay_s)
 
     def set_target(self, xy: Target, t: Optional[float] = None) -> None:
         """
@@ -221,25 +181,6 @@ class GazeStreamer:
                 return
             self.simulator.set_target(xy, pylsl.local_clock() if t is None else t)
 
-    def wait_for_consumers(self, timeout: float) -> bool:
-        """Wait until an inlet is connected (False after timeout s)."""
-        outlet = self._outlet
-        return outlet is not None and outlet.wait_for_consumers(timeout)
-
-    def _loop(self, t0: float) -> None:
-        """Push samples on a fixed grid of wake-ups until stop()."""
-        k = 1
-        try:
-            while not self._stop.wait(max(0.0, t0 + k * self.chunk_s - pylsl.local_clock())):
-                now = pylsl.local_clock()
-                with self._lock:
-                    chunk = self.simulator.next_chunk(now - self.delay_s)
-                self._push(chunk)
-                k = max(k + 1, int((now - t0) / self.chunk_s) + 1)
-        except Exception as exc:  # noqa: B902 - report any failure instead of dying silently
-            self.error = exc
-            _LOG.error('gaze streaming stopped: %s', exc)
-
     def _push(self, chunk: GazeTrace) -> None:
         """Push one chunk with its acquisition timestamps."""
         if not len(chunk):
@@ -257,14 +198,6 @@ class GazeStreamer:
             self.last_sample = (float(chunk.t[last]), chunk.xy[last].copy())
         if self.on_chunk is not None:
             self.on_chunk(chunk)
-
-    def __enter__(self) -> 'GazeStreamer':
-        """Start streaming."""
-        return self.start()
-
-    def __exit__(self, *exc) -> None:
-        """Stop streaming."""
-        self.stop()
 
 
 def parse_script(data) -> Tuple[List[Tuple[float, Target]], Optional[float]]:

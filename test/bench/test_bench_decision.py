@@ -5,7 +5,6 @@ Quick mode only; nothing here depends on how fast anything ran, only on what
 the benchmark computes: its layouts, trials, metrics, tuning and section.
 """
 
-from dataclasses import asdict, replace
 import math
 
 import numpy as np
@@ -13,7 +12,7 @@ import pytest
 
 from bench import decision, run_all
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
-from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE, RoundScheduler
+from eye_bci_ros2.rounds import ArbiterSettings, RoundScheduler
 
 METRIC_KEYS = {'accuracy', 'wrong', 'no_choice', 'median_samples', 'median_ms', 'mean_ms',
                'itr_bits_per_min', 'trials', 'not_landed'}
@@ -131,11 +130,13 @@ def test_trials_start_where_the_scenario_says_and_land_after_a_latency():
 def test_early_decision_fed_in_node_sized_chunks_equals_one_batch():
     regions = decision.region_set(9, 60)
     trials = decision.simulate_trials(9, 60, range(decision.TEST_SEED, decision.TEST_SEED + 20))
-    for config in (decision.EarlyConfig(0.95, 2, 0.0, 0.9), decision.EarlyConfig()):
+    tuned = decision.NODE_DEFAULT.replace(confidence=0.95, min_samples=2, dwell_s=0.0,
+                                          hit_rate=0.9)
+    for config in (tuned, decision.NODE_DEFAULT):
         for trial in trials:
-            whole = decision.decide_early(trial, regions, config)
-            assert decision.decide_early(trial, regions, config, chunk=2) == whole
-            assert decision.decide_early(trial, regions, config, chunk=1) == whole
+            whole = decision.decide(trial, regions, config)
+            assert decision.decide(trial, regions, config, chunk=2) == whole
+            assert decision.decide(trial, regions, config, chunk=1) == whole
 
 
 @pytest.mark.parametrize('scenario', decision.SCENARIOS)
@@ -143,13 +144,11 @@ def test_benchmark_decisions_are_the_node_trackers_decisions(scenario):
     regions = decision.region_set(4, 60)
     trials = decision.simulate_trials(4, 60, range(decision.TEST_SEED, decision.TEST_SEED + 20),
                                       scenario)
-    config = decision.EarlyConfig()  # the node defaults
-    defaults = ArbiterSettings()
-    assert all(value == getattr(defaults, name) for name, value in asdict(config).items()
-               if name != 'window_s')
+    config = decision.NODE_DEFAULT  # the node defaults, early decision on
+    assert config == ArbiterSettings(early_decision=True, window_s=decision.WINDOW_S)
     for early in (True, False):
         for trial in trials:
-            settings = ArbiterSettings(early_decision=early, **ORIGINAL_RULE, **asdict(config))
+            settings = config.replace(early_decision=early)
             tracker = RoundScheduler(settings)
             tracker.add_regions(regions, now=0.0)
             made = None
@@ -159,27 +158,28 @@ def test_benchmark_decisions_are_the_node_trackers_decisions(scenario):
                     break
             if made is None:  # the first sample after the window closes it
                 made = tracker.add_sample(decision.WINDOW_S, 0.0, 0.0, now=decision.WINDOW_S)
+            label, when = decision.decide(trial, regions, settings)
             if early:
-                label, when = decision.decide_early(trial, regions, config)
                 assert (made.method == 'early') == (when < decision.WINDOW_S)
                 if when < decision.WINDOW_S:
                     assert made.time_to_decision == pytest.approx(when)
             else:
-                label, _ = decision.decide_window(trial, regions, 'mean')
+                assert when == decision.WINDOW_S
             assert made.label == label
 
 
 def test_gaze_resting_on_a_target_fools_the_fast_rule_without_min_reaction():
-    fresh = decision.EarlyConfig(0.95, 3, 0.0, 0.9, min_reaction_s=0.1)
-    stale = replace(fresh, min_reaction_s=0.0)
+    fresh = decision.NODE_DEFAULT.replace(confidence=0.95, min_samples=3, dwell_s=0.0,
+                                          hit_rate=0.9, min_reaction_s=0.1)
+    stale = fresh.replace(min_reaction_s=0.0)
     regions = decision.region_set(3, 100)
     trials = decision.simulate_trials(3, 100, range(decision.TEST_SEED, decision.TEST_SEED + 10),
                                       'other_target')
     for trial in trials:
         resting = str(int(np.argmin(np.hypot(*(decision.layout(3, 100) - trial.start).T))))
-        label, when = decision.decide_early(trial, regions, stale)
+        label, when = decision.decide(trial, regions, stale)
         assert label == resting and when < trial.onset
-        label, when = decision.decide_early(trial, regions, fresh)
+        label, when = decision.decide(trial, regions, fresh)
         assert label == str(trial.goal) and when > trial.onset - 0.05
 
 

@@ -20,6 +20,8 @@ import numpy as np
 import pylsl
 import pytest
 
+from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
+
 pytestmark = pytest.mark.ros
 
 NAN, INF = math.nan, math.inf
@@ -265,9 +267,8 @@ def test_lsl_nan_inf_and_huge_samples_are_dropped_and_counted(graph, capfd, faul
 def test_lsl_stream_with_the_wrong_channel_count(graph, capfd, fault, channels):
     """A 1-channel (short samples) or 3-channel stream where x, y are expected by label."""
     stream_type = unique_id('gaze')
-    info = pylsl.StreamInfo(unique_id('odd'), stream_type, channels, 0, pylsl.cf_float32,
-                            unique_id('odd-source'))
-    outlet = pylsl.StreamOutlet(info)
+    outlet = open_outlet(stream_info(unique_id('odd'), stream_type, channels, 0,
+                                     unique_id('odd-source')))
     log = LogTap(capfd)
     mark = log.mark()   # the bridge may connect (and complain) while the rooms are offered
     rig = lsl_pipeline(graph, outlet.get_info(), x_channel='x', y_channel='y')

@@ -25,11 +25,11 @@ import numpy as np
 import pylsl
 
 from eye_bci_ros2.gaze_profiles import PROFILES
+from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
 
 #: Screen the bridge maps gaze onto by default, px.
 DEFAULT_SCREEN = (1920, 1080)
 
-_FORMATS = {'float32': pylsl.cf_float32, 'double64': pylsl.cf_double64}
 _EYES = ('left', 'right', 'both')
 
 
@@ -90,15 +90,13 @@ def make_outlet(profile: str, name: Optional[str] = None, source_id: Optional[st
         name = unique_id(spec.stream_name or profile)
     if source_id is None:
         source_id = unique_id(f'{profile}-source')
-    info = pylsl.StreamInfo(
+    info = stream_info(
         name, spec.stream_type if stream_type is None else stream_type,
-        len(spec.channel_labels), spec.nominal_srate if rate is None else rate,
-        _FORMATS[spec.channel_format], source_id)
-    acquisition = info.desc().append_child('acquisition')
-    acquisition.append_child_value('application', f'eye_bci_ros2 test outlet ({profile})')
+        len(spec.channel_labels), spec.nominal_srate if rate is None else rate, source_id,
+        spec.channel_format, application=f'eye_bci_ros2 test outlet ({profile})')
     if (spec.labelled if labelled is None else labelled):
         _describe_channels(info, profile)
-    outlet = pylsl.StreamOutlet(info, chunk_size, max_buffered)
+    outlet = open_outlet(info, chunk_size, max_buffered)
     return outlet, outlet.get_info()
 
 

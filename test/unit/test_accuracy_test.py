@@ -15,6 +15,7 @@ from eye_bci_ros2.experiments.accuracy_test import (
     binary_search_threshold, CURVE_COLUMNS, RoomScenario, run_trials, TrialSettings)
 from eye_bci_ros2.experiments.render import png_size
 from eye_bci_ros2.nodes.package_files import default_scene_path
+from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE
 from eye_bci_ros2.scene import load_scene
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER
 
@@ -71,7 +72,8 @@ def test_room_markers_are_scaled_to_the_requested_screen_size(size):
 
 def test_trials_are_deterministic_and_size_matters():
     scenario = RoomScenario(SCENE)
-    settings = TrialSettings(params=CONSUMER_TRACKER)
+    # The original rule: a tiny marker the gaze never touches is never chosen.
+    settings = TrialSettings(params=CONSUMER_TRACKER, arbiter=ArbiterSettings(**ORIGINAL_RULE))
     small = run_trials(scenario, 5, 24, seed=3, settings=settings, methods=('mean', 'vote'))
     again = run_trials(scenario, 5, 24, seed=3, settings=settings, methods=('mean', 'vote'))
     large = run_trials(scenario, 120, 24, seed=3, settings=settings, methods=('mean', 'vote'))

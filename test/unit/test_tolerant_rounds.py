@@ -232,9 +232,9 @@ def test_bad_rule_settings_raise_with_a_reason(changed, name):
 
 
 def test_the_default_rule_is_the_benchmarks_size_mean_share_rule():
-    bench_rule = tolerance.settings_for('size_mean/s', decision.EarlyConfig(), ORIGINAL_TOBII_4C)
+    bench_rule = tolerance.settings_for('size_mean/s', decision.NODE_DEFAULT, ORIGINAL_TOBII_4C)
     default = ArbiterSettings()
     for name in ('classification', 'ratio', 'size_aware', 'min_share', 'k_sigma', 'method'):
         assert getattr(bench_rule, name) == getattr(default, name), name
-    original = tolerance.settings_for('mean', decision.EarlyConfig(), ORIGINAL_TOBII_4C)
+    original = tolerance.settings_for('mean', decision.NODE_DEFAULT, ORIGINAL_TOBII_4C)
     assert {name: getattr(original, name) for name in ORIGINAL_RULE} == ORIGINAL_RULE

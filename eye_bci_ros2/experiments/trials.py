@@ -1,0 +1,93 @@
+"""
+Decide a simulated trial with the choice_arbiter's own decision code: the one trial runner.
+
+The accuracy test (:mod:`eye_bci_ros2.experiments.accuracy_test`),
+``bench/decision.py`` and ``bench/tolerance.py`` simulate a person on
+simulated time and decide every trial with :func:`decide_trial`, which does
+what :class:`eye_bci_ros2.rounds.RoundScheduler` does inside one round:
+a :class:`~eye_bci_ros2.evidence.RoundEvidence` made by
+:meth:`ArbiterSettings.evidence`, the valid samples of the window in stamp
+order, the early decision when ``settings.early_decision`` is on (stopping at
+the first sample that passes), else ``settings.method`` at the window end.
+A rule is therefore an :class:`~eye_bci_ros2.rounds.ArbiterSettings`: the
+node's parameters, one home.
+
+Times are s of sample stamps; the round starts at ``start`` (0 in the
+benchmarks, where the options appear at t = 0).
+"""
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from eye_bci_ros2.evidence import Decision
+from eye_bci_ros2.regions import RegionSet
+from eye_bci_ros2.rounds import ArbiterSettings
+
+#: Rule names the experiments accept: the window rules and the early decision.
+RULES = ('mean', 'vote', 'early')
+
+#: The original system's rule: mean of the in-region samples at the end of a 1 s window.
+ORIGINAL = ArbiterSettings(method='mean', early_decision=False)
+
+
+def settings_for(rule: str, base: Optional[ArbiterSettings] = None) -> ArbiterSettings:
+    """
+    Return ``base`` (default: the node's defaults) set to decide by ``rule``.
+
+    :param rule: 'mean' or 'vote' (window end) or 'early' (early decision,
+        ``base.method`` at the window end when it does not fire).
+    :raises ValueError: an unknown rule.
+    """
+    base = ArbiterSettings() if base is None else base
+    if rule == 'early':
+        return base.replace(early_decision=True)
+    if rule in ('mean', 'vote'):
+        return base.replace(method=rule, early_decision=False)
+    raise ValueError(f"unknown rule {rule!r}: use {', '.join(RULES)}")
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """
+    How a trial was decided.
+
+    :param label: the chosen label, None for no choice.
+    :param time_s: when the decision was made, s: the deciding sample's stamp
+        for an early decision, else the window end (``start + window_s``).
+    :param decision: the node's :class:`Decision` (counts, margin, reason).
+    """
+
+    label: Optional[str]
+    time_s: float
+    decision: Decision
+
+
+def decide_trial(points, stamps, regions: RegionSet, settings: ArbiterSettings,
+                 start: float = 0.0, chunk: Optional[int] = None) -> Outcome:
+    """
+    Decide one round of valid gaze samples as the choice_arbiter does (module doc).
+
+    :param points: measured gaze, screen px, shape (N, 2) (lost samples removed).
+    :param stamps: their acquisition stamps, s, shape (N,), non-decreasing.
+    :param regions: the options shown during the round.
+    :param settings: the node's settings (the rule).
+    :param start: the round start, s.
+    :param chunk: feed the samples in batches of this many (as the bridge's
+        chunks arrive); None = all at once, which decides the same because
+        the early decision stops at the first sample that passes.
+    """
+    stamps = np.asarray(stamps, dtype=float).reshape(-1)
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    in_window = stamps < start + settings.window_s
+    stamps, points = stamps[in_window], points[in_window]
+    evidence = settings.evidence(start)
+    confidence = settings.confidence if settings.early_decision else None
+    step = max(len(stamps) if chunk is None else int(chunk), 1)
+    for low in range(0, len(stamps), step):
+        made = evidence.add(points[low:low + step], stamps[low:low + step], regions, confidence)
+        if made is not None:
+            return Outcome(made.label, start + made.time_to_decision, made)
+    made = evidence.decide(settings.method)
+    return Outcome(made.label, start + settings.window_s, made)
