@@ -31,7 +31,7 @@ from bench.timing import measure
 from eye_bci_ros2 import geometry
 
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, RoundScheduler
+from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE, RoundScheduler
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
 
 #: Metrics shown in the printed table (the JSON has them all).
@@ -143,7 +143,7 @@ def per_message_tracker(polygons: np.ndarray) -> Optional[Callable[[list], objec
 
     ``f`` opens a round on ``polygons`` in a fresh
     :class:`eye_bci_ros2.rounds.RoundScheduler` (window long enough for
-    every sample, no early decision), passes each sample to
+    every sample, no early decision, the original rule), passes each sample to
     :meth:`~eye_bci_ros2.rounds.RoundScheduler.add_sample` as the
     choice_arbiter node does per gaze message (stamps 1 ms apart), then closes
     the round and returns its decision.
@@ -152,7 +152,7 @@ def per_message_tracker(polygons: np.ndarray) -> Optional[Callable[[list], objec
 
     def feed(points: list) -> object:
         window_s = len(points) * 1e-3 + 1.0
-        tracker = RoundScheduler(ArbiterSettings(window_s=window_s))
+        tracker = RoundScheduler(ArbiterSettings(window_s=window_s, **ORIGINAL_RULE))
         tracker.add_regions(region_set, now=0.0)  # new labels: a round starts at stamp 0
         for index, (x, y) in enumerate(points):
             stamp = index * 1e-3

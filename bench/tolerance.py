@@ -18,11 +18,15 @@ stamp order, as ``bench/decision.py`` and the accuracy test do), named in
   each sample on the person's screen;
 * ``size_*``: the size-aware tolerance (counted from the option's centre:
   none for options larger than the error);
-* ``*/s``: with the **share test**, a change of the decision code simulated
-  here (:func:`_decide`): a window-end choice needs at least half of *all*
-  the window's valid samples (in and out of regions) on its label; an early
-  choice needs :data:`EARLY_SHARE` of the samples of the last
-  :data:`EARLY_SHARE_S` on its label at the deciding sample.
+* ``*/s``: with the **share test** (the node's ``min_share`` 0.5, in
+  :class:`eye_bci_ros2.evidence.RoundEvidence`): a window-end choice needs at
+  least half of *all* the window's valid samples (in and out of regions) on
+  its label; an early choice needs :data:`eye_bci_ros2.evidence.EARLY_SHARE` of
+  the samples of the last ``EARLY_SHARE_S`` on its label at the deciding sample.
+  ``size_mean/s`` is the choice_arbiter's default rule.
+
+Every rule runs as :class:`eye_bci_ros2.rounds.ArbiterSettings`
+(:func:`settings_for`) on the node's decision code.
 
 Measurements:
 
@@ -60,6 +64,7 @@ from typing import Dict, Optional, Sequence
 import numpy as np
 
 from bench import decision
+from eye_bci_ros2.evidence import RoundEvidence
 from eye_bci_ros2.experiments import accuracy_test
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.regions import RegionSet
@@ -77,7 +82,7 @@ MODEL = GazeErrorModel()
 RATIO = DEFAULT_RATIO
 #: Rules measured: name -> (window rule or 'early', tolerant, ratio, share).  ``share``: a
 #: choice needs at least this fraction of the samples it weighed on its label (see
-#: :func:`_decide`; 0 = today's decision code).  ``/s``: the strict variant proposed for
+#: :func:`_decide`; 0 = no share test, the original).  ``/s``: the strict variant proposed for
 #: the midway goal (ratio 0.2, share 0.5); ``size_``: the size-aware tolerance
 #: (:func:`eye_bci_ros2.tolerance.classify_tolerant` ``size_aware``), ratio 0.5.
 RULES = {
@@ -119,95 +124,58 @@ def model_for(params: GazeParams) -> GazeErrorModel:
                           k_sigma=MODEL.k_sigma)
 
 
+def settings_for(rule: str, config: ArbiterSettings, params: GazeParams) -> ArbiterSettings:
+    """
+    Return the choice_arbiter settings of a rule of :data:`RULES` for one simulated person.
+
+    ``config``'s early decision and window (``bench/decision.py``'s
+    ``NODE_DEFAULT``); the rule's method, classification, ratio, size awareness
+    and share test; the gaze-error model :func:`model_for` the person, on the
+    person's screen.
+    """
+    base, tolerant, ratio, share, size_aware = RULES[rule]
+    model, screen = model_for(params), params.person.screen
+    return config.replace(
+        method=config.method if base == 'early' else base, early_decision=base == 'early',
+        classification='tolerant' if tolerant else 'inside', accuracy_deg=model.accuracy_deg,
+        precision_deg=model.precision_deg, k_sigma=model.k_sigma, ratio=ratio,
+        size_aware=size_aware, min_share=share, screen_width_mm=screen.width_mm,
+        screen_height_mm=screen.height_mm, viewing_distance_mm=screen.distance_mm,
+        screen_width=screen.width_px, screen_height=screen.height_px)
+
+
 def _decide(rule: str, points, stamps, regions: RegionSet, config: ArbiterSettings,
             params: GazeParams) -> Optional[str]:
     """
     Label chosen by a rule of :data:`RULES` for one trial (window 0..config.window_s).
 
-    Share test (``share`` > 0), a change of the decision code simulated here:
-    a window-end choice needs ``counts[label] >= share * samples_used`` (all
-    valid samples of the window, in and out of regions); an early choice needs
-    :data:`EARLY_SHARE` of the samples of the last :data:`EARLY_SHARE_S`
-    before it (:func:`_recent_share`), else the round goes on to the window end.
+    The node's decision code with the rule's settings (:func:`settings_for`):
+    the regions classified by the rule (``ArbiterSettings.regions``), the share
+    test in :class:`eye_bci_ros2.evidence.RoundEvidence` (``min_share``: a
+    window-end choice needs that share of the window's valid samples, an
+    early one ``evidence.EARLY_SHARE`` of the last ``EARLY_SHARE_S``); an
+    early rule goes on to the window end when the early test never passes.
     """
-    base, tolerant, ratio, share, size_aware = RULES[rule]
-    if tolerant:
-        regions = TolerantRegions.of(regions, screen=params.person.screen, ratio=ratio,
-                                     size_aware=size_aware, model=model_for(params))
+    settings = settings_for(rule, config, params)
     keep = stamps < config.window_s
-    points, stamps = points[keep], stamps[keep]
-
-    def evidence():
-        return config.evidence(0.0)
-
-    if base == 'early':
-        made = _early(points, stamps, regions, config, share > 0)
-        if made is not None:
-            return made.label
-        base = config.method
-    window = evidence()
-    window.add(points, stamps, regions)
-    made = window.decide(base)
-    if made.label is None or made.counts.get(made.label, 0) < share * max(made.samples_used, 1):
-        return None
-    return made.label
-
-
-#: The early decision's share test: over the samples of the last EARLY_SHARE_S before it.
-EARLY_SHARE_S = 0.1
-#: ... the chosen label must hold at least this fraction (when the rule's share is > 0).
-EARLY_SHARE = 0.8
+    evidence = settings.evidence(0.0)
+    made = evidence.add(points[keep], stamps[keep], regions,
+                        settings.confidence if settings.early_decision else None)
+    return (made or evidence.decide(settings.method)).label
 
 
 def _early(points, stamps, regions: RegionSet, config: ArbiterSettings,
            share_test: bool):
     """
-    Run the node's early decision, optionally with the share test at every sample (_decide).
+    Run the node's early decision (``RoundEvidence.add(..., confidence)``), or None.
 
-    Without the share test this is ``RoundEvidence.add(..., confidence)``;
-    with it the early test (:meth:`RoundEvidence.early`) is made at each
-    sample that passes the share test (its label holds :data:`EARLY_SHARE` of
-    the samples of the last :data:`EARLY_SHARE_S`) until one passes both
-    (what a change in ``RoundEvidence._first_confident`` would do).
+    :param regions: the classifier (a ``RegionSet`` or ``TolerantRegions``).
+    :param share_test: with the early share test (any ``min_share`` > 0 turns it on).
     """
-    evidence = config.evidence(0.0)
-    if not share_test:
-        return evidence.add(points, stamps, regions, config.confidence)
-    # The share of each sample's own label over the samples of the last EARLY_SHARE_S.
-    region = regions.classify(points)
-    label_ids = np.array([sorted(regions.label_set).index(label) for label in regions.labels]
-                         + [-1])[region]
-    first = np.searchsorted(stamps, stamps - EARLY_SHARE_S, side='right')
-    share = np.zeros(len(stamps))
-    for label in np.unique(label_ids[label_ids >= 0]):
-        on = np.concatenate([[0], np.cumsum(label_ids == label)])
-        here = label_ids == label
-        share[here] = ((on[1:] - on[first])[here] / (np.arange(len(stamps)) + 1 - first)[here])
-    done = 0
-    for k in np.flatnonzero(share >= EARLY_SHARE):
-        evidence.add(points[done:k + 1], stamps[done:k + 1], regions)
-        done = k + 1
-        made = evidence.early(config.confidence)
-        if made is not None:
-            return made
-    return None
-
-
-def _recent_share(made, points, stamps, regions: RegionSet,
-                  window_s: float = EARLY_SHARE_S) -> float:
-    """
-    Share of the samples of the last ``window_s`` before an early decision that count for it.
-
-    Every sample stamped in ``(decision - window_s, decision]`` counts, in and
-    out of regions (at least the deciding one).
-    """
-    decided = made.time_to_decision
-    recent = (stamps <= decided + 1e-12) & (stamps > decided - window_s)
-    if not recent.any():
-        return 0.0
-    labels = np.array(list(regions.labels) + [''], dtype=object)[regions.classify(
-        points[recent])]
-    return float(np.mean(labels == made.label))
+    evidence = RoundEvidence(0.0, hit_rate=config.hit_rate, min_samples=config.min_samples,
+                             dwell_s=config.dwell_s, min_reaction_s=config.min_reaction_s,
+                             min_share=0.5 if share_test else 0.0)
+    return evidence.add(points, stamps, regions, config.confidence)
 
 
 def smallest(rules: Sequence[str] = tuple(RULES), trials: int = SEARCH_TRIALS,
@@ -379,10 +347,8 @@ def speed(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
             regions = decision.region_set(count, size)
             data = decision.simulate_trials(count, size, seeds, 'new_menu', params)
             for rule in rules:
-                base, tolerant, ratio, share, size_aware = RULES[rule]
-                shown = TolerantRegions.of(regions, screen=params.person.screen, ratio=ratio,
-                                           size_aware=size_aware, model=model_for(params)) \
-                    if tolerant else regions
+                base, _, _, share, _ = RULES[rule]
+                shown = settings_for(rule, config, params).regions(regions)
                 for trial in data:
                     label = _decide(rule, trial.points, trial.stamps, regions, config, params)
                     out[rule]['correct'].append(label == str(trial.goal))

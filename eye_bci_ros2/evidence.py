@@ -55,6 +55,17 @@ crossing a region leaves several samples on it).
 With one offered region the posterior is 1 and only the run, dwell and
 freshness tests apply.  ``R`` counts every label offered during the round.
 
+Share test (``min_share`` > 0; 0 = off, the original).  A sample counted for
+an option by a tolerant classification (:mod:`eye_bci_ros2.tolerance`) need
+not be inside it, and a gaze resting between two options leaves a few such
+samples on each: so a choice also needs a share of *all* the samples, in and
+out of regions.  At the window end the chosen label must hold at least
+``min_share`` of the window's valid (finite) samples; an early decision is
+made only at a sample whose label holds at least :data:`EARLY_SHARE` of the
+valid samples stamped in the last :data:`EARLY_SHARE_S` up to it (the early
+test is made at those samples only).  ``bench/tolerance.py`` (its ``/s``
+rules) measures what it buys.
+
 Regions may move during a round (the camera moves, the labels stay): every
 sample is classified against the regions shown at its own time and evidence
 is kept per label.  For the mean rule every in-region sample is carried along
@@ -68,7 +79,7 @@ live stream (the choice_arbiter node's logic without ROS).
 
 from dataclasses import dataclass, field
 import math
-from typing import Dict, Optional, Tuple
+from typing import Callable, Dict, Optional, Tuple
 
 import numpy as np
 
@@ -85,6 +96,15 @@ DEFAULT_MIN_REACTION_S = 0.1
 
 #: Largest accepted ``min_reaction_s``, s.
 MAX_REACTION_S = 2.0
+
+#: Share test of the early decision (module doc): the samples of the last EARLY_SHARE_S s ...
+EARLY_SHARE_S = 0.1
+#: ... must be at least this fraction on the deciding sample's label.
+EARLY_SHARE = 0.8
+
+#: Label id of a sample in no region, and of a sample that is not finite (not valid).
+_NO_REGION = -1
+_NOT_VALID = -2
 
 
 @dataclass(frozen=True)
@@ -165,6 +185,13 @@ def check_min_reaction(min_reaction_s: float) -> None:
         raise ValueError(f'min_reaction_s must be in [0, {MAX_REACTION_S}] s, got '
                          f'{min_reaction_s}: it is the shortest time a person takes to react '
                          'to a new display (about 0.1 s)')
+
+
+def check_min_share(min_share: float) -> None:
+    """Raise ValueError unless 0 <= min_share <= 1."""
+    if not (isinstance(min_share, (int, float)) and 0.0 <= min_share <= 1.0):
+        raise ValueError(f'min_share must be in [0, 1], got {min_share!r}: the share of all '
+                         "the window's samples a choice needs (0 = off, the original rule)")
 
 
 def posterior_from_counts(counts, hit_rate: float = DEFAULT_HIT_RATE) -> np.ndarray:
@@ -292,12 +319,23 @@ class RoundEvidence:
         are stale and not evidence for the early decision (module doc), s
         (>= 0; 0 = every sample is fresh).  A change applies to the samples
         added after it.
+    :param min_share: the share test (module doc): a window-end choice needs
+        this fraction of the valid samples on its label, and an early one
+        :data:`EARLY_SHARE` of the last :data:`EARLY_SHARE_S`; in [0, 1], 0 =
+        off (the original rule).  Fixed for the round.
+    :param classifier: turns each region set given to :meth:`add` into the
+        one that classifies the samples (and the window-end mean), e.g.
+        :meth:`eye_bci_ros2.rounds.ArbiterSettings.regions` (the tolerant
+        rule); once per set.  None: the sets as given.
     """
 
     def __init__(self, start: float = 0.0, hit_rate: float = DEFAULT_HIT_RATE,
-                 min_samples: int = 10, dwell_s: float = 0.0, min_reaction_s: float = 0.0):
+                 min_samples: int = 10, dwell_s: float = 0.0, min_reaction_s: float = 0.0,
+                 min_share: float = 0.0,
+                 classifier: Optional[Callable[[RegionSet], RegionSet]] = None):
         """Start an empty round."""
         check_hit_rate(hit_rate)
+        check_min_share(min_share)
         if int(min_samples) < 1:
             raise ValueError(f'min_samples must be at least 1, got {min_samples}')
         if not dwell_s >= 0:
@@ -308,8 +346,13 @@ class RoundEvidence:
         self.min_samples = int(min_samples)
         self.dwell_s = float(dwell_s)
         self.min_reaction_s = float(min_reaction_s)
+        self.min_share = float(min_share)
+        self._classifier = classifier
+        self._classified: Dict[int, tuple] = {}
         self.labels: list = []
         self.samples = 0
+        #: Of those, samples with finite coordinates (the share test's denominator).
+        self.valid = 0
         self.in_region = 0
         #: Fresh in-region samples (module doc).
         self.fresh = 0
@@ -326,6 +369,43 @@ class RoundEvidence:
         self._run_label = -1
         self._run_count = 0
         self._run_start = math.nan
+        # Label id of the newest sample (-1: no region, -2: not finite).
+        self._last_label = _NO_REGION
+        # Stamps and label ids of the samples of the last EARLY_SHARE_S (share test only).
+        self._recent_stamps = np.zeros(0)
+        self._recent_labels = np.zeros(0, dtype=np.intp)
+
+    # -- read-only state (feedback, tools) ---------------------------------------------------
+
+    @property
+    def run_label(self) -> Optional[str]:
+        """Return the label of the current run (consecutive in-region samples), or None."""
+        return self.labels[self._run_label] if self._run_label >= 0 else None
+
+    @property
+    def run_count(self) -> int:
+        """Return the number of samples in the current run."""
+        return self._run_count if self._run_label >= 0 else 0
+
+    @property
+    def run_start(self) -> float:
+        """Return the stamp of the current run's first sample, s (NaN without a run)."""
+        return self._run_start if self._run_label >= 0 else math.nan
+
+    @property
+    def run_fresh(self) -> bool:
+        """Tell whether the current run is fresh evidence for the early decision (module doc)."""
+        return self._run_label >= 0 and self._run_start >= self.fresh_from
+
+    @property
+    def last_label(self) -> Optional[str]:
+        """Return the label the newest sample counted for, or None (in no region)."""
+        return self.labels[self._last_label] if self._last_label >= 0 else None
+
+    @property
+    def elapsed(self) -> float:
+        """Return the sample time from the round start to the newest sample, s (0 without)."""
+        return self.last_stamp - self.start if self.samples else 0.0
 
     @property
     def counts(self) -> Dict[str, int]:
@@ -345,6 +425,16 @@ class RoundEvidence:
     def posterior(self) -> Dict[str, float]:
         """Posterior of each offered label (module doc)."""
         return dict(zip(self.labels, posterior_from_counts(self._counts, self.hit_rate).tolist()))
+
+    def regions_for(self, region_set: RegionSet) -> RegionSet:
+        """Return ``region_set`` as this round classifies it (its ``classifier``)."""
+        if self._classifier is None or not len(region_set):
+            return region_set
+        cached = self._classified.get(id(region_set))
+        if cached is None or cached[0] is not region_set:
+            cached = self._classified[id(region_set)] = (region_set,
+                                                         self._classifier(region_set))
+        return cached[1]
 
     def _label_ids(self, region_set: RegionSet) -> Tuple[np.ndarray, np.ndarray]:
         """
@@ -395,6 +485,7 @@ class RoundEvidence:
             raise ValueError(f'{len(points)} gaze points but {len(stamps)} stamps')
         if confidence is not None and not 0.5 < confidence < 1.0:
             raise ValueError(f'confidence must be in (0.5, 1), got {confidence}')
+        region_set = self.regions_for(region_set)
         ids, label_centroids = self._label_ids(region_set)
         if self._latest is None or region_set.stamp >= self._latest.stamp:
             self._latest = region_set
@@ -405,13 +496,21 @@ class RoundEvidence:
         region = region_set.classify(points)
         inside = np.flatnonzero(region >= 0)
         label = ids[region[inside]]
+        finite = np.isfinite(points).all(axis=1)
         run_count, run_start = self._runs(label, stamps[inside])
         fresh = run_start >= self.fresh_from
         stop = len(points)
         decided = None
+        every = None
+        if self.min_share > 0:
+            # Label id of every sample of the batch, for the early share test.
+            every = np.where(finite, _NO_REGION, _NOT_VALID)
+            every[inside] = label
         if confidence is not None and inside.size:
+            share_ok = None if every is None else \
+                self._early_shares(every, stamps, inside) >= EARLY_SHARE - 1e-12
             decided = self._first_confident(label, stamps[inside], run_count, run_start,
-                                            fresh, confidence)
+                                            fresh, confidence, share_ok)
             if decided is not None:
                 stop = inside[decided] + 1
         taken = inside[inside < stop]
@@ -428,8 +527,14 @@ class RoundEvidence:
             self._run_count = int(run_count[kept - 1])
             self._run_start = float(run_start[kept - 1])
         self.samples += int(stop)
+        self.valid += int(np.count_nonzero(finite[:stop]))
         self.in_region += kept
         self.last_stamp = float(stamps[stop - 1])
+        last = int(region[stop - 1])
+        self._last_label = int(ids[last]) if last >= 0 else (
+            _NO_REGION if finite[stop - 1] else _NOT_VALID)
+        if every is not None:
+            self._remember(stamps[:stop], every[:stop])
         if decided is not None:
             self.decision = self._decision(self.labels[label[decided]], 'early')
         return self.decision
@@ -452,13 +557,14 @@ class RoundEvidence:
         return run_count, run_start
 
     def _first_confident(self, label, stamps, run_count, run_start, fresh,
-                         confidence) -> Optional[int]:
+                         confidence, share_ok=None) -> Optional[int]:
         """
         Find the first in-region sample after which the early test passes.
 
         All arguments have shape (M,), one entry per in-region sample of the
-        batch: label id, stamp s, run length and run start s after it, and
-        whether it is fresh.
+        batch: label id, stamp s, run length and run start s after it,
+        whether it is fresh, and (None: no share test) whether it passes the
+        early share test.
         :returns: its index in those arrays, or None.
         """
         count, width = len(label), len(self.labels)
@@ -474,14 +580,64 @@ class RoundEvidence:
         passed = (fresh & (leader_posterior >= confidence) & (total >= self.min_samples)
                   & (label == leader) & (run_count >= self.min_samples)
                   & (stamps - run_start >= self.dwell_s - 1e-9))
+        if share_ok is not None:
+            passed &= share_ok
         hits = np.flatnonzero(passed)
         return int(hits[0]) if hits.size else None
+
+    def _early_shares(self, every: np.ndarray, stamps: np.ndarray,
+                      inside: np.ndarray) -> np.ndarray:
+        """
+        Share of each in-region sample's label in the valid samples of the last EARLY_SHARE_S.
+
+        :param every: label id of every sample of the batch (N,): >= 0, or -1
+            (no region) and -2 (not finite, not counted).
+        :param stamps: (N,) s.
+        :param inside: indices (M,) of the in-region samples of the batch.
+        :returns: (M,): over the samples stamped in ``(t - EARLY_SHARE_S, t]``
+            up to each one (earlier batches' included), those on its label /
+            the valid ones.  O(history + N log N): the history holds
+            EARLY_SHARE_S of samples.
+        """
+        held = len(self._recent_stamps)
+        all_stamps = np.concatenate([self._recent_stamps, stamps])
+        all_labels = np.concatenate([self._recent_labels, every])
+        count = len(all_stamps)
+        at = held + inside
+        first = np.searchsorted(all_stamps, all_stamps[at] - EARLY_SHARE_S, side='right')
+        valid = np.concatenate([[0], np.cumsum(all_labels != _NOT_VALID)])
+        total = valid[at + 1] - valid[first]
+        # Samples on a label, keyed (label, position) in order: a range count per sample.
+        position = np.arange(count)
+        on = all_labels >= 0
+        keys = all_labels[on] * count + position[on]       # ascending within each label
+        keys.sort()
+        mine = all_labels[at] * count
+        same = (np.searchsorted(keys, mine + at, side='right')
+                - np.searchsorted(keys, mine + first, side='left'))
+        return same / np.maximum(total, 1)
+
+    def _remember(self, stamps: np.ndarray, every: np.ndarray) -> None:
+        """Keep the samples a later sample's EARLY_SHARE_S may reach (share test)."""
+        all_stamps = np.concatenate([self._recent_stamps, stamps])
+        keep = all_stamps > all_stamps[-1] - EARLY_SHARE_S
+        self._recent_stamps = all_stamps[keep]
+        self._recent_labels = np.concatenate([self._recent_labels, every])[keep]
+
+    def _recent_share(self) -> float:
+        """Share of the current run's label in the valid samples of the last EARLY_SHARE_S."""
+        labels = self._recent_labels
+        valid = np.count_nonzero(labels != _NOT_VALID)
+        return float(np.count_nonzero(labels == self._run_label) / valid) if valid else 0.0
 
     def early(self, confidence: float) -> Optional[Decision]:
         """Test the early decision on the evidence so far (no samples added)."""
         if self.decision is not None:
             return self.decision
         if not self.fresh:
+            return None
+        if self.min_share > 0 and not (self._last_label == self._run_label
+                                       and self._recent_share() >= EARLY_SHARE - 1e-12):
             return None
         leader = int(np.argmax(self._fresh_counts))
         posterior = posterior_from_counts(self._fresh_counts, self.hit_rate)[leader]
@@ -516,13 +672,22 @@ class RoundEvidence:
         if method == 'vote':
             if margin == 0.0:
                 return self._decision(None, method, 'tie between the leading regions')
-            return self._decision(self.labels[leader], method)
+            return self._shared(self.labels[leader], method)
         mean = self.mean_point()
         region = self._latest.classify_one(mean[0], mean[1]) if self._latest else -1
         if region < 0:
             return self._decision(
                 None, method, f'mean ({mean[0]:.1f}, {mean[1]:.1f}) px is in no region')
-        return self._decision(self._latest.labels[region], method)
+        return self._shared(self._latest.labels[region], method)
+
+    def _shared(self, label: str, method: str) -> Decision:
+        """Decide ``label`` at the window end if it passes the share test (module doc)."""
+        held = int(self._counts[self._label_index[label]])
+        if self.min_share > 0 and held < self.min_share * max(self.valid, 1):
+            return self._decision(
+                None, method, f"only {held} of the window's {self.valid} samples count for "
+                f"'{label}' (min_share {self.min_share:g}): the gaze was mostly elsewhere")
+        return self._decision(label, method)
 
     def _decision(self, label: Optional[str], method: str, reason: str = '') -> Decision:
         """Build a Decision from the current state (early: margin, posterior of fresh counts)."""

@@ -11,14 +11,18 @@ import bisect
 from collections import deque
 from dataclasses import dataclass, fields
 import math
-from typing import Callable, Deque, List, Optional, Tuple
+from typing import Callable, Deque, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.evidence import (check_hit_rate, check_min_reaction, Decision,
-                                   DEFAULT_HIT_RATE, DEFAULT_MIN_REACTION_S, METHODS,
-                                   RoundEvidence)
+from eye_bci_ros2.evidence import (check_hit_rate, check_min_reaction, check_min_share,
+                                   Decision, DEFAULT_HIT_RATE, DEFAULT_MIN_REACTION_S,
+                                   METHODS, RoundEvidence)
+from eye_bci_ros2.feedback import early_progress, window_progress
 from eye_bci_ros2.regions import points_array, RegionSet
+from eye_bci_ros2.tolerance import (CLASSIFICATIONS, DEFAULT_RATIO, GazeErrorModel,
+                                    TolerantRegions)
+from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, ScreenGeometry
 
 #: Default bound on how far after its arrival a gaze sample may be stamped, s.
 DEFAULT_MAX_FUTURE_S = 1.0
@@ -36,6 +40,19 @@ MAX_RECENT_SAMPLES = 1 << 17
 RECENT_MARGIN_S = 0.5
 
 _EMPTY_REGIONS = RegionSet([], np.zeros((0, 3, 2)))
+
+_DEFAULT_MODEL = GazeErrorModel()
+
+#: The settings that make the original rule (docs/DESIGN.md, "Decision"): samples count
+#: only inside an option, no share test; with ``method`` 'mean' (and no early decision)
+#: every decision is the original report's.
+ORIGINAL_RULE = {'classification': 'inside', 'min_share': 0.0}
+
+#: Settings that make up a round's rule (classification and share test): a change applies
+#: from the next round on (:meth:`RoundScheduler.configure`).
+RULE_FIELDS = ('classification', 'accuracy_deg', 'precision_deg', 'k_sigma', 'ratio',
+               'size_aware', 'min_share', 'screen_width_mm', 'screen_height_mm',
+               'viewing_distance_mm', 'screen_width', 'screen_height')
 
 
 class SampleLog:
@@ -116,6 +133,35 @@ class ArbiterSettings:
         arrival, s (0 to :data:`MAX_FUTURE_S`): acquisition cannot follow
         arrival, so only a clock offset or a corrupt stamp does that, and
         one such sample must not end a round (:class:`RoundScheduler`).
+
+    The rule (:data:`RULE_FIELDS`; :data:`ORIGINAL_RULE` restores the original):
+
+    :param classification: which option a sample counts for: 'tolerant'
+        (default: inside, or near it by the gaze-error model when clearly
+        nearer to it than to any other, :mod:`eye_bci_ros2.tolerance`) or
+        'inside' (the original: inside only).  Applies to every sample and to
+        the window-end mean, early and window-end decisions alike.
+    :param accuracy_deg: gaze-error model: the tracker's constant offset, degrees.
+    :param precision_deg: gaze-error model: sample-to-sample noise per axis, degrees.
+    :param k_sigma: tolerance in standard deviations of the radial error.
+    :param ratio: a near sample counts only when the nearest option is at most
+        ``ratio`` times as far as the second nearest, in (0, 1].
+    :param size_aware: the tolerance counts from the option's centre (none
+        for options larger than the error).
+    :param min_share: the share test (:mod:`eye_bci_ros2.evidence`): a
+        window-end choice needs this fraction of the window's valid samples,
+        an early one ``EARLY_SHARE`` of the last ``EARLY_SHARE_S``; [0, 1],
+        0 = off (the original).
+    :param screen_width_mm: the person's screen, visible width, mm.
+    :param screen_height_mm: visible height, mm.
+    :param viewing_distance_mm: eye to screen centre, mm.
+    :param screen_width: the screen's width, px (the frame ``screen``).
+    :param screen_height: its height, px.
+
+    Defaults: :class:`eye_bci_ros2.tolerance.GazeErrorModel` and
+    :data:`eye_bci_ros2.visual_angle.DEFAULT_VIEWING` (a 24-inch 16:9
+    screen at 650 mm), the size-aware tolerant rule with the share test:
+    ``bench/tolerance.py``'s ``size_mean/s``.
     """
 
     method: str = 'mean'
@@ -131,6 +177,18 @@ class ArbiterSettings:
     reorder_s: float = 0.0
     stall_timeout_s: float = 0.5
     max_future_s: float = DEFAULT_MAX_FUTURE_S
+    classification: str = 'tolerant'
+    accuracy_deg: float = _DEFAULT_MODEL.accuracy_deg
+    precision_deg: float = _DEFAULT_MODEL.precision_deg
+    k_sigma: float = _DEFAULT_MODEL.k_sigma
+    ratio: float = DEFAULT_RATIO
+    size_aware: bool = True
+    min_share: float = 0.5
+    screen_width_mm: float = DEFAULT_VIEWING.width_mm
+    screen_height_mm: float = DEFAULT_VIEWING.height_mm
+    viewing_distance_mm: float = DEFAULT_VIEWING.distance_mm
+    screen_width: int = DEFAULT_VIEWING.width_px
+    screen_height: int = DEFAULT_VIEWING.height_px
 
     def __post_init__(self):
         """Reject values no round can run with."""
@@ -151,11 +209,55 @@ class ArbiterSettings:
             raise ValueError(f'max_future_s must be in [0, {MAX_FUTURE_S}] s, got '
                              f'{self.max_future_s}: it bounds how far after its arrival a '
                              'gaze sample may be stamped (about 1 s)')
+        if self.classification not in CLASSIFICATIONS:
+            raise ValueError(f"unknown classification '{self.classification}': use one of "
+                             f"{', '.join(CLASSIFICATIONS)}")
+        if not (isinstance(self.ratio, (int, float)) and 0.0 < self.ratio <= 1.0):
+            raise ValueError(f'ratio must be in (0, 1], got {self.ratio!r}: the nearest option '
+                             'must be at most ratio times as far as the second')
+        check_min_share(self.min_share)
+        # Both raise ValueError with a reason: an error model no tracker has, or no screen.
+        self.error_model  # noqa: B018
+        self.screen  # noqa: B018
+
+    @property
+    def error_model(self) -> GazeErrorModel:
+        """Return the gaze-error model of the tolerant rule, degrees."""
+        return GazeErrorModel(accuracy_deg=float(self.accuracy_deg),
+                              precision_deg=float(self.precision_deg),
+                              k_sigma=float(self.k_sigma))
+
+    @property
+    def screen(self) -> ScreenGeometry:
+        """Return the person's screen and viewing distance."""
+        return ScreenGeometry(width_px=self.screen_width, height_px=self.screen_height,
+                              width_mm=self.screen_width_mm, height_mm=self.screen_height_mm,
+                              distance_mm=self.viewing_distance_mm)
+
+    def regions(self, region_set: RegionSet) -> RegionSet:
+        """
+        Return the classifier a round uses for ``region_set`` (labels, polygons, stamp).
+
+        'tolerant': a :class:`eye_bci_ros2.tolerance.TolerantRegions`; 'inside':
+        a plain :class:`RegionSet` (``region_set`` itself when it is one).
+        """
+        if self.classification == 'inside':
+            if type(region_set) is RegionSet:
+                return region_set
+            return RegionSet(region_set.labels, region_set.polygons, region_set.stamp)
+        return TolerantRegions.of(region_set, model=self.error_model, ratio=float(self.ratio),
+                                  screen=self.screen, size_aware=bool(self.size_aware))
 
     def evidence(self, start: float) -> 'RoundEvidence':
-        """Return an empty :class:`RoundEvidence` for a round starting at ``start`` s."""
+        """
+        Return an empty :class:`RoundEvidence` for a round starting at ``start`` s.
+
+        It weighs with the whole rule: the share test, and every region set
+        given to it classified by :meth:`regions` (once per set).
+        """
         return RoundEvidence(start, hit_rate=self.hit_rate, min_samples=self.min_samples,
-                             dwell_s=self.dwell_s, min_reaction_s=self.min_reaction_s)
+                             dwell_s=self.dwell_s, min_reaction_s=self.min_reaction_s,
+                             min_share=self.min_share, classifier=self.regions)
 
     def replace(self, **changed) -> 'ArbiterSettings':
         """Return a copy with ``changed`` fields (unknown names are ignored)."""
@@ -170,6 +272,8 @@ class _Round:
 
     def __init__(self, start: float, settings: ArbiterSettings):
         self.start = start
+        # The settings the round weighs with: its rule (RULE_FIELDS) stays for the round.
+        self.settings = settings
         self.evidence = settings.evidence(start)
         # In-window samples as they arrived, for re-classification.
         self.log = SampleLog()
@@ -256,6 +360,8 @@ class RoundScheduler:
         # (stamp, x, y) of recent samples, arrival order, for rounds starting in the past.
         self._recent: Deque[Tuple[float, float, float]] = deque(maxlen=MAX_RECENT_SAMPLES)
         self._round: Optional[_Round] = None
+        # (newest region set, settings, its classifier) for classifier between rounds.
+        self._classifier: Optional[tuple] = None
         # Stamp of the last sample the last finished decision used.
         self._final_stamp = -math.inf
         #: The outcome of the last finished round.
@@ -288,14 +394,81 @@ class RoundScheduler:
         """Return the open round's start, s (its window is ``[start, start + window_s)``)."""
         return self._round.start if self._round is not None else None
 
+    @property
+    def evidence(self) -> Optional[RoundEvidence]:
+        """Return the open round's RoundEvidence, or None; read it, never change it."""
+        return self._round.evidence if self._round is not None else None
+
+    @property
+    def classifier(self) -> Optional[RegionSet]:
+        """
+        Return the newest region set under the rule of the open round (else the settings').
+
+        None before any region set arrived.
+        """
+        if not self._history:
+            return None
+        newest = self._history[-1]
+        if self._round is not None:
+            return self._round.evidence.regions_for(newest)
+        cached = self._classifier
+        if cached is None or cached[0] is not newest or cached[1] != self.settings:
+            cached = self._classifier = (newest, self.settings, self.settings.regions(newest))
+        return cached[2]
+
+    def label_at(self, x: float, y: float) -> Optional[str]:
+        """
+        Return the label a sample at (x, y) screen px counts for now (:attr:`classifier`).
+
+        None when it counts for none, is not finite, or no regions are known.
+        """
+        regions = self.classifier
+        if regions is None or not len(regions) or not (math.isfinite(x) and math.isfinite(y)):
+            return None
+        index = regions.classify_one(x, y)
+        return regions.labels[index] if index >= 0 else None
+
+    def progress(self) -> Dict[str, float]:
+        """
+        Return the open round's progress towards each offered label, 0..1 (feedback).
+
+        The window rule's (:func:`eye_bci_ros2.feedback.window_progress`, over
+        the valid samples so far) and, with ``early_decision``, the larger of
+        it and the early decision's (:func:`eye_bci_ros2.feedback.early_progress`;
+        a stale run gives none).  Empty without an open round.
+        """
+        round_ = self._round
+        if round_ is None:
+            return {}
+        settings, evidence = self.settings, round_.evidence
+        offered = sorted(self._offered)
+        counts = evidence.counts
+        counts = {label: counts.get(label, 0) for label in offered}
+        out = window_progress(counts, evidence.valid, evidence.elapsed, settings.window_s)
+        if settings.early_decision:
+            fresh = evidence.fresh_counts
+            run = evidence.run_label if evidence.run_fresh else None
+            early = early_progress({label: fresh.get(label, 0) for label in offered},
+                                   settings.hit_rate, settings.confidence, run,
+                                   evidence.run_count, settings.min_samples,
+                                   evidence.last_stamp - evidence.run_start if run else 0.0,
+                                   settings.dwell_s)
+            out = {label: max(value, early.get(label, 0.0)) for label, value in out.items()}
+        return out
+
     def configure(self, **changed) -> None:
         """
         Change settings (names of :class:`ArbiterSettings`).
 
-        The open round uses them from its next sample on (counts so far stay).
+        The open round uses them from its next sample on (counts so far stay),
+        except the rule (:data:`RULE_FIELDS`: classification, error model,
+        screen, share test): it applies from the next round on, so no round
+        mixes two rules.
         """
         self.settings = self.settings.replace(**changed)
         if self._round is not None:
+            self._round.settings = self._round.settings.replace(
+                **{name: value for name, value in changed.items() if name not in RULE_FIELDS})
             evidence = self._round.evidence
             evidence.hit_rate = float(self.settings.hit_rate)
             evidence.min_samples = int(self.settings.min_samples)
@@ -585,7 +758,7 @@ class RoundScheduler:
             closed and ``until`` is past it), else None.
         """
         settings = self.settings
-        evidence = settings.evidence(round_.start)
+        evidence = round_.settings.evidence(round_.start)
         stamps, points = round_.log.ordered()
         if until < math.inf:
             keep = np.searchsorted(stamps, until, side='left')

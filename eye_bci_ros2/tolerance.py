@@ -54,6 +54,10 @@ from eye_bci_ros2.geometry import polygon_signed_area, PolygonSet
 from eye_bci_ros2.regions import polygon_centroids, RegionSet
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, px_per_degree_at, ScreenGeometry
 
+#: How a decision rule classifies samples: 'tolerant' (this module) or 'inside' (the original:
+#: only samples inside an option count for it).
+CLASSIFICATIONS = ('tolerant', 'inside')
+
 #: Default ratio of nearest to second-nearest distance below which a near sample counts.
 DEFAULT_RATIO = 0.5
 
@@ -175,11 +179,17 @@ def polygon_distances(points, polygons) -> np.ndarray:
     :returns: shape (N, R), px; ``inf`` for an all-NaN polygon and NaN for a
         NaN point.
     """
-    points = _points(points)
     filled, valid = fill_padding(polygons)
+    return _distances(_points(points), np.where(valid[:, None, None], filled, 0.0), valid,
+                      PolygonSet(filled))
+
+
+def _distances(points: np.ndarray, zeroed: np.ndarray, valid: np.ndarray,
+               polygon_set: PolygonSet) -> np.ndarray:
+    """:func:`polygon_distances` from prepared polygons (padding filled, invalid ones zeroed)."""
     with np.errstate(invalid='ignore'):
-        distance = _edge_distances(points, np.where(valid[:, None, None], filled, 0.0))
-        inside = PolygonSet(filled).contains(points)
+        distance = _edge_distances(points, zeroed)
+        inside = polygon_set.contains(points)
     distance[inside] = 0.0
     distance[:, ~valid] = np.inf
     distance[~np.all(np.isfinite(points), axis=1)] = np.nan
@@ -322,6 +332,11 @@ class TolerantRegions(RegionSet):
         self.ratio = ratio
         self.size_aware = size_aware
         self.screen = screen if screen is not None else DEFAULT_VIEWING
+        # Prepared once per set (the arbiter classifies every gaze batch with it).
+        filled, self._valid = fill_padding(self.polygons)
+        self._zeroed = np.where(self._valid[:, None, None], filled, 0.0)
+        self._filled_set = PolygonSet(filled)
+        self._half_sizes = half_sizes(self.polygons) if size_aware else None
 
     @classmethod
     def of(cls, regions: RegionSet, **rule) -> 'TolerantRegions':
@@ -331,10 +346,16 @@ class TolerantRegions(RegionSet):
     def classify(self, points) -> np.ndarray:
         """Region index of each point (N, 2) px by the tolerant rule, -1 = none."""
         points = np.asarray(points, dtype=float).reshape(-1, 2)
-        inside = super().classify(points)
-        return extend_to_nearby(inside, points, self.polygons,
-                                self.model.tolerance_px(points, self.screen), self.ratio,
-                                size_aware=self.size_aware)
+        region = super().classify(points)
+        # extend_to_nearby with the prepared polygons: the same result.
+        outside = np.flatnonzero(region < 0)
+        if outside.size and len(self.labels):
+            away = points[outside]
+            tolerance = _check_rule(self.model.tolerance_px(away, self.screen), self.ratio,
+                                    len(away))
+            distance = _distances(away, self._zeroed, self._valid, self._filled_set)
+            region[outside] = nearby(distance, tolerance, self.ratio, self._half_sizes)
+        return region
 
     def classify_one(self, x: float, y: float) -> int:
         """Region index of one point, tolerant rule."""

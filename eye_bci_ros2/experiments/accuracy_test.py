@@ -14,9 +14,11 @@ Two results:
 1. the report's binary search for the smallest size (to 1 px, between 4 and
    300 px) at which every one of K trials with fixed seeds is correct
    (``--search-threshold`` < 1 accepts a fraction), per decision rule;
-2. the accuracy against size curve, N trials per size, per rule (mean = the
-   original, vote, and optionally early), written as CSV and PNG with a
-   printed table.
+2. the accuracy against size curve, N trials per size, per rule
+   (:data:`eye_bci_ros2.experiments.trials.RULES`: ``original`` = the
+   report's rule, inside-only mean; ``mean``, ``vote``, ``early`` = the
+   choice_arbiter's default rule, tolerant to the tracker's error, deciding
+   at the window end or early), written as CSV and PNG with a printed table.
 
 By default nothing runs in real time: the simulated person
 (:mod:`eye_bci_ros2.sim.person`) produces each trial's samples on simulated
@@ -389,10 +391,13 @@ def search_thresholds(scenario: RoomScenario, methods: Sequence[str], trials: in
             return accuracy >= fraction - 1e-12
 
         note = ''
-        try:
-            threshold = float(binary_search_threshold(predicate, low, high))
-        except ValueError as error:
-            threshold, note = math.nan, str(error)
+        if predicate(low):
+            threshold, note = float(low), f'every trial right already at the lower bound {low} px'
+        else:
+            try:
+                threshold = float(binary_search_threshold(predicate, low, high))
+            except ValueError as error:
+                threshold, note = math.nan, str(error)
         bar.close()
         found[method] = {'threshold_px': threshold, 'note': note,
                          'evaluations': evaluations}
@@ -407,7 +412,7 @@ def build_parser() -> argparse.ArgumentParser:
                'no LSL; fast and deterministic). --live: real nodes, a real tracker on LSL '
                'and a real person looking at RViz.',
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument('--methods', default='mean,vote',
+    parser.add_argument('--methods', default='original,mean',
                         help=f"decision rules, comma separated, of {', '.join(CURVE_METHODS)}")
     parser.add_argument('--preset', default=ORIGINAL_TOBII_4C.name, choices=sorted(PRESETS),
                         help='simulated person and tracker')
@@ -418,7 +423,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help='K: trials per size in the binary search')
     parser.add_argument('--search-threshold', type=float, default=1.0,
                         help='fraction of the K trials that must be correct (1 = all)')
-    parser.add_argument('--low', type=int, default=4, help='binary search lower bound, px')
+    parser.add_argument('--low', type=int, default=1, help='binary search lower bound, px')
     parser.add_argument('--high', type=int, default=300, help='binary search upper bound, px')
     parser.add_argument('--trials', type=int, default=200, help='N: trials per size, curve')
     parser.add_argument('--sizes', default=','.join(str(s) for s in DEFAULT_SIZES),
@@ -566,8 +571,7 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
     The pipeline nodes (without the menu) run on the current ROS domain; the
     test markers go out on ``choices`` and the overview on ``camera/goal``;
     the terminal tells the person which room to look at; the arbiter decides.
-    Uses the first of ``methods`` ('early' = early decision, mean at the
-    window end).
+    Uses the first of ``methods`` (:func:`eye_bci_ros2.experiments.trials.settings_for`).
 
     :returns: 0 when the search finished, 1 when no gaze arrived or it failed.
     """
@@ -587,6 +591,7 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
 
     scenario = RoomScenario(scene, image_size=args.image_size, screen_offset=args.screen_offset)
     method = methods[0]
+    rule = settings_for(method, ArbiterSettings(window_s=args.window_s))
     overview = scene.overview
     context = Context()
     rclpy.init(context=context)
@@ -607,9 +612,8 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
                                  'image_height': args.image_size[1],
                                  'screen_offset_x': args.screen_offset[0],
                                  'screen_offset_y': args.screen_offset[1]},
-            'choice_arbiter': {'method': 'mean' if method == 'early' else method,
-                               'early_decision': method == 'early',
-                               'window_s': args.window_s},
+            'choice_arbiter': {name: getattr(rule, name) for name in (
+                'method', 'early_decision', 'window_s', 'classification', 'min_share')},
         })
         bridge, arbiter = nodes[0], nodes[3]
         helper = Node('accuracy_test', context=context)

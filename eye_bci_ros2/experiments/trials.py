@@ -23,24 +23,29 @@ import numpy as np
 
 from eye_bci_ros2.evidence import Decision
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings
+from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE
 
-#: Rule names the experiments accept: the window rules and the early decision.
-RULES = ('mean', 'vote', 'early')
+#: Rule names the experiments accept: the original rule, the node's window rules and its
+#: early decision (the node's classification: tolerant by default).
+RULES = ('original', 'mean', 'vote', 'early')
 
-#: The original system's rule: mean of the in-region samples at the end of a 1 s window.
-ORIGINAL = ArbiterSettings(method='mean', early_decision=False)
+#: The original system's rule: mean of the in-region samples at the end of a 1 s window
+#: (inside-only classification, no share test).
+ORIGINAL = ArbiterSettings(method='mean', early_decision=False, **ORIGINAL_RULE)
 
 
 def settings_for(rule: str, base: Optional[ArbiterSettings] = None) -> ArbiterSettings:
     """
     Return ``base`` (default: the node's defaults) set to decide by ``rule``.
 
-    :param rule: 'mean' or 'vote' (window end) or 'early' (early decision,
+    :param rule: 'original' (:data:`ORIGINAL`: inside-only mean at the window
+        end), 'mean' or 'vote' (window end) or 'early' (early decision,
         ``base.method`` at the window end when it does not fire).
     :raises ValueError: an unknown rule.
     """
     base = ArbiterSettings() if base is None else base
+    if rule == 'original':
+        return base.replace(method='mean', early_decision=False, **ORIGINAL_RULE)
     if rule == 'early':
         return base.replace(early_decision=True)
     if rule in ('mean', 'vote'):

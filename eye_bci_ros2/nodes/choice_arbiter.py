@@ -20,6 +20,23 @@ decisions held by ``reorder_s``.  Bad input is counted
 (:attr:`ChoiceArbiter.samples_from_future`, ``samples_too_old``,
 ``samples_not_finite``) and logged at most once per 5 s of each kind.
 
+Rule (``classification`` and the share test ``min_share``; eye_bci_ros2.rounds
+ArbiterSettings).  Default: the size-aware tolerant rule (a sample near an option counts
+for it when it is clearly nearer to it than to any other, by a gaze-error model in
+degrees on the person's screen, ``accuracy_deg``, ``precision_deg``, ``k_sigma``,
+``screen_*``) with the share test, for the window-end and early decisions alike.
+``classification:=inside min_share:=0.0`` (with ``method:=mean``) is the original rule.
+A change of the rule applies from the next round on.
+
+Feedback.  Subscribes ``choices`` (the options, visualization_msgs/MarkerArray, as RViz
+reads them) and publishes ``choices/feedback`` (MarkerArray, one halo per option with its
+ns and id, :mod:`eye_bci_ros2.nodes.feedback_markers`): the option the newest gaze sample
+counts for under the round's rule highlighted ('gazed'), the progress of the decision
+(:meth:`eye_bci_ros2.rounds.RoundScheduler.progress`) as the halo's growth, and the option
+just chosen (the published ``choice``) green for ``feedback_confirm_s``; at most
+``feedback_rate_hz`` messages per second, only when something changed
+(:class:`eye_bci_ros2.feedback.FeedbackThrottle`; 0 = off).
+
 Input modes (parameter ``input_mode``, :mod:`eye_bci_ros2.fusion`).  ``gaze``
 (default): as above.  ``ssvep``: ``choice`` is the ``ssvep/choice`` of the
 ssvep_decoder (std_msgs/String) when it names an offered option, once per
@@ -39,16 +56,20 @@ from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.evidence import Decision, MAX_REACTION_S, METHODS
+from eye_bci_ros2.feedback import build_feedback, Feedback, FeedbackThrottle
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
 from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
+from eye_bci_ros2.nodes.feedback_markers import FeedbackMarkers, option_label, OptionMarkers
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
-                                       LATCHED_QOS, NO_CHOICE_TOPIC, REQUEST_TOPIC, SCORES_QOS,
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, EVENT_QOS, FEEDBACK_QOS,
+                                       FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                       NO_CHOICE_TOPIC, REQUEST_TOPIC, SCORES_QOS,
                                        SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, RoundScheduler
+from eye_bci_ros2.tolerance import CLASSIFICATIONS
 
 #: Period of the timer that closes quiet rounds and releases held decisions, s.
 TICK_S = 0.02
@@ -60,6 +81,15 @@ def _positive(value) -> Optional[str]:
 
 def _open_unit_half(value) -> Optional[str]:
     return None if 0.5 < value < 1.0 else f'must be in the open interval (0.5, 1), got {value}'
+
+
+def _settings_problem(values: dict) -> Optional[str]:
+    """Return why the parameters make no valid ArbiterSettings (a combination), or None."""
+    try:
+        ArbiterSettings(**values)
+    except ValueError as error:
+        return str(error)
+    return None
 
 
 #: The defaults: those of the rounds' settings (one home).
@@ -113,6 +143,60 @@ PARAMETERS = (
               'only a corrupt stamp or a wrong clock does that, and one such sample would '
               'end the round at once; raise it only for a tracker clock known to run ahead',
               value_range=(0.0, MAX_FUTURE_S)),
+    # The rule (eye_bci_ros2.rounds ArbiterSettings; a change applies from the next round).
+    ParamSpec('classification', DEFAULTS.classification,
+              'Which option a gaze sample counts for: tolerant = inside it, or near it (by the '
+              'gaze-error model below) when clearly nearer to it than to any other option; '
+              'inside = the original rule (inside only). With min_share 0 and method mean, '
+              'inside gives the original decisions', choices=CLASSIFICATIONS),
+    ParamSpec('accuracy_deg', DEFAULTS.accuracy_deg,
+              "Tolerant rule: the tracker's accuracy (constant offset) for this person, "
+              'degrees of visual angle (a validation measures it)', value_range=(0.0, 10.0)),
+    ParamSpec('precision_deg', DEFAULTS.precision_deg,
+              "Tolerant rule: the tracker's precision (sample-to-sample noise per axis), "
+              'degrees', value_range=(0.0, 10.0)),
+    ParamSpec('k_sigma', DEFAULTS.k_sigma,
+              'Tolerant rule: tolerance in standard deviations of the radial gaze error '
+              '(k_sigma x sqrt(accuracy^2 + 2 precision^2), below 30 deg)',
+              value_range=(0.0, 10.0)),
+    ParamSpec('ratio', DEFAULTS.ratio,
+              'Tolerant rule: a sample outside every option counts for the nearest only when '
+              'it is at most ratio times as far as the second nearest (gaze between two '
+              'options counts for neither)', value_range=(0.0, 1.0),
+              check=lambda v: None if v > 0 else f'must be in (0, 1], got {v}'),
+    ParamSpec('size_aware', DEFAULTS.size_aware,
+              "Tolerant rule: count the tolerance from the option's centre (none for options "
+              'larger than the gaze error); false = from its edge'),
+    ParamSpec('min_share', DEFAULTS.min_share,
+              "Share test: a choice at the window end needs this fraction of the window's "
+              'valid gaze samples on it, an early choice 0.8 of the samples of the last 0.1 s; '
+              '0 = off (the original rule)', value_range=(0.0, 1.0)),
+    ParamSpec('screen_width_mm', DEFAULTS.screen_width_mm,
+              "The person's screen: visible width, mm (degrees -> px for the tolerance)",
+              value_range=(1.0, 10000.0)),
+    ParamSpec('screen_height_mm', DEFAULTS.screen_height_mm,
+              "The person's screen: visible height, mm", value_range=(1.0, 10000.0)),
+    ParamSpec('viewing_distance_mm', DEFAULTS.viewing_distance_mm,
+              "Distance from the person's eyes to the screen centre, mm",
+              value_range=(1.0, 10000.0)),
+    ParamSpec('screen_width', DEFAULTS.screen_width,
+              'The screen the gaze is in (frame screen): width, px', value_range=(1, 16384)),
+    ParamSpec('screen_height', DEFAULTS.screen_height,
+              'The screen the gaze is in (frame screen): height, px', value_range=(1, 16384)),
+)
+
+#: A gaze sample older than this (node clock) no longer highlights an option, s.
+GAZED_STALE_S = 0.25
+
+#: What the person is shown (choices/feedback), declared apart from the decision's settings.
+FEEDBACK_PARAMETERS = (
+    ParamSpec('feedback_rate_hz', 30.0,
+              'choices/feedback: most messages per second (sent only when the highlight or '
+              'the progress changed, and once a second); 0 = no feedback',
+              value_range=(0.0, 240.0)),
+    ParamSpec('feedback_confirm_s', 1.0,
+              'choices/feedback: how long the chosen option is shown confirmed (green), s',
+              value_range=(0.0, 60.0)),
 )
 
 
@@ -146,7 +230,8 @@ class ChoiceArbiter(Node):
     def __init__(self, **kwargs):
         """Declare parameters, topics and the round timer."""
         super().__init__('choice_arbiter', **kwargs)
-        self._config = declare_parameters(self, PARAMETERS, self._on_parameters)
+        self._config = declare_parameters(self, PARAMETERS, self._on_parameters,
+                                          _settings_problem)
         self._warnings = KeyedWarnings(self.get_logger())
         self._tracker = RoundScheduler(ArbiterSettings(**self._config), self._publish, self._log)
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
@@ -156,10 +241,12 @@ class ChoiceArbiter(Node):
         self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
         self._timer = self.create_timer(TICK_S, self._on_tick)
         self._init_fusion()
+        self._init_feedback()
+        config = self._config
         self.get_logger().info(
-            f"choice_arbiter: method {self._config['method']}, window "
-            f"{self._config['window_s']} s, early decision "
-            f"{'on' if self._config['early_decision'] else 'off'}")
+            f"choice_arbiter: method {config['method']}, window {config['window_s']} s, "
+            f"early decision {'on' if config['early_decision'] else 'off'}, classification "
+            f"{config['classification']}, min_share {config['min_share']}")
 
     # -- public state, for tests and tools ---------------------------------------------------
 
@@ -219,6 +306,8 @@ class ChoiceArbiter(Node):
             now = self._now()
             if not (msg.header.stamp.sec or msg.header.stamp.nanosec):
                 stamps = stamps + now   # unstamped: taken as arriving now (offsets kept)
+            if len(points):
+                self._newest = (float(points[-1, 0]), float(points[-1, 1]), now)
             self._tracker.add_samples(stamps, points, now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'gaze_error', f'gaze batch ignored: {error}')
@@ -257,7 +346,7 @@ class ChoiceArbiter(Node):
         # Input mode 'gaze' (default): the decision's label, as before.
         label = self._fusion.gaze(decision.label, self._now(), decision.margin)
         if label is not None:
-            self._publisher.publish(String(data=label))
+            self._choose(label)
             return
         # A round that cannot lead to a choice: no gaze choice (gaze), no candidate (hybrid).
         mode = self._fusion.settings.mode
@@ -266,6 +355,12 @@ class ChoiceArbiter(Node):
                 and not self._fusion.chosen):
             reason = decision.reason or f"gaze on '{decision.label}' too unsteady for a candidate"
             self._none_publisher.publish(String(data=reason))
+
+    def _choose(self, label: str) -> None:
+        """Publish ``choice`` and show it confirmed on choices/feedback."""
+        self._publisher.publish(String(data=label))
+        self._chosen = (label, self._now() + self._feedback_values['feedback_confirm_s'],
+                        self._options.get(label))
 
     def _log(self, level: str, key: str, text: str) -> None:
         """Log ``text``; warnings of one ``key`` at most once per WARN_PERIOD_S."""
@@ -318,7 +413,7 @@ class ChoiceArbiter(Node):
         try:
             label = self._fusion.ssvep_choice(msg.data, self._now())
             if label is not None:
-                self._publisher.publish(String(data=label))
+                self._choose(label)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'ssvep_error', f'SSVEP choice ignored: {error}')
 
@@ -330,9 +425,94 @@ class ChoiceArbiter(Node):
                 return
             label = self._fusion.ssvep_scores(list(msg.name), list(msg.position), self._now())
             if label is not None:
-                self._publisher.publish(String(data=label))
+                self._choose(label)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'ssvep_error', f'SSVEP scores ignored: {error}')
+
+    # -- feedback: choices/feedback (eye_bci_ros2.feedback, nodes/feedback_markers) --------
+
+    def _init_feedback(self) -> None:
+        """Declare the feedback parameters, subscribe the options, start the feedback timer."""
+        self._feedback_values = dict(declare_parameters(
+            self, FEEDBACK_PARAMETERS, self._on_feedback_parameters))
+        self._options = OptionMarkers()
+        self._halos = FeedbackMarkers()
+        self._newest: Optional[tuple] = None     # (x, y, arrival s) of the newest sample
+        self._chosen: Optional[tuple] = None     # (label, shown until s, option marker)
+        self._options_changed = False
+        self._feedback_pub = self.create_publisher(MarkerArray, FEEDBACK_TOPIC, FEEDBACK_QOS)
+        self.create_subscription(MarkerArray, 'choices', self._on_choices, CHOICES_QOS)
+        self._feedback_timer = None
+        self._throttle = FeedbackThrottle()
+        self._start_feedback(self._feedback_values['feedback_rate_hz'])
+
+    def _start_feedback(self, rate_hz: float) -> None:
+        """(Re)start the feedback timer at ``rate_hz`` (0: stop, withdraw the halos)."""
+        if self._feedback_timer is not None:
+            self.destroy_timer(self._feedback_timer)
+            self._feedback_timer = None
+        if rate_hz > 0:
+            # The timer sets the rate; the throttle's own period is shorter, so its timer
+            # jitter never halves it, and the throttle decides only whether anything changed.
+            self._throttle = FeedbackThrottle(max_rate_hz=2.0 * rate_hz)
+            self._feedback_timer = self.create_timer(1.0 / rate_hz, self._on_feedback_timer)
+        elif self._halos.shown:
+            withdrawn = self._halos.update(Feedback(()), [], self.get_clock().now().to_msg())
+            if withdrawn is not None:
+                self._feedback_pub.publish(withdrawn)
+
+    def _on_feedback_parameters(self, changed: dict) -> None:
+        self._feedback_values.update(changed)
+        if 'feedback_rate_hz' in changed:
+            self._start_feedback(changed['feedback_rate_hz'])
+
+    def _on_choices(self, msg: MarkerArray) -> None:
+        try:
+            problems = self._options.apply(msg)
+        except Exception as error:  # noqa: B902 - a node never dies on a message
+            problems = [f'choices message ignored: {error}']
+        if problems:
+            self._log('warning', 'choices_bad', 'choices: ' + '; '.join(problems[:5]))
+        self._options_changed = True
+
+    def current_feedback(self, now: float) -> tuple:
+        """
+        Return what choices/feedback shows at ``now`` (node clock, s): (Feedback, options).
+
+        The options are the ``choices`` markers, plus the option just chosen while it is
+        shown confirmed even if the menu has withdrawn it.
+        """
+        options = self._options.options
+        chosen = None
+        if self._chosen is not None:
+            label, until, marker = self._chosen
+            if now < until:
+                chosen = label
+                keys = {(m.ns, m.id) for m in options}
+                if marker is not None and (marker.ns, marker.id) not in keys:
+                    options = options + [marker]
+            else:
+                self._chosen = None
+        gazed = None
+        if self._newest is not None and now - self._newest[2] <= GAZED_STALE_S:
+            gazed = self._tracker.label_at(self._newest[0], self._newest[1])
+        feedback = build_feedback([option_label(m) for m in options], gazed=gazed,
+                                  chosen=chosen, progress=self._tracker.progress(),
+                                  stamp=now)
+        return feedback, options
+
+    def _on_feedback_timer(self) -> None:
+        try:
+            now = self._now()
+            feedback, options = self.current_feedback(now)
+            if not (self._throttle.due(feedback, now) or self._options_changed):
+                return
+            self._options_changed = False
+            message = self._halos.update(feedback, options, self.get_clock().now().to_msg())
+            if message is not None:
+                self._feedback_pub.publish(message)
+        except Exception as error:  # noqa: B902 - a node never dies on a timer
+            self._log('warning', 'feedback_error', f'feedback not sent: {error}')
 
 
 def main(args=None):

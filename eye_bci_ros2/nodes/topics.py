@@ -21,6 +21,12 @@ CHOICE_TOPIC = 'choice'
 NO_CHOICE_TOPIC = 'choice/none'
 REQUEST_TOPIC = 'choice/request'
 
+#: What the person is shown of the selection while it happens (choice_arbiter ->
+#: RViz): visualization_msgs/MarkerArray in the options' frame, one halo per option
+#: with the option's ns and id (eye_bci_ros2.nodes.feedback_markers), at most
+#: ``feedback_rate_hz``; FEEDBACK_QOS.
+FEEDBACK_TOPIC = 'choices/feedback'
+
 #: SSVEP (eye_bci_ros2.nodes.ssvep_messages): each option's stimulus (latched,
 #: sensor_msgs/JointState), the decoder's per-option posterior and score per step
 #: (JointState, SCORES_QOS) and its choice (std_msgs/String, EVENT_QOS).
@@ -70,5 +76,12 @@ CHOICES_QOS = QoSProfile(
 
 #: What RViz view-controller ports publish with: reliable, volatile, depth 10.
 RVIZ_POSE_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=10,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+#: ``choices/feedback``: reliable and volatile (what RViz's MarkerArray display asks for,
+#: config/eye_bci.rviz), a few messages deep: every message is complete (each offered
+#: option's halo, and a DELETE for each halo withdrawn since the previous one).
+FEEDBACK_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=10,
     reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)

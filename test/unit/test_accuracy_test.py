@@ -15,6 +15,7 @@ from eye_bci_ros2.experiments.accuracy_test import (
     binary_search_threshold, CURVE_COLUMNS, RoomScenario, run_trials, TrialSettings)
 from eye_bci_ros2.experiments.render import png_size
 from eye_bci_ros2.nodes.package_files import default_scene_path
+from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE
 from eye_bci_ros2.scene import load_scene
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER
 
@@ -71,7 +72,8 @@ def test_room_markers_are_scaled_to_the_requested_screen_size(size):
 
 def test_trials_are_deterministic_and_size_matters():
     scenario = RoomScenario(SCENE)
-    settings = TrialSettings(params=CONSUMER_TRACKER)
+    # The original rule: a tiny marker the gaze never touches is never chosen.
+    settings = TrialSettings(params=CONSUMER_TRACKER, arbiter=ArbiterSettings(**ORIGINAL_RULE))
     small = run_trials(scenario, 5, 24, seed=3, settings=settings, methods=('mean', 'vote'))
     again = run_trials(scenario, 5, 24, seed=3, settings=settings, methods=('mean', 'vote'))
     large = run_trials(scenario, 120, 24, seed=3, settings=settings, methods=('mean', 'vote'))
@@ -108,19 +110,21 @@ def test_curve_run_writes_csv_png_and_summary(tmp_path, capsys):
 
 def test_binary_search_run_reports_a_threshold_that_holds(tmp_path, capsys):
     out = tmp_path / 'search'
-    code = accuracy_test.main(['--no-curve', '--search-trials', '6', '--methods', 'mean',
+    code = accuracy_test.main(['--no-curve', '--search-trials', '6', '--methods', 'original',
                                '--preset', 'consumer_tracker', '--seed', '5',
                                '--output-dir', str(out)])
     assert code == 0
-    assert 'smallest marker size (mean):' in capsys.readouterr().out
+    assert 'smallest marker size (original):' in capsys.readouterr().out
     summary = json.loads((out / 'accuracy_summary.json').read_text())
-    threshold = summary['binary_search']['results']['mean']['threshold_px']
+    threshold = summary['binary_search']['results']['original']['threshold_px']
     assert 4 < threshold < 300
     # Checked independently: all 6 trials right at the threshold, not 1 px below.
     scenario = RoomScenario(SCENE)
     settings = TrialSettings(params=CONSUMER_TRACKER)
-    assert run_trials(scenario, threshold, 6, 5, settings).accuracy('mean') == 1.0
-    assert run_trials(scenario, threshold - 1, 6, 5, settings).accuracy('mean') < 1.0
+    assert run_trials(scenario, threshold, 6, 5, settings, ('original',)).accuracy(
+        'original') == 1.0
+    assert run_trials(scenario, threshold - 1, 6, 5, settings, ('original',)).accuracy(
+        'original') < 1.0
 
 
 def test_bad_options_are_usage_errors(capsys):

@@ -28,7 +28,7 @@ from eye_bci_ros2.evidence import decide_mean, decide_vote, RoundEvidence
 from eye_bci_ros2.geometry import (back_project, box_silhouettes, cube_corners_batch, look_at,
                                    MIN_DEPTH, polygon_signed_area, project_points)
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, RoundScheduler
+from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE, RoundScheduler
 
 SETTINGS = settings(max_examples=150, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
@@ -326,7 +326,7 @@ def test_live_tracker_decides_the_same_whatever_order_the_samples_arrive(regions
                                            expected.mean_point) > 1e-6)
     order = np.array(data.draw(st.permutations(range(len(points)))))
     for sequence in (np.arange(len(points)), order):
-        tracker = RoundScheduler(ArbiterSettings(method=method, window_s=1.0))
+        tracker = RoundScheduler(ArbiterSettings(method=method, window_s=1.0, **ORIGINAL_RULE))
         tracker.add_regions(RegionSet(labels, polygons, 0.0), now=0.0)
         for k in sequence.tolist():
             assert tracker.add_sample(stamps[k], points[k, 0], points[k, 1], now=0.5) is None

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, RoundScheduler
+from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE, RoundScheduler
 
 RATE_HZ = 100.0
 LEFT, RIGHT = (300.0, 500.0), (1500.0, 500.0)
@@ -65,7 +65,8 @@ def test_window_end_is_decided_by_the_first_sample_after_it():
 
 
 def test_early_decision_is_made_by_the_deciding_sample_without_a_tick():
-    rec = Recorder(early_decision=True, min_samples=3, dwell_s=0.0, confidence=0.9)
+    rec = Recorder(early_decision=True, min_samples=3, dwell_s=0.0, confidence=0.9,
+                   **ORIGINAL_RULE)
     rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
     # Off-region for 0.15 s (longer than min_reaction_s), then on A.
     points = np.vstack([at((900.0, 900.0), 15), at(LEFT, 10)])
@@ -232,7 +233,7 @@ def test_early_decision_defaults_ignore_a_gaze_resting_on_an_option_of_the_new_m
     # after 200 ms and looks at t2.  early_decision alone, defaults otherwise.
     outcomes = {}
     for min_reaction_s in (ArbiterSettings().min_reaction_s, 0.0):
-        rec = Recorder(early_decision=True, min_reaction_s=min_reaction_s)
+        rec = Recorder(early_decision=True, min_reaction_s=min_reaction_s, **ORIGINAL_RULE)
         rec.tracker.add_regions(squares({'t1': LEFT, 't2': RIGHT}, 20.0), now=20.0)
         decided = rec.feed(np.vstack([at(LEFT, 20), at(RIGHT, 30)]), 20.0)
         outcomes[min_reaction_s] = (rec.labels, decided)
@@ -300,7 +301,7 @@ def test_samples_stamped_long_before_the_round_start_are_dropped_and_counted():
 
 
 def test_nan_and_infinite_gaze_are_counted_and_never_evidence():
-    rec = Recorder(window_s=0.5, method='vote')
+    rec = Recorder(window_s=0.5, method='vote', **ORIGINAL_RULE)
     rec.tracker.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
     bad = [(np.nan, np.nan), (np.nan, 500.0), (np.inf, 500.0), (300.0, -np.inf)] * 5
     points = np.vstack([at(LEFT, 10), bad, at(RIGHT, 5), at((900.0, 900.0), 16)])
