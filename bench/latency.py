@@ -29,7 +29,9 @@ bridge's poll timer), aimed at the vertex mean of one region (taken from
 early on one in-region sample (``min_samples`` 1, ``dwell_s`` 0,
 ``confidence`` 0.8 < the 0.9 posterior of one sample among three regions;
 ``min_reaction_s`` 0 because the marked sample comes sooner after the request
-than a person could react, and the arbiter would otherwise not count it),
+than a person could react, and the arbiter would otherwise not count it;
+the original inside-only rule without the share test, which would wait for
+more samples),
 so the marked sample is the sample that decides the round; a round counts
 only if the arbiter's decision is the target with exactly one in-region
 sample.  Latency = receipt of ``choice`` in the driver's callback minus the
@@ -75,6 +77,7 @@ from eye_bci_ros2.nodes.conversions import cube_marker, marker_array_to_regions
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.runner import make_executor, spin_for, spin_until
 from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
+from eye_bci_ros2.rounds import ORIGINAL_RULE
 from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
 
 #: Push rate of the simulated tracker, Hz.
@@ -92,9 +95,11 @@ MARKERS = (('kitchen', (7.0, 6.0, 0.0)), ('bedroom', (10.0, 6.0, 0.0)),
 MARKER_SCALE = (1.5, 1.5, 0.05)
 #: Where the gaze rests between marked samples: screen px outside the render panel.
 OFF_REGION_PX = (60.0, 60.0)
-#: Arbiter settings that make the first in-region sample decide a round.
+#: Arbiter settings that make the first in-region sample decide a round (the inside
+#: classification without the share test: one sample among off-region ones must decide).
 ARBITER_PARAMETERS = {'early_decision': True, 'min_samples': 1, 'dwell_s': 0.0,
-                      'min_reaction_s': 0.0, 'confidence': 0.8, 'window_s': 30.0}
+                      'min_reaction_s': 0.0, 'confidence': 0.8, 'window_s': 30.0,
+                      **ORIGINAL_RULE}
 #: Waits, s.
 SETUP_TIMEOUT_S = 30.0
 ROUND_TIMEOUT_S = 3.0
