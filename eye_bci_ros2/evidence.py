@@ -40,7 +40,19 @@ time, until the gaze leaves the region for another one: the next run is a new
 fixation and is fresh.  Fresh samples are therefore exactly those of runs
 starting at or after ``start + min_reaction_s``; the early decision weighs
 only them (counts, posterior, ``min_samples``), and ``min_reaction_s`` 0
-makes every sample fresh (the rule off).  The window-end rules (mean, vote)
+makes every sample fresh (the rule off).  The same holds while the options
+move (the camera still on its way when the question is asked): a region set
+with the same labels whose outlines moved by more than :data:`MOVED_PX` is a
+new display, so runs starting before its stamp + ``min_reaction_s`` are stale
+too (an option sliding under a resting gaze is not a choice of it).  And a
+gaze that rests *near* an option (outside it, where a tolerant rule counts
+it, flickering between that option and none or a neighbour with the
+tracker's noise) starts new runs without a reaction: so while the gaze stays
+within :data:`REST_RADIUS_PX` of where it rested before ``start +
+min_reaction_s`` (the mean of those samples), no run is fresh; fresh runs
+start at or after the first sample farther than that (the saccade).  A round
+without samples before that time has no resting gaze to hold.  The
+window-end rules (mean, vote)
 always use every sample of the window, so ``mean`` stays the original rule
 and a gaze that stays on a region it rested on from the start is decided by
 it, at the window end: slower, never a hasty wrong choice.
@@ -84,6 +96,7 @@ from typing import Callable, Dict, Optional, Tuple
 import numpy as np
 
 from eye_bci_ros2.regions import points_array, RegionSet
+from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, px_per_degree_at
 
 #: Names of the decision rules, as the ``method`` field of a :class:`Decision`.
 METHODS = ('mean', 'vote')
@@ -93,6 +106,15 @@ DEFAULT_HIT_RATE = 0.9
 
 #: Default shortest reaction to a new display, s: faster gaze is not a reaction to it.
 DEFAULT_MIN_REACTION_S = 0.1
+
+#: A gaze within this of where it rested at the round start has not moved (module doc), px:
+#: 1.5 degrees at the centre of the default screen, five times the sample noise of a
+#: consumer tracker and less than the pitch of any two options a person can tell apart.
+REST_RADIUS_PX = 1.5 * float(px_per_degree_at(np.asarray(DEFAULT_VIEWING.centre_px, dtype=float)
+                                              .reshape(1, 2), DEFAULT_VIEWING)[0])
+
+#: Outlines that moved by more than this (any vertex, px) are a moving display (module doc).
+MOVED_PX = 2.0
 
 #: Largest accepted ``min_reaction_s``, s.
 MAX_REACTION_S = 2.0
@@ -177,6 +199,15 @@ def check_hit_rate(hit_rate: float) -> None:
     if not 0.5 < hit_rate < 1.0:
         raise ValueError(f'hit_rate must be in (0.5, 1), got {hit_rate}: an in-region sample '
                          'must be more likely on the looked-at region than elsewhere')
+
+
+def _moved(old: RegionSet, new: RegionSet) -> bool:
+    """Tell whether ``new`` shows the same options as ``old`` moved by more than MOVED_PX."""
+    if new is old or new.labels != old.labels or new.polygons.shape != old.polygons.shape:
+        return False
+    with np.errstate(invalid='ignore'):
+        shift = np.abs(new.polygons - old.polygons)
+    return bool(np.nanmax(shift, initial=0.0) > MOVED_PX)
 
 
 def check_min_reaction(min_reaction_s: float) -> None:
@@ -364,6 +395,13 @@ class RoundEvidence:
         self._centroids = np.zeros((0, 2))
         self._offset_sum = np.zeros(2)
         self._latest: Optional[RegionSet] = None
+        # Stamp of the last region set that moved the options (module doc, fresh evidence).
+        self._moved_at = -math.inf
+        # Where the gaze rested before start + min_reaction_s (sum, count), and the stamp of
+        # the first sample after it that left it (inf: not yet; -inf: no resting gaze).
+        self._rest_sum = np.zeros(2)
+        self._rest_count = 0
+        self._gaze_moved_at = math.inf if self.min_reaction_s > 0 else -math.inf
         self._mapping: Dict[int, tuple] = {}
         # Current run of consecutive in-region samples on one label.
         self._run_label = -1
@@ -420,7 +458,9 @@ class RoundEvidence:
     @property
     def fresh_from(self) -> float:
         """Return the stamp from which a run is fresh, s (-inf when ``min_reaction_s`` is 0)."""
-        return self.start + self.min_reaction_s if self.min_reaction_s > 0 else -math.inf
+        if not self.min_reaction_s > 0:
+            return -math.inf
+        return max(max(self.start, self._moved_at) + self.min_reaction_s, self._gaze_moved_at)
 
     def posterior(self) -> Dict[str, float]:
         """Posterior of each offered label (module doc)."""
@@ -488,6 +528,8 @@ class RoundEvidence:
         region_set = self.regions_for(region_set)
         ids, label_centroids = self._label_ids(region_set)
         if self._latest is None or region_set.stamp >= self._latest.stamp:
+            if self._latest is not None and _moved(self._latest, region_set):
+                self._moved_at = max(self._moved_at, region_set.stamp)
             self._latest = region_set
             # The newest geometry of each label, for the motion-compensated mean.
             self._centroids[ids[:-1]] = region_set.centroids
@@ -497,6 +539,7 @@ class RoundEvidence:
         inside = np.flatnonzero(region >= 0)
         label = ids[region[inside]]
         finite = np.isfinite(points).all(axis=1)
+        self._track_rest(points, stamps, finite)
         run_count, run_start = self._runs(label, stamps[inside])
         fresh = run_start >= self.fresh_from
         stop = len(points)
@@ -538,6 +581,26 @@ class RoundEvidence:
         if decided is not None:
             self.decision = self._decision(self.labels[label[decided]], 'early')
         return self.decision
+
+    def _track_rest(self, points: np.ndarray, stamps: np.ndarray, finite: np.ndarray) -> None:
+        """Update the resting gaze and when it was left (module doc, fresh evidence)."""
+        if self._gaze_moved_at != math.inf:
+            return
+        reaction = self.start + self.min_reaction_s
+        resting = finite & (stamps < reaction)
+        if resting.any():
+            self._rest_sum += points[resting].sum(axis=0)
+            self._rest_count += int(np.count_nonzero(resting))
+        later = np.flatnonzero(finite & (stamps >= reaction))
+        if not later.size:
+            return
+        if not self._rest_count:
+            self._gaze_moved_at = -math.inf    # no resting gaze to hold
+            return
+        rest = self._rest_sum / self._rest_count
+        away = later[np.hypot(*(points[later] - rest).T) > REST_RADIUS_PX]
+        if away.size:
+            self._gaze_moved_at = float(stamps[away[0]])
 
     def _runs(self, label: np.ndarray, stamps: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
         """Length and start stamp of the current run after each in-region sample (M,)."""

@@ -226,7 +226,10 @@ def test_run_all_prints_its_own_table(section, capsys):
     assert lines[0] == 'decision:' and lines[1:] == decision.format_lines(section)
     text = '\n'.join(lines)
     assert 'goal at 100 px, main scenario' in text and 'stress accuracy' in text
-    assert text.count(' best  9  200 ') == 2  # main and stress tables
+    # the main table and one per stress scenario
+    assert text.count(' best  9  200 ') == 1 + len(decision.STRESS_SCENARIOS)
+    for scenario in decision.STRESS_SCENARIOS:
+        assert f'stress ({scenario})' in text
     assert '1200 Hz tracker, other_target' in text
     assert decision.main(['--quick']) == 0
     out = capsys.readouterr().out
@@ -240,3 +243,27 @@ def test_run_all_falls_back_to_the_generic_table_when_a_formatter_fails():
     lines = run_all.section_lines('x', {'1': {'ms': 2.0}}, formatter=broken)
     assert 'format_lines failed' in lines[0]
     assert lines[1].split() == ['x', 'ms'] and lines[3].split() == ['1', '2.000']
+
+
+def test_stress_scenarios_start_where_they_say(section):
+    seeds = range(decision.TEST_SEED, decision.TEST_SEED + 10)
+    centres = decision.layout(4, 100)
+    outside = decision.PARAMS.person.screen.visual_angle_px(decision.NEAR_EDGE_DEG)
+    for trial in decision.simulate_trials(4, 100, seeds, 'near_edge'):
+        # Just outside a target that is not the goal: nearest another target, off its edge.
+        offset = np.abs(centres - trial.start)
+        nearest = int(np.argmin(np.hypot(*offset.T)))
+        assert nearest != trial.goal
+        assert np.isclose(offset[nearest].max(), 50 + outside)
+    moving = decision.simulate_trials(4, 100, seeds, 'camera_moving')
+    history = moving[0].regions
+    assert history[0].stamp == 0.0 and history[-1].stamp >= decision.MOVE_S - 1e-9
+    np.testing.assert_allclose(history[-1].centroids, centres)
+    assert not np.allclose(history[0].centroids, centres)
+
+
+def test_the_node_default_never_chooses_wrong_in_the_stress_scenarios(section):
+    for scenario in ('near_edge', 'camera_moving'):
+        cells = [m for row in section[f'stress_{scenario}']['node_default'].values()
+                 for m in row.values()]
+        assert max(m['wrong'] for m in cells) == 0.0, scenario
