@@ -30,7 +30,8 @@ Procedure (what an executable or a menu step runs through the real nodes):
 6. validate again with the correction applied and show the residual.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+import json
 import math
 from typing import List, Optional, Sequence, Tuple, Union
 
@@ -250,6 +251,25 @@ def apply_correction(xy, correction: Correction) -> np.ndarray:
     return xy @ matrix[:, :2].T + matrix[:, 2]
 
 
+def is_identity(correction: Correction) -> bool:
+    """Tell whether a correction changes nothing (exactly :data:`IDENTITY`)."""
+    return bool(np.array_equal(as_matrix(correction), np.reshape(IDENTITY, (2, 3))))
+
+
+def compose_corrections(outer: Correction, inner: Correction) -> np.ndarray:
+    """
+    Return the correction that applies ``inner`` first, then ``outer``.
+
+    A validation measures gaze the bridge has already corrected with
+    ``inner``; the fit to it (``outer``) replaces the bridge's parameter by
+    this composition, so the new correction acts on the tracker's points.
+
+    :returns: (2, 3) affine.
+    """
+    a, b = as_matrix(outer), as_matrix(inner)
+    return np.hstack([a[:, :2] @ b[:, :2], (a[:, :2] @ b[:, 2] + a[:, 2])[:, None]])
+
+
 def implausibility(correction: Correction, screen: ScreenGeometry = DEFAULT_VIEWING) -> str:
     """
     Say why a correction is implausible for a calibrated tracker ('' when it is plausible).
@@ -396,3 +416,69 @@ def validate_and_correct(targets, samples: Sequence[np.ndarray],
         return report, fit_correction(targets, samples, kind, screen, min_samples), ''
     except CorrectionRefused as refused:
         return report, None, str(refused)
+
+
+@dataclass
+class ValidationOutcome:
+    """
+    What a validation run ended with: the ``validation/result`` message (one JSON line).
+
+    :ivar accepted: a correction was fitted, saved and applied.
+    :ivar reason: why not ('' when accepted), one line.
+    :ivar kind: 'offset' or 'affine' ('' when refused).
+    :ivar targets: number of targets shown.
+    :ivar accuracy_deg: overall accuracy before the correction, degrees (NaN: no gaze).
+    :ivar precision_deg: overall precision (RMS sample to sample) before, degrees.
+    :ivar residual_deg: overall accuracy of the validation after the correction, degrees
+        (NaN when refused).
+    :ivar residual_px: the same in px.
+    :ivar correction: the bridge's ``gaze_correction`` now (6 doubles).
+    :ivar output: the parameter file written ('' when none).
+    """
+
+    accepted: bool
+    reason: str = ''
+    kind: str = ''
+    targets: int = 0
+    accuracy_deg: float = math.nan
+    precision_deg: float = math.nan
+    residual_deg: float = math.nan
+    residual_px: float = math.nan
+    correction: List[float] = field(default_factory=lambda: list(IDENTITY))
+    output: str = ''
+
+    def summary(self) -> str:
+        """One human line."""
+        before = (f'accuracy {self.accuracy_deg:.2f} deg, precision {self.precision_deg:.2f} '
+                  f'deg RMS over {self.targets} targets')
+        if not self.accepted:
+            return f'validation refused ({before}): {self.reason}'
+        saved = f', saved to {self.output}' if self.output else ''
+        return (f'validation accepted: {before}; {self.kind} correction applied{saved}; '
+                f'residual accuracy {self.residual_deg:.2f} deg ({self.residual_px:.1f} px)')
+
+    def to_json(self) -> str:
+        """Return the outcome as one JSON line (NaN as null), with its ``summary``."""
+        data = {key: (None if isinstance(value, float) and not math.isfinite(value) else value)
+                for key, value in self.__dict__.items()}
+        data['summary'] = self.summary()
+        return json.dumps(data)
+
+    @classmethod
+    def from_json(cls, text: str) -> 'ValidationOutcome':
+        """
+        Read :meth:`to_json`'s line.
+
+        :raises ValueError: not such a line.
+        """
+        try:
+            data = json.loads(text)
+            names = {f.name for f in fields(cls)}
+            values = {k: (math.nan if v is None and k not in ('reason', 'kind', 'output')
+                          else v) for k, v in data.items() if k in names}
+            outcome = cls(**values)
+        except (TypeError, ValueError) as error:
+            raise ValueError(f'not a validation result: {text[:80]!r} ({error})') from None
+        if not isinstance(outcome.accepted, bool):
+            raise ValueError(f'not a validation result: {text[:80]!r}')
+        return outcome
