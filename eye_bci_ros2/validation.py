@@ -454,8 +454,10 @@ class ValidationOutcome:
         if not self.accepted:
             return f'validation refused ({before}): {self.reason}'
         saved = f', saved to {self.output}' if self.output else ''
-        return (f'validation accepted: {before}; {self.kind} correction applied{saved}; '
-                f'residual accuracy {self.residual_deg:.2f} deg ({self.residual_px:.1f} px)')
+        residual = (f'; residual accuracy {self.residual_deg:.2f} deg ({self.residual_px:.1f} '
+                    'px)' if math.isfinite(self.residual_deg) else '')
+        return f'validation accepted: {before}; {self.kind} correction applied{saved}{residual}'
+
 
     def to_json(self) -> str:
         """Return the outcome as one JSON line (NaN as null), with its ``summary``."""
