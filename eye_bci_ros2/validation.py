@@ -473,14 +473,22 @@ class ValidationOutcome:
 
         :raises ValueError: not such a line.
         """
+        texts, numbers = ('reason', 'kind', 'output'), ('accuracy_deg', 'precision_deg',
+                                                         'residual_deg', 'residual_px')
         try:
             data = json.loads(text)
+            if not isinstance(data, dict) or not isinstance(data.get('accepted'), bool):
+                raise ValueError('no accepted: true/false')
             names = {f.name for f in fields(cls)}
-            values = {k: (math.nan if v is None and k not in ('reason', 'kind', 'output')
-                          else v) for k, v in data.items() if k in names}
+            values = {k: (math.nan if v is None and k in numbers else v)
+                      for k, v in data.items() if k in names}
             outcome = cls(**values)
+            if not (all(isinstance(getattr(outcome, k), str) for k in texts)
+                    and all(isinstance(getattr(outcome, k), (int, float)) for k in numbers)
+                    and isinstance(outcome.targets, int)
+                    and len(as_matrix(outcome.correction).ravel()) == 6):
+                raise ValueError('a field of the wrong type')
         except (TypeError, ValueError) as error:
             raise ValueError(f'not a validation result: {text[:80]!r} ({error})') from None
-        if not isinstance(outcome.accepted, bool):
-            raise ValueError(f'not a validation result: {text[:80]!r}')
+        outcome.correction = [float(v) for v in outcome.correction]
         return outcome
