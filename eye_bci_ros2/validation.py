@@ -458,7 +458,6 @@ class ValidationOutcome:
                     'px)' if math.isfinite(self.residual_deg) else '')
         return f'validation accepted: {before}; {self.kind} correction applied{saved}{residual}'
 
-
     def to_json(self) -> str:
         """Return the outcome as one JSON line (NaN as null), with its ``summary``."""
         data = {key: (None if isinstance(value, float) and not math.isfinite(value) else value)
@@ -473,8 +472,8 @@ class ValidationOutcome:
 
         :raises ValueError: not such a line.
         """
-        texts, numbers = ('reason', 'kind', 'output'), ('accuracy_deg', 'precision_deg',
-                                                         'residual_deg', 'residual_px')
+        texts = ('reason', 'kind', 'output')
+        numbers = ('accuracy_deg', 'precision_deg', 'residual_deg', 'residual_px')
         try:
             data = json.loads(text)
             if not isinstance(data, dict) or not isinstance(data.get('accepted'), bool):

@@ -104,7 +104,8 @@ _PROTOCOL_PARAMETERS = {
     'min_answer_s': ('A choice sooner than this after the request is not its answer, s',
                      (0.0, 10.0)),
     'validate_first': ('Start with a gaze validation (validation/start, answered by '
-                       'gaze_validation on_request:=true) and offer the rooms only after it', None),
+                       'gaze_validation on_request:=true) and offer the rooms only after it',
+                       None),
     'validation_retries': ('A refused validation is run again this many times, then the menu '
                            'goes on with the correction as it was', None),
 }

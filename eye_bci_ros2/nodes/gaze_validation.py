@@ -44,7 +44,7 @@ from typing import Any, Callable, Dict, Iterator, List, Optional
 from geometry_msgs.msg import Point, PointStamped, PoseStamped
 import numpy as np
 from rclpy.node import Node
-from rclpy.parameter import parameter_value_to_python, Parameter
+from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Empty, Header, String
@@ -63,7 +63,7 @@ from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, 
 from eye_bci_ros2.validation import (
     as_matrix, compose_corrections, CorrectionRefused, fit_correction, IDENTITY,
     implausibility, measure, MIN_SAMPLES, NODE, PARAMETER, samples_per_target,
-    save_correction, SETTLE_S, target_layout, ValidationOutcome, ValidationReport)
+    save_correction, SETTLE_S, target_layout, ValidationOutcome)
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, degrees_to_px, ScreenGeometry
 
 #: Step of the procedure's timer, s.
@@ -102,9 +102,9 @@ PARAMETERS: List[ParamSpec] = [
               'refuses the correction', value_range=(2, 100000)),
     ParamSpec('output', 'gaze_correction.yaml',
               "Parameter file written for the bridge (--params-file); '' = none"),
-    ParamSpec('bridge_node', NODE, "The bridge whose gaze_correction is read and set "
+    ParamSpec('bridge_node', NODE, 'The bridge whose gaze_correction is read and set '
               '(its parameter service)', check=_check_node_name),
-    ParamSpec('bridge_timeout_s', 5.0, 'Longest wait for the bridge\'s parameter service, s',
+    ParamSpec('bridge_timeout_s', 5.0, "Longest wait for the bridge's parameter service, s",
               value_range=(0.1, 600.0)),
     ParamSpec('validate_again', True, 'After applying a correction, validate again and report '
               'the residual'),
@@ -118,7 +118,7 @@ PARAMETERS: List[ParamSpec] = [
     ParamSpec('target_size_deg', 1.0, 'Diameter of a target disc, degrees of visual angle',
               value_range=(0.1, 10.0)),
     ParamSpec('screen_width', DEFAULT_VIEWING.width_px, 'Width of the screen RViz is shown '
-              'on, px (as the bridge\'s)', value_range=(1, 16384)),
+              "on, px (as the bridge's)", value_range=(1, 16384)),
     ParamSpec('screen_height', DEFAULT_VIEWING.height_px, 'Height of that screen, px',
               value_range=(1, 16384)),
     ParamSpec('screen_width_mm', DEFAULT_VIEWING.width_mm, 'Visible width of that screen, mm '
@@ -127,9 +127,10 @@ PARAMETERS: List[ParamSpec] = [
               value_range=(1.0, 10000.0)),
     ParamSpec('viewing_distance_mm', DEFAULT_VIEWING.distance_mm, 'Eye to screen centre, mm',
               value_range=(10.0, 100000.0)),
-] + [replace(spec, description='RViz fixed frame: the targets are placed in it; camera/pose '
-                               'must be in it.') if spec.name == 'world_frame' else spec
-      for spec in PROJECTOR_PARAMETERS if spec.name in _CAMERA_NAMES]
+] + [
+    replace(spec, description='RViz fixed frame: the targets are placed in it; camera/pose '
+            'must be in it.') if spec.name == 'world_frame' else spec
+    for spec in PROJECTOR_PARAMETERS if spec.name in _CAMERA_NAMES]
 
 
 def _check_all(values: Dict[str, Any]) -> Optional[str]:
@@ -257,7 +258,7 @@ class GazeValidation(Node):
             yield
 
     def _procedure(self) -> Iterator[None]:
-        """The whole validation (module doc), one step per timer tick."""
+        """Run the whole validation (module doc), one step per timer tick."""
         params = dict(self._params)
         screen = screen_geometry(params)
         self.get_logger().info(f"validation: {params['targets']} targets, "
@@ -337,7 +338,7 @@ class GazeValidation(Node):
         return measure(targets, self._samples(targets, params), screen, params['min_samples'])
 
     def _samples(self, targets: np.ndarray, params: Dict[str, Any]) -> List[np.ndarray]:
-        """The gaze of the last pass, per target (after settle_s)."""
+        """Return the gaze of the last pass, per target (after settle_s)."""
         if self._gaze:
             stamps = np.concatenate([s for s, _ in self._gaze])
             xy = np.concatenate([p for _, p in self._gaze])
@@ -405,7 +406,7 @@ class GazeValidation(Node):
         self._target_pub.publish(message)
 
     def _publish_markers(self, target: Optional[np.ndarray]) -> None:
-        """The target as a disc with a centre dot in front of the camera (or none)."""
+        """Show the target as a disc with a centre dot in front of the camera (or none)."""
         frame = self._params['world_frame']
         clear = Marker(ns=MARKER_NS, action=Marker.DELETEALL)
         clear.header.frame_id = frame

@@ -1,4 +1,4 @@
-"""The bridge's gaze_correction (parameter service, params file) and gaze/on_screen, with real LSL."""
+"""The bridge's gaze_correction (parameter service, params file) and gaze/on_screen (real LSL)."""
 
 from lsl_outlets import bridge_parameters, make_outlet
 import numpy as np

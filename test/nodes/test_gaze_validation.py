@@ -22,7 +22,7 @@ SHIFT = [1.0, 0.0, 6.0, 0.0, 1.0, -4.0]
 
 @pytest.fixture
 def rigs():
-    """Build rigs (each with a running outlet) and stop their outlets after the test."""
+    """Make validation set-ups, each with a running outlet; the outlets stop after the test."""
     made = []
 
     def make(graph, **kwargs):

@@ -55,7 +55,7 @@ class Rig:
 
 
 def camera_pose(view=VIEW, frame: str = 'map') -> PoseStamped:
-    """The latched camera/pose camera_tracker would publish for ``view`` (eye, focus, up)."""
+    """Return the latched camera/pose camera_tracker publishes for ``view`` (eye, focus, up)."""
     message = PoseStamped()
     message.header.frame_id = frame
     message.pose = arrays_to_pose(*look_at_pose(*view))

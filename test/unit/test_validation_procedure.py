@@ -8,8 +8,8 @@ import pytest
 
 from eye_bci_ros2.camera_model import OrthographicCamera, RvizCamera
 from eye_bci_ros2.gaze_profiles import build_config, convert, resolve_mapping
-from eye_bci_ros2.menu import (Log, MenuProtocol, Offer, ProtocolSettings, Request,
-                               VALIDATING, Validate, WAITING_FOR_CAMERA)
+from eye_bci_ros2.menu import (Log, MenuProtocol, Offer, ProtocolSettings, Request, Validate,
+                               VALIDATING, WAITING_FOR_CAMERA)
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.scene import load_scene
 from eye_bci_ros2.validation import (apply_correction, compose_corrections, IDENTITY,
