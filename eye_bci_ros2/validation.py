@@ -28,6 +28,12 @@ Procedure (what an executable or a menu step runs through the real nodes):
    :data:`IDENTITY` = none); the bridge calls :func:`apply_correction` on
    every sample after its screen scaling;
 6. validate again with the correction applied and show the residual.
+
+The executable ``gaze_validation`` (:mod:`eye_bci_ros2.nodes.gaze_validation`)
+runs it through the nodes; because the gaze it measures is already corrected
+by the bridge, the fit is combined with the bridge's correction
+(:func:`compose_corrections`) before it is saved and set, and the outcome
+goes out as one JSON line (:class:`ValidationOutcome`).
 """
 
 from dataclasses import dataclass, field, fields
