@@ -125,16 +125,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     """Print the figures (and JSON with --json); status 1 when the goal is missed."""
     parser = argparse.ArgumentParser(prog='python -m bench.validation',
                                      description=__doc__.strip().split('\n\n')[0])
-    parser.add_argument('--quick', action='store_true', help='1 seed, 5 targets')
-    parser.add_argument('--seeds', type=int, nargs='+', help='seeds (default 0 1 2)')
+    parser.add_argument('--quick', action='store_true', help='the offset person only, 5 targets')
+    parser.add_argument('--seeds', type=int, nargs='+', help='seeds (default 0)')
     parser.add_argument('--json', action='store_true', help='print the result as JSON')
     args = parser.parse_args(argv)
     result = run(args.quick, args.seeds)
     for row in result['rows']:
-        print(f"{row['person']:10s} seed {row['seed']}: accuracy {row['accuracy_deg']:.2f} deg -> residual "
-              f"{row['residual_deg']:.2f} deg ({row['residual_px']:.1f} px), precision "
-              f"{row['precision_deg']:.2f} deg RMS, {'accepted' if row['accepted'] else 'REFUSED'}"
-              f", {row['duration_s']:.0f} s")
+        print(f"{row['person']:10s} seed {row['seed']}: accuracy {row['accuracy_deg']:.2f} deg "
+              f"-> residual {row['residual_deg']:.2f} deg ({row['residual_px']:.1f} px), "
+              f"precision {row['precision_deg']:.2f} deg RMS, "
+              f"{'accepted' if row['accepted'] else 'REFUSED'}, {row['duration_s']:.0f} s")
     print(f"{PRESET}, {result['targets']} targets: the offset corrected to at most "
           f"{result['worst_offset_residual_deg']:.2f} deg residual (goal <= {GOAL_DEG} deg: "
           f"{'met' if result['goal_met'] else 'MISSED'})")

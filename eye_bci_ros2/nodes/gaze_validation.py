@@ -38,6 +38,7 @@ menu's ``validate_first`` sends it) and answers each on ``validation/result``.
 
 from dataclasses import replace
 import math
+import os
 import time
 from typing import Any, Callable, Dict, Iterator, List, Optional
 
@@ -226,12 +227,11 @@ class GazeValidation(Node):
         try:
             camera = camera_from_parameters(self._params)
             self._camera = camera.with_pose(*pose_to_arrays(message.pose))
+            if self._target is not None:
+                self._publish_markers(self._target)   # keep the target where it is on screen
         except ValueError as error:
             self.get_logger().warning(f'camera/pose ignored: {error}',
                                       throttle_duration_sec=WARN_PERIOD_S)
-            return
-        if self._target is not None:
-            self._publish_markers(self._target)     # keep the target where it is on the screen
 
     # -- the procedure -----------------------------------------------------------------------
 
@@ -290,7 +290,7 @@ class GazeValidation(Node):
             self._finish(base)
             return
         values = [float(v) for v in total.ravel()]
-        output = params['output']
+        output = os.path.abspath(params['output']) if params['output'] else ''
         if output:
             save_correction(output, values, params['bridge_node'])
             self.get_logger().info(f'saved {output}: start the bridge with --params-file '
