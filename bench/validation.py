@@ -14,9 +14,9 @@ accuracy before and the residual accuracy after, degrees, for two people:
   jitter): what the correction can remove.  Goal: residual <= 0.2 deg.
 * ``with_drift``: the preset as it is; its drift (0.1 deg RMS per axis, a
   period of 6-13 s) changes between the two passes, so no one-time
-  correction removes it: the residual is about that drift (0.13-0.15 deg
-  typical; in the pure simulation of the same procedure, 300 seeds: median
-  0.145 deg, 7 % of runs above 0.2 deg, max 0.25).
+  correction removes it: the residual is about that drift (0.12-0.15 deg
+  for seeds 0-2; a run now and then exceeds 0.2 deg, depending on the
+  drift's phase at the time of the run).
 
 Run: ``python -m bench.validation`` (seed 0, both people, about a minute;
 ``--quick``: the offset person with 5 targets, ~15 s; ``--seeds 0 1 2``).
