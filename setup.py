@@ -14,6 +14,7 @@ console_scripts = [
     'marker_projector = eye_bci_ros2.nodes.marker_projector:main',
     'choice_arbiter = eye_bci_ros2.nodes.choice_arbiter:main',
     'choice_menu = eye_bci_ros2.nodes.choice_menu:main',
+    'gaze_validation = eye_bci_ros2.nodes.gaze_validation:main',
     'eye_bci = eye_bci_ros2.nodes.eye_bci:main',
     'sim_rviz_view = eye_bci_ros2.sim.rviz_view:main',
     'sim_gaze = eye_bci_ros2.sim.gaze_outlet:main',

@@ -294,7 +294,8 @@ class _PanelCamera:
     What every RViz camera model shares: the render panel, where it sits, the pose.
 
     Subclasses give ``intrinsic``, ``project``, ``back_project`` and
-    ``_silhouettes`` for their projection.
+    ``_silhouettes`` for their projection; ``unproject`` (a pixel at a depth)
+    is built on them.
 
     :ivar image_size: (W, H) of the render panel, px.
     :ivar screen_offset: (X0, Y0), shape (2,), px: the render panel's top-left
@@ -336,6 +337,28 @@ class _PanelCamera:
         with np.errstate(invalid='ignore'):
             return ((uv[:, 0] >= 0) & (uv[:, 0] <= width)
                     & (uv[:, 1] >= 0) & (uv[:, 1] <= height))
+
+    def unproject(self, uv, depth) -> np.ndarray:
+        """
+        World points that project to image pixels at a depth: the inverse of ``project``.
+
+        ``project(unproject(uv, d)) == (uv, d)`` for both projections (the
+        point on the pixel's ray whose depth along the optical axis is ``d``).
+
+        :param uv: shape (N, 2) (or (2,)), image px (``to_image`` of screen px).
+        :param depth: m in front of the camera, > 0, scalar or shape (N,).
+        :returns: shape (N, 3), world frame, m.
+        :raises ValueError: a non-finite pixel or a depth that is not > 0.
+        """
+        uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+        depth = np.broadcast_to(np.asarray(depth, dtype=float), (len(uv),))
+        if not np.all(np.isfinite(depth) & (depth > 0)):
+            raise ValueError(f'unproject needs depths > 0 m, got {depth.tolist()}')
+        origins, directions = self.back_project(uv)
+        # Depth is linear along a ray: solve depth(origin + t direction) = depth for t.
+        _, start = self.project(origins)
+        _, step = self.project(origins + directions)
+        return origins + directions * ((depth - start) / (step - start))[:, None]
 
     def box_regions(self, positions, quaternions_xyzw, scales,
                     clip: bool = True) -> Tuple[np.ndarray, np.ndarray]:

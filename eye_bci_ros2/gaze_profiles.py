@@ -54,6 +54,8 @@ from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+from eye_bci_ros2.validation import apply_correction
+
 #: Profile names, in the order the parameter description lists them.
 PROFILE_NAMES = ('tobii_pro', 'tobii_stream_engine', 'pupil_capture', 'xy_pixels', 'custom')
 DEFAULT_PROFILE = 'xy_pixels'
@@ -413,18 +415,22 @@ def resolve_mapping(config: GazeConfig, labels: Sequence[str],
         margin=config.offscreen_margin_px)
 
 
-def convert(samples: np.ndarray, mapping: GazeMapping) -> GazeBatch:
+def convert(samples: np.ndarray, mapping: GazeMapping,
+            correction: Optional[np.ndarray] = None) -> GazeBatch:
     """
     Convert a chunk of samples to screen points, dropping the invalid ones.
 
-    Per sample: the eyes whose x and y are both finite are averaged; no such
-    eye -> dropped as 'nonfinite'.  Confidence below the minimum (or not
+    Per sample: the eyes whose x and y are both finite are averaged and
+    scaled to the screen, then ``correction`` (a validation's 2 x 3 affine,
+    :func:`eye_bci_ros2.validation.apply_correction`; None = none) moves the
+    point; no finite eye -> dropped as 'nonfinite'.  Confidence below the minimum (or not
     finite) -> 'low_confidence'.  More than the margin outside the screen ->
     'offscreen'.  Each dropped sample is counted once, under the first
     reason in that order.
 
     :param samples: shape (N, channel_count), any real dtype.
     :param mapping: from :func:`resolve_mapping`.
+    :param correction: shape (2, 3) screen px affine, or None.
     :returns: the accepted points in ``screen`` px and the drop counts.
     :raises ValueError: samples whose channel count differs from the stream's.
     """
@@ -443,6 +449,8 @@ def convert(samples: np.ndarray, mapping: GazeMapping) -> GazeBatch:
     if mapping.flip_span is not None:
         xy[:, 1] = mapping.flip_span - xy[:, 1]
     xy *= mapping.scale
+    if correction is not None:
+        xy = apply_correction(xy, correction)
     # The averaged point can still overflow to inf from huge finite inputs.
     finite &= np.isfinite(xy).all(axis=1)
 

@@ -46,6 +46,14 @@ arbiter decides between questions.
 ``ask_on_arrival`` false gives the previous behaviour: every valid choice
 counts at once, nothing is asked except after an unusable choice or an
 unchanged offer.
+
+``validate_first``: the experiment starts with a gaze validation
+(:class:`Validate`; the node sends ``validation/start`` to
+``gaze_validation``) and offers the rooms only once it has ended
+(:meth:`MenuProtocol.on_validation`): at once after an accepted one; a
+refused one is logged with its reason and run again up to
+``validation_retries`` times, after which the menu goes on with the
+bridge's correction as it was (a warning says so).
 """
 
 from dataclasses import dataclass, field
@@ -68,6 +76,7 @@ TABLES_NS = 'tables'
 WAITING_FOR_CAMERA = 'waiting_for_camera'
 LOOK_AWAY = 'waiting_for_look_away'
 PAUSED = 'paused'
+VALIDATING = 'validating'
 READY = 'ready'
 ASKING = 'asking'
 FINISHED = 'finished'
@@ -91,6 +100,8 @@ class ProtocolSettings:
         option's region, px.
     :param pause_after_s: gaze off screen this long pauses the menu, s.
     :param min_answer_s: a choice sooner than this after the request is not its answer, s.
+    :param validate_first: start with a gaze validation (module doc).
+    :param validation_retries: a refused validation is run again this many times.
     """
 
     ask_on_arrival: bool = True
@@ -103,9 +114,15 @@ class ProtocolSettings:
     look_away_margin_px: float = 10.0
     pause_after_s: float = 2.0
     min_answer_s: float = 0.1
+    validate_first: bool = False
+    validation_retries: int = 1
 
     def __post_init__(self):
         """Reject values the protocol cannot run with."""
+        if isinstance(self.validation_retries, bool) or not isinstance(
+                self.validation_retries, int) or self.validation_retries < 0:
+            raise ValueError(f'validation_retries must be an integer >= 0, got '
+                             f'{self.validation_retries!r}')
         for name in ('arrive_tolerance_m', 'arrive_tolerance_deg', 'settle_s', 'look_away_s',
                      'look_away_margin_px', 'pause_after_s', 'min_answer_s'):
             value = getattr(self, name)
@@ -125,6 +142,11 @@ class Offer:
 @dataclass(frozen=True)
 class Request:
     """Ask the arbiter for a decision (``choice/request``)."""
+
+
+@dataclass(frozen=True)
+class Validate:
+    """Run a gaze validation (``validation/start``); :meth:`MenuProtocol.on_validation` ends it."""
 
 
 @dataclass(frozen=True)
@@ -149,7 +171,7 @@ class Log:
     text: str
 
 
-Action = Union[Offer, Request, Result, Answer, Log]
+Action = Union[Offer, Request, Result, Answer, Log, Validate]
 
 
 def _quaternion_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
@@ -238,6 +260,9 @@ class MenuProtocol:
         self._paused = False
         self._asked_at: Optional[float] = None
         self._regions: Tuple[Sequence[str], np.ndarray] = ((), np.zeros((0, 3, 2)))
+        self._validating = False
+        self._validated = False
+        self._validation_runs = 0
 
     # -- state ------------------------------------------------------------------------------
 
@@ -246,6 +271,8 @@ class MenuProtocol:
         """Return what the menu waits for (one of the module's state names)."""
         if self.finished:
             return FINISHED
+        if self._validating:
+            return VALIDATING
         if not self.offered:
             return IDLE
         if self._paused:
@@ -271,13 +298,30 @@ class MenuProtocol:
     # -- inputs -----------------------------------------------------------------------------
 
     def start(self, now: float) -> List[Action]:
-        """Offer the rooms (also: start over after a scene reload)."""
+        """Offer the rooms (also: start over after a scene reload); first validate if asked."""
         self._look_away = None
+        if self.settings.validate_first and not self._validated:
+            self._validating, self._validation_runs = True, 1
+            return [Log('info', 'starting with a gaze validation'), Validate()]
         return self._offer_rooms(now)
+
+    def on_validation(self, accepted: bool, summary: str, now: float) -> List[Action]:
+        """Take the outcome of the validation asked for (module doc); others are ignored."""
+        if not self._validating:
+            return [Log('info', f'validation result not asked for, ignored: {summary}')]
+        if not accepted and self._validation_runs <= self.settings.validation_retries:
+            self._validation_runs += 1
+            return [Log('warning', f'{summary}; validating again (run {self._validation_runs} '
+                                   f'of {self.settings.validation_retries + 1})'), Validate()]
+        self._validating, self._validated = False, True
+        if accepted:
+            return [Log('info', summary)] + self._offer_rooms(now)
+        return [Log('warning', f'{summary}; going on with the gaze correction as it was')] + \
+            self._offer_rooms(now)
 
     def reoffer(self, now: float) -> List[Action]:
         """Offer the current step again (e.g. in a new world frame); the question is asked anew."""
-        if self.finished:
+        if self.finished or self._validating:
             return []
         if self.room is None:
             return self._offer_rooms(now)
@@ -344,6 +388,8 @@ class MenuProtocol:
         """Take a ``choice``; act on it only when it answers the open question (module doc)."""
         if self.finished:
             return [Log('info', f"menu finished: ignoring choice '{label}'")]
+        if self._validating:
+            return [Log('info', f"ignoring choice '{label}': validating")]
         if self.settings.ask_on_arrival:
             if self._asked_at is None or self._paused:
                 why = 'paused' if self._paused else f'not asked ({self.state})'

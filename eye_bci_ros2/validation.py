@@ -28,9 +28,16 @@ Procedure (what an executable or a menu step runs through the real nodes):
    :data:`IDENTITY` = none); the bridge calls :func:`apply_correction` on
    every sample after its screen scaling;
 6. validate again with the correction applied and show the residual.
+
+The executable ``gaze_validation`` (:mod:`eye_bci_ros2.nodes.gaze_validation`)
+runs it through the nodes; because the gaze it measures is already corrected
+by the bridge, the fit is combined with the bridge's correction
+(:func:`compose_corrections`) before it is saved and set, and the outcome
+goes out as one JSON line (:class:`ValidationOutcome`).
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+import json
 import math
 from typing import List, Optional, Sequence, Tuple, Union
 
@@ -250,6 +257,25 @@ def apply_correction(xy, correction: Correction) -> np.ndarray:
     return xy @ matrix[:, :2].T + matrix[:, 2]
 
 
+def is_identity(correction: Correction) -> bool:
+    """Tell whether a correction changes nothing (exactly :data:`IDENTITY`)."""
+    return bool(np.array_equal(as_matrix(correction), np.reshape(IDENTITY, (2, 3))))
+
+
+def compose_corrections(outer: Correction, inner: Correction) -> np.ndarray:
+    """
+    Return the correction that applies ``inner`` first, then ``outer``.
+
+    A validation measures gaze the bridge has already corrected with
+    ``inner``; the fit to it (``outer``) replaces the bridge's parameter by
+    this composition, so the new correction acts on the tracker's points.
+
+    :returns: (2, 3) affine.
+    """
+    a, b = as_matrix(outer), as_matrix(inner)
+    return np.hstack([a[:, :2] @ b[:, :2], (a[:, :2] @ b[:, 2] + a[:, 2])[:, None]])
+
+
 def implausibility(correction: Correction, screen: ScreenGeometry = DEFAULT_VIEWING) -> str:
     """
     Say why a correction is implausible for a calibrated tracker ('' when it is plausible).
@@ -396,3 +422,78 @@ def validate_and_correct(targets, samples: Sequence[np.ndarray],
         return report, fit_correction(targets, samples, kind, screen, min_samples), ''
     except CorrectionRefused as refused:
         return report, None, str(refused)
+
+
+@dataclass
+class ValidationOutcome:
+    """
+    What a validation run ended with: the ``validation/result`` message (one JSON line).
+
+    :ivar accepted: a correction was fitted, saved and applied.
+    :ivar reason: why not ('' when accepted), one line.
+    :ivar kind: 'offset' or 'affine' ('' when refused).
+    :ivar targets: number of targets shown.
+    :ivar accuracy_deg: overall accuracy before the correction, degrees (NaN: no gaze).
+    :ivar precision_deg: overall precision (RMS sample to sample) before, degrees.
+    :ivar residual_deg: overall accuracy of the validation after the correction, degrees
+        (NaN when refused).
+    :ivar residual_px: the same in px.
+    :ivar correction: the bridge's ``gaze_correction`` now (6 doubles).
+    :ivar output: the parameter file written ('' when none).
+    """
+
+    accepted: bool
+    reason: str = ''
+    kind: str = ''
+    targets: int = 0
+    accuracy_deg: float = math.nan
+    precision_deg: float = math.nan
+    residual_deg: float = math.nan
+    residual_px: float = math.nan
+    correction: List[float] = field(default_factory=lambda: list(IDENTITY))
+    output: str = ''
+
+    def summary(self) -> str:
+        """One human line."""
+        before = (f'accuracy {self.accuracy_deg:.2f} deg, precision {self.precision_deg:.2f} '
+                  f'deg RMS over {self.targets} targets')
+        if not self.accepted:
+            return f'validation refused ({before}): {self.reason}'
+        saved = f', saved to {self.output}' if self.output else ''
+        residual = (f'; residual accuracy {self.residual_deg:.2f} deg ({self.residual_px:.1f} '
+                    'px)' if math.isfinite(self.residual_deg) else '')
+        return f'validation accepted: {before}; {self.kind} correction applied{saved}{residual}'
+
+    def to_json(self) -> str:
+        """Return the outcome as one JSON line (NaN as null), with its ``summary``."""
+        data = {key: (None if isinstance(value, float) and not math.isfinite(value) else value)
+                for key, value in self.__dict__.items()}
+        data['summary'] = self.summary()
+        return json.dumps(data)
+
+    @classmethod
+    def from_json(cls, text: str) -> 'ValidationOutcome':
+        """
+        Read :meth:`to_json`'s line.
+
+        :raises ValueError: not such a line.
+        """
+        texts = ('reason', 'kind', 'output')
+        numbers = ('accuracy_deg', 'precision_deg', 'residual_deg', 'residual_px')
+        try:
+            data = json.loads(text)
+            if not isinstance(data, dict) or not isinstance(data.get('accepted'), bool):
+                raise ValueError('no accepted: true/false')
+            names = {f.name for f in fields(cls)}
+            values = {k: (math.nan if v is None and k in numbers else v)
+                      for k, v in data.items() if k in names}
+            outcome = cls(**values)
+            if not (all(isinstance(getattr(outcome, k), str) for k in texts)
+                    and all(isinstance(getattr(outcome, k), (int, float)) for k in numbers)
+                    and isinstance(outcome.targets, int)
+                    and len(as_matrix(outcome.correction).ravel()) == 6):
+                raise ValueError('a field of the wrong type')
+        except (TypeError, ValueError) as error:
+            raise ValueError(f'not a validation result: {text[:80]!r} ({error})') from None
+        outcome.correction = [float(v) for v in outcome.correction]
+        return outcome

@@ -40,9 +40,14 @@ Topics:
   region of the option chosen, for the look-away rule;
 * subscribes ``gaze/point`` geometry_msgs/PointStamped (screen px, the
   bridge's rate-limited view; best effort): whether the gaze left it;
-* subscribes ``gaze/on_screen`` std_msgs/Bool: whether the gaze is on the
-  screen (the lead's bridge/arbiter provides it; without it the menu never
-  pauses).
+* subscribes ``gaze/on_screen`` std_msgs/Bool (latched): whether the gaze is
+  on the screen (the bridge publishes it; without it the menu never pauses);
+* with ``validate_first``: publishes ``validation/start`` std_msgs/Empty once
+  ``gaze_validation`` (``on_request:=true``) listens, subscribes
+  ``validation/result`` std_msgs/String (its JSON line) and offers the rooms
+  only after the validation (a refused one is run again up to
+  ``validation_retries`` times, then the menu goes on; see
+  :mod:`eye_bci_ros2.menu`).
 
 ``ask_on_arrival`` false restores the previous menu: every valid choice
 counts at once and it asks only after an unusable choice or an unchanged offer.
@@ -61,17 +66,20 @@ from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.camera_model import look_at_pose
-from eye_bci_ros2.menu import (Action, Answer, Log, MenuProtocol, Offer, ProtocolSettings, Request,
-                               Result, ROOMS_NS, TABLES_NS)
+from eye_bci_ros2.menu import (Action, Answer, Log, MenuProtocol, Offer, ProtocolSettings,
+                               Request, Result, ROOMS_NS, TABLES_NS, Validate)
 from eye_bci_ros2.nodes.conversions import (arrays_to_pose, cube_marker,
                                             marker_array_to_regions, pose_to_arrays)
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_POINT_TOPIC, LATCHED_QOS,
-                                       NO_CHOICE_TOPIC, REQUEST_TOPIC, VIEW_QOS)
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_ON_SCREEN_TOPIC,
+                                       GAZE_POINT_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
+                                       REQUEST_TOPIC, VALIDATION_RESULT_TOPIC,
+                                       VALIDATION_START_TOPIC, VIEW_QOS)
 from eye_bci_ros2.scene import CubeMarker, load_scene, Scene, View
+from eye_bci_ros2.validation import ValidationOutcome
 
 __all__ = ['ChoiceMenu', 'main', 'resolve_scene_path', 'ROOMS_NS', 'TABLES_NS']
 
@@ -100,6 +108,11 @@ _PROTOCOL_PARAMETERS = {
                       (0.0, 3600.0)),
     'min_answer_s': ('A choice sooner than this after the request is not its answer, s',
                      (0.0, 10.0)),
+    'validate_first': ('Start with a gaze validation (validation/start, answered by '
+                       'gaze_validation on_request:=true) and offer the rooms only after it',
+                       None),
+    'validation_retries': ('A refused validation is run again this many times, then the menu '
+                           'goes on with the correction as it was', None),
 }
 
 
@@ -158,7 +171,11 @@ class ChoiceMenu(Node):
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
         self.create_subscription(PointStamped, GAZE_POINT_TOPIC, self._on_gaze_point,
                                  VIEW_QOS)
-        self.create_subscription(Bool, 'gaze/on_screen', self._on_screen, EVENT_QOS)
+        self.create_subscription(Bool, GAZE_ON_SCREEN_TOPIC, self._on_screen, LATCHED_QOS)
+        self._validation_pub = self.create_publisher(Empty, VALIDATION_START_TOPIC, EVENT_QOS)
+        self.create_subscription(String, VALIDATION_RESULT_TOPIC, self._on_validation,
+                                 EVENT_QOS)
+        self._validation_due = False     # a Validate waiting for gaze_validation to listen
         self.create_timer(TICK_S, self._on_tick)
         self.get_logger().info(
             f'scene {scene.source}: rooms {", ".join(scene.room_labels)}')
@@ -227,7 +244,25 @@ class ChoiceMenu(Node):
         self._guard('gaze/on_screen',
                     lambda: self._protocol.on_screen(bool(message.data), self._now()))
 
+    def _on_validation(self, message: String) -> None:
+        try:
+            outcome = ValidationOutcome.from_json(message.data)
+        except ValueError as error:
+            self.get_logger().warning(f'{VALIDATION_RESULT_TOPIC}: {error}',
+                                      throttle_duration_sec=WARN_PERIOD_S)
+            return
+        self._guard(VALIDATION_RESULT_TOPIC, lambda: self._protocol.on_validation(
+            outcome.accepted, outcome.summary(), self._now()))
+
     def _on_tick(self) -> None:
+        if self._validation_due:
+            if self._validation_pub.get_subscription_count() > 0:
+                self._validation_due = False
+                self._validation_pub.publish(Empty())
+            else:
+                self.get_logger().warning(
+                    f'waiting for gaze_validation (on_request:=true) on {VALIDATION_START_TOPIC}',
+                    throttle_duration_sec=WARN_PERIOD_S)
         self._guard('the menu timer', lambda: self._protocol.tick(self._now()))
 
     # -- outputs ----------------------------------------------------------------------------
@@ -240,6 +275,8 @@ class ChoiceMenu(Node):
                 self._publish_choices(action.markers, action.ns)
             elif isinstance(action, Request):
                 self._request_pub.publish(Empty())
+            elif isinstance(action, Validate):
+                self._validation_due = True
             elif isinstance(action, Result):
                 self._result_pub.publish(String(data=action.label))
             elif isinstance(action, Answer):

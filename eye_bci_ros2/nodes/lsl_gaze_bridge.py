@@ -12,7 +12,22 @@ publishes
   :mod:`eye_bci_ros2.gaze_stream` for the stamps): the cost follows the poll
   rate, not the tracker rate;
 * the newest sample on ``gaze/point`` (geometry_msgs/PointStamped) at most
-  ``point_rate_hz`` times a second, for people and simple tools.
+  ``point_rate_hz`` times a second, for people and simple tools;
+* whether the newest sample is on the screen on ``gaze/on_screen``
+  (std_msgs/Bool, latched): true when it is finite (a tracker that lost the
+  eyes sends NaN), confident and within ``offscreen_margin_px`` of the screen,
+  i.e. when the bridge publishes it; published when it changes and once when
+  a stream starts sending, never per sample; false when the stream goes
+  stale (nothing for ``stale_timeout_s``) or is lost.
+
+``gaze_correction`` (6 doubles, row-major 2 x 3 affine on screen px;
+:data:`eye_bci_ros2.validation.IDENTITY` = none) is applied to every sample
+after the screen scaling and before the off-screen check
+(:func:`eye_bci_ros2.validation.apply_correction`); ``gaze_validation``
+fits it and sets it through the parameter service, and saves it as a
+parameter file for ``--params-file``.  An implausible correction (scale,
+rotation or shift beyond :func:`eye_bci_ros2.validation.implausibility`'s
+limits) is refused with the reason.
 
 Nothing here blocks the executor for long: the stream is found by a
 ``pylsl.ContinuousResolver`` that a timer polls, chunks are pulled with a
@@ -45,7 +60,7 @@ reported once and never used.  While no stream matches, the bridge names
 the streams it does see and the parameters that would select each.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 import time
 from typing import Any, Dict, List, Optional, Tuple
@@ -56,6 +71,7 @@ import pylsl
 from pylsl.util import LostError, TimeoutError as LslTimeoutError
 from rclpy.node import Node
 from sensor_msgs.msg import PointCloud2
+from std_msgs.msg import Bool
 
 from eye_bci_ros2.gaze_profiles import (
     ANY, build_config, convert, DEFAULT_PROFILE, DROP_REASONS, GazeConfig, GazeMapping,
@@ -67,7 +83,11 @@ from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_point
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import GAZE_POINT_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC, VIEW_QOS
+from eye_bci_ros2.nodes.topics import (GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC, GAZE_QOS,
+                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, VIEW_QOS)
+from eye_bci_ros2.validation import (as_matrix, IDENTITY, implausibility, is_identity,
+                                     PARAMETER as CORRECTION_PARAMETER)
+from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
 
 #: Longest wait for a stream's full description when connecting, s.
 INFO_TIMEOUT_S = 0.2
@@ -99,6 +119,22 @@ def _one_of_or_empty(allowed):
             return None
         return f"'{value}' is not one of: '' (profile default), {', '.join(allowed)}"
     return check
+
+
+def _correction_shape(value):
+    """Reject a gaze_correction that is not 6 finite numbers."""
+    try:
+        as_matrix(value)
+    except ValueError:
+        return (f'must be 6 finite numbers (row-major 2x3 affine; {list(IDENTITY)} = none), '
+                f'got {list(value)}')
+    return None
+
+
+def _correction(values: Dict[str, Any]) -> Optional[np.ndarray]:
+    """Return the (2, 3) correction of the parameters, or None for the identity (skipped)."""
+    value = values.get(CORRECTION_PARAMETER) or IDENTITY
+    return None if is_identity(value) else as_matrix(value)
 
 
 def _channel_text(value):
@@ -168,6 +204,11 @@ PARAMETERS = (
     ParamSpec('time_correction_period_s', 5.0,
               'period of refreshing the LSL clock offset to the sender, s',
               value_range=(0.1, 600.0)),
+    ParamSpec(CORRECTION_PARAMETER, list(IDENTITY),
+              'gaze correction from gaze_validation: 6 numbers, row-major 2x3 affine on '
+              f'screen px (corrected = A @ [x, y, 1]), applied after the screen scaling; '
+              f'{list(IDENTITY)} = none; settable at run time; an implausible one is refused',
+              check=_correction_shape, array_type='double_array'),
     ParamSpec('stats_period_s', 10.0,
               'period of logging sample counters when they change, s (0 = never)',
               value_range=(0.0, 3600.0)),
@@ -177,9 +218,15 @@ PARAMETERS = (
 def _check_all(values: Dict[str, Any]) -> Optional[str]:
     """Reject parameter combinations build_config cannot use."""
     try:
-        build_config(values)
+        config = build_config(values)
     except ValueError as exc:
         return str(exc)
+    correction = _correction(values)
+    if correction is not None:
+        reason = implausibility(correction, replace(
+            DEFAULT_VIEWING, width_px=config.screen_width, height_px=config.screen_height))
+        if reason:
+            return f'{CORRECTION_PARAMETER}: {reason}'
     return None
 
 
@@ -227,6 +274,12 @@ class LslGazeBridge(Node):
         self._batch_publisher = self.create_publisher(
             PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)
         self._point_publisher = self.create_publisher(PointStamped, GAZE_POINT_TOPIC, VIEW_QOS)
+        self._on_screen_publisher = self.create_publisher(Bool, GAZE_ON_SCREEN_TOPIC,
+                                                          LATCHED_QOS)
+        # The last gaze/on_screen published (None: none since the stream started).
+        self._on_screen: Optional[bool] = None
+        # gaze_correction as (2, 3), None = identity (nothing to do per sample).
+        self._correction: Optional[np.ndarray] = _correction(self._params)
         # When gaze/point was last published (monotonic s).
         self._point_at = -math.inf
         # Every stream on the network, resolved only while none matches (for the report).
@@ -273,6 +326,16 @@ class LslGazeBridge(Node):
         return self._connection.uid if self._connection else None
 
     @property
+    def correction(self) -> Optional[np.ndarray]:
+        """Return the gaze correction in use, (2, 3) screen px affine; None = none."""
+        return None if self._correction is None else self._correction.copy()
+
+    @property
+    def on_screen(self) -> Optional[bool]:
+        """Return the last ``gaze/on_screen`` published (None: none for this stream yet)."""
+        return self._on_screen
+
+    @property
     def stale(self) -> bool:
         """Tell whether the stream in use has sent nothing for ``stale_timeout_s``."""
         return bool(self._connection and self._connection.stale)
@@ -289,6 +352,13 @@ class LslGazeBridge(Node):
     def _on_parameters(self, changed: Dict[str, Any]) -> None:
         """Apply accepted parameter changes at once."""
         self._params.update(changed)
+        if CORRECTION_PARAMETER in changed:
+            self._correction = _correction(self._params)
+            self.get_logger().info(
+                f'{CORRECTION_PARAMETER}: '
+                f'{"none" if self._correction is None else self._correction.ravel().tolist()}')
+            if len(changed) == 1:
+                return
         old, self._config = self._config, build_config(self._params)
         if (old.selection, old.profile) != (self._config.selection, self._config.profile):
             self.get_logger().info(
@@ -363,6 +433,7 @@ class LslGazeBridge(Node):
             if any(info.uid() == connection.uid for info in candidates):
                 if not connection.stale:
                     connection.stale = True
+                    self._publish_on_screen(False)
                     self.get_logger().warning(
                         f'no gaze samples from {connection.description} for '
                         f'{now - quiet_since:.1f} s (no eyes detected?); it is still '
@@ -398,6 +469,7 @@ class LslGazeBridge(Node):
         self._ignored[connection.uid] = time.monotonic() + LOST_IGNORE_S
         self._gone = (connection.uid, connection.description)
         self._disconnect()
+        self._publish_on_screen(False)
 
     def _is_ignored(self, uid: str, now: float) -> bool:
         """Tell whether the stream ``uid`` must not be opened now."""
@@ -474,6 +546,7 @@ class LslGazeBridge(Node):
             nominal_srate=full.nominal_srate())
         self._connection = connection
         self._gone = None
+        self._on_screen = None       # published once when this stream starts sending
         self._poll_timer.reset()
         labels = ', '.join(label or '?' for label in connection.labels) or 'no labels'
         self.get_logger().info(f'connected to LSL stream {connection.description}; '
@@ -608,7 +681,9 @@ class LslGazeBridge(Node):
                 f'{connection.description}', throttle_duration_sec=WARN_PERIOD_S)
             samples, stamps_ns = samples[good_stamp], stamps_ns[good_stamp]
 
-        batch = convert(samples, connection.mapping)
+        batch = convert(samples, connection.mapping, self._correction)
+        if len(batch.keep):
+            self._publish_on_screen(bool(batch.keep[-1]))
         dropped = sum(batch.dropped.values())
         if dropped:
             for reason, number in batch.dropped.items():
@@ -628,6 +703,12 @@ class LslGazeBridge(Node):
             self._point_at = now
             self._point_publisher.publish(
                 gaze_point(stamps_ns[-1], batch.xy[-1, 0], batch.xy[-1, 1]))
+
+    def _publish_on_screen(self, on_screen: bool) -> None:
+        """Publish ``gaze/on_screen`` when it changed (or first for this stream)."""
+        if on_screen != self._on_screen:
+            self._on_screen = on_screen
+            self._on_screen_publisher.publish(Bool(data=on_screen))
 
     # -- reporting --------------------------------------------------------------------
 

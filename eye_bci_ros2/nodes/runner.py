@@ -21,6 +21,9 @@ SIGTERM only set a flag that the spin loop checks every
 :data:`STOP_POLL_S`; once it stops, both are ignored, and a clean-up that
 hangs (rclpy's ``destroy_node`` has been seen spinning) ends after
 :data:`CLEANUP_LIMIT_S` with one line and status 1.  A normal stop exits 0.
+A node that does one job and ends (``gaze_validation``) sets its attribute
+``exit_status`` (an int, None while it runs): the loop stops and the process
+exits with it.
 """
 
 import importlib
@@ -209,6 +212,11 @@ def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] =
             if time.monotonic() - checked >= STOP_POLL_S:
                 checked = time.monotonic()
                 if not rclpy.ok():
+                    break
+                finished = [node.exit_status for node in nodes
+                            if getattr(node, 'exit_status', None) is not None]
+                if finished:
+                    status = max(finished)
                     break
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

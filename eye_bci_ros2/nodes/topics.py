@@ -27,6 +27,20 @@ REQUEST_TOPIC = 'choice/request'
 #: ``feedback_rate_hz``; FEEDBACK_QOS.
 FEEDBACK_TOPIC = 'choices/feedback'
 
+#: Whether the newest gaze is on the screen (std_msgs/Bool, LATCHED_QOS): published by the
+#: bridge when it changes (and once per stream); false while the stream is stale or lost.
+GAZE_ON_SCREEN_TOPIC = 'gaze/on_screen'
+
+#: Validation (eye_bci_ros2.nodes.gaze_validation): the target shown now (screen px,
+#: geometry_msgs/PointStamped, frame ``screen``, NaN = none; LATCHED_QOS: the simulated
+#: person follows it), its RViz markers (visualization_msgs/MarkerArray, world frame,
+#: LATCHED_QOS), a request to run (std_msgs/Empty, EVENT_QOS) and the outcome (std_msgs/String,
+#: one JSON line of eye_bci_ros2.validation.ValidationOutcome, EVENT_QOS).
+VALIDATION_TARGET_TOPIC = 'validation/target'
+VALIDATION_TARGETS_TOPIC = 'validation/targets'
+VALIDATION_START_TOPIC = 'validation/start'
+VALIDATION_RESULT_TOPIC = 'validation/result'
+
 #: SSVEP (eye_bci_ros2.nodes.ssvep_messages): each option's stimulus (latched,
 #: sensor_msgs/JointState), the decoder's per-option posterior and score per step
 #: (JointState, SCORES_QOS) and its choice (std_msgs/String, EVENT_QOS).

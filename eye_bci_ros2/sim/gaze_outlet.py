@@ -15,6 +15,12 @@ Pure pylsl + numpy: runs without ROS, e.g. on the tracker machine::
 
     sim_gaze --target 960,540 --offset-deg 0.5 --duration 10
     sim_gaze --script targets.yaml --seed 3
+    sim_gaze --preset original_tobii_4c --follow validation/target   # gaze_validation
+
+``--follow TOPIC`` makes the person look wherever a ROS topic
+(geometry_msgs/PointStamped, screen px, e.g. ``gaze_validation``'s
+``validation/target``) says (:mod:`eye_bci_ros2.sim.target_follower`; it
+needs rclpy).
 
 A script (YAML) lists timed targets in the person's screen px, seconds from
 the start; ``null`` = nothing to look at; optional ``repeat_s`` loops it::
@@ -286,6 +292,9 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument('--target', type=_pair, metavar='X,Y',
                        help='fixed target, person screen px (default: screen centre)')
     where.add_argument('--script', metavar='YAML', help='timed targets (see module doc)')
+    where.add_argument('--follow', metavar='TOPIC',
+                       help='look where this ROS topic says (PointStamped, screen px), e.g. '
+                            'validation/target')
     parser.add_argument('--duration', type=float, default=0.0,
                         help='seconds to stream; 0 = until Ctrl-C')
     parser.add_argument('--name', default=STREAM_NAME, help='LSL stream name')
@@ -337,7 +346,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         parser.error(str(exc))
     screen = params.person.screen
     target = args.target if args.target is not None else tuple(screen.centre_px)
-    if script is None:
+    if args.follow:
+        print(f'following the targets on {args.follow}', flush=True)
+    elif script is None:
         streamer.set_target(target)
         print(f'target: ({target[0]:g}, {target[1]:g}) px', flush=True)
     else:
@@ -346,6 +357,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     print(streamer.describe(), flush=True)
     events = _script_times(script, repeat)
     streamer.start()
+    unfollow = None
+    if args.follow:
+        from eye_bci_ros2.sim.target_follower import follow_in_background
+        unfollow = follow_in_background(streamer, args.follow)
     start = pylsl.local_clock()
     end = start + args.duration if args.duration > 0 else math.inf
     next_status = start + args.status_s if args.status_s > 0 else math.inf
@@ -367,6 +382,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except KeyboardInterrupt:
         pass
     finally:
+        if unfollow is not None:
+            unfollow()
         streamer.stop()
     print(_status(streamer, pylsl.local_clock() - start) + ' (stopped)', flush=True)
     if streamer.error is not None:

@@ -25,7 +25,9 @@ from rclpy.parameter import Parameter
 from eye_bci_ros2.nodes.eye_bci import MENU, PIPELINE
 
 #: (node name, module, class) of every node with parameters, in pipeline order.
-NODES = PIPELINE + (MENU, ('sim_rviz_view', 'eye_bci_ros2.sim.rviz_view', 'SimRvizView'))
+NODES = PIPELINE + (MENU, ('gaze_validation', 'eye_bci_ros2.nodes.gaze_validation',
+                           'GazeValidation'),
+                    ('sim_rviz_view', 'eye_bci_ros2.sim.rviz_view', 'SimRvizView'))
 
 #: Declared by rclpy itself on every node: not ours to document.
 _BUILTIN = {'use_sim_time', 'start_type_description_service'}

@@ -57,7 +57,7 @@ class Probe:
         self.publisher = node.create_publisher(String, 'choice', EVENT_QOS)
         self.pose = node.create_publisher(PoseStamped, 'camera/pose', LATCHED_QOS)
         self.gaze = node.create_publisher(PointStamped, 'gaze/point', VIEW_QOS)
-        self.on_screen = node.create_publisher(Bool, 'gaze/on_screen', EVENT_QOS)
+        self.on_screen = node.create_publisher(Bool, 'gaze/on_screen', LATCHED_QOS)
         self.regions = node.create_publisher(MarkerArray, 'choices/regions', LATCHED_QOS)
         self.graph = graph
         self.answered = 0

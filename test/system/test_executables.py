@@ -18,7 +18,7 @@ import pytest
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 NODES = ('lsl_gaze_bridge', 'camera_tracker', 'marker_projector', 'choice_arbiter',
-         'choice_menu', 'eye_bci')
+         'choice_menu', 'eye_bci', 'gaze_validation')
 
 
 def start(module, *args, domain):
@@ -57,6 +57,28 @@ def test_a_start_up_error_is_one_line_and_status_1(args, reason):
     last = err.strip().splitlines()[-1]
     assert last.startswith('cannot start:') and reason in last, err[-2000:]
     assert 'Traceback' not in err
+
+
+@pytest.mark.parametrize('args, reason', [
+    (['-p', 'targets:=7'], '7 targets: use 5 or 9'),
+    (['-p', 'settle_s:=2.0', '-p', 'target_s:=1.0'], 'settle_s'),
+])
+def test_gaze_validation_refuses_a_bad_start_with_one_line(args, reason):
+    status, _, err = run('gaze_validation', '--ros-args', *args)
+    assert status == 1 and 'Traceback' not in err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith('cannot start:') and reason in last, err[-2000:]
+
+
+def test_gaze_validation_without_gaze_refuses_with_one_line_and_status_1(tmp_path):
+    output = tmp_path / 'correction.yaml'
+    status, _, err = run('gaze_validation', '--ros-args', '-p', 'targets:=5', '-p',
+                         'target_s:=0.3', '-p', 'settle_s:=0.1', '-p', 'camera_wait_s:=0.0',
+                         '-p', 'bridge_timeout_s:=0.2', '-p', f'output:={output}')
+    assert status == 1 and 'Traceback' not in err, err[-2000:]
+    refused = [line for line in err.splitlines() if 'validation refused' in line]
+    assert len(refused) == 1 and 'got fewer than 10 gaze samples' in refused[0], err[-2000:]
+    assert not output.exists()
 
 
 def test_eye_bci_refuses_a_bad_override_with_one_line():

@@ -1,0 +1,444 @@
+"""
+Node ``gaze_validation``: validate the tracker through the running nodes, fit and apply a fix.
+
+The procedure (:mod:`eye_bci_ros2.validation` holds the arithmetic):
+
+1. waits for ``camera/pose`` (at most ``camera_wait_s``) and reads the
+   bridge's ``gaze_correction`` over its parameter service (``bridge_node``);
+2. shows ``targets`` (5 or 9) targets one after the other, ``target_s`` each,
+   laid out over the RViz render panel (``margin`` of its size from the
+   edges): each as a white disc with a black centre on
+   ``validation/targets`` (visualization_msgs/MarkerArray, frame
+   ``world_frame``, ``target_depth_m`` in front of the camera, unprojected
+   from its screen point with the camera model of ``marker_projector``'s
+   parameters, ``target_size_deg`` across; re-placed when the camera moves)
+   and as its screen point on ``validation/target`` (geometry_msgs/
+   PointStamped, frame ``screen``, px; NaN when none; the simulated person
+   follows it);
+3. collects ``gaze/samples`` from ``settle_s`` after each onset to its end,
+   and logs accuracy and precision per target and overall, in degrees (for
+   ``screen_width_mm`` x ``screen_height_mm`` seen from
+   ``viewing_distance_mm``) and px;
+4. fits a correction (``kind``: offset; affine with 9 targets); when a
+   target got fewer than ``min_samples`` samples or the fit is implausible it
+   refuses: one line with the reason, nothing saved or applied;
+5. otherwise composes it with the bridge's current correction, saves it as a
+   parameter file (``output``; ``--params-file`` for the bridge), sets the
+   bridge's ``gaze_correction`` (what ``ros2 param set`` does) and validates
+   again (``validate_again``), logging the residual;
+6. publishes the outcome on ``validation/result`` (std_msgs/String: one JSON
+   line, :class:`eye_bci_ros2.validation.ValidationOutcome`, with a
+   ``summary``).
+
+With ``on_request`` false (the default) it runs once at start and exits:
+status 0 when the correction was applied, 1 when it was refused.  With
+``on_request`` true it waits for ``validation/start`` (std_msgs/Empty; the
+menu's ``validate_first`` sends it) and answers each on ``validation/result``.
+"""
+
+from dataclasses import replace
+import math
+import os
+import time
+from typing import Any, Callable, Dict, Iterator, List, Optional
+
+from geometry_msgs.msg import Point, PointStamped, PoseStamped
+import numpy as np
+from rclpy.node import Node
+from rclpy.parameter import Parameter, parameter_value_to_python
+from rclpy.parameter_client import AsyncParameterClient
+from sensor_msgs.msg import PointCloud2
+from std_msgs.msg import Empty, Header, String
+from visualization_msgs.msg import Marker, MarkerArray
+
+from eye_bci_ros2.nodes.conversions import (arrays_to_pose, gaze_batch_arrays, ns_to_stamp,
+                                            pose_to_arrays, SCREEN_FRAME)
+from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
+from eye_bci_ros2.nodes.marker_projector import (camera_from_parameters,
+                                                 PARAMETERS as PROJECTOR_PARAMETERS)
+from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                       VALIDATION_RESULT_TOPIC, VALIDATION_START_TOPIC,
+                                       VALIDATION_TARGET_TOPIC, VALIDATION_TARGETS_TOPIC)
+from eye_bci_ros2.validation import (
+    as_matrix, compose_corrections, CorrectionRefused, fit_correction, IDENTITY,
+    implausibility, measure, MIN_SAMPLES, NODE, PARAMETER, samples_per_target,
+    save_correction, SETTLE_S, target_layout, ValidationOutcome)
+from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, degrees_to_px, ScreenGeometry
+
+#: Step of the procedure's timer, s.
+TICK_S = 0.02
+#: After the last target, wait at most this long for its samples to arrive, s.
+TAIL_WAIT_S = 1.0
+#: After publishing the result, stay this long before exiting (so it is delivered), s.
+LINGER_S = 0.5
+#: Marker namespace of the targets on ``validation/targets``.
+MARKER_NS = 'validation'
+
+_CAMERA_NAMES = ('world_frame', 'image_width', 'image_height', 'fov_y_deg', 'intrinsic_matrix',
+                 'screen_offset_x', 'screen_offset_y', 'projection', 'ortho_scale',
+                 'rviz_config')
+
+
+def _check_count(value: Any) -> Optional[str]:
+    return None if value in (5, 9) else f'{value} targets: use 5 or 9'
+
+
+def _check_node_name(value: Any) -> Optional[str]:
+    return None if str(value).strip() else 'must name the bridge node, e.g. /lsl_gaze_bridge'
+
+
+PARAMETERS: List[ParamSpec] = [
+    ParamSpec('targets', 9, 'Number of targets: 5 (centre, corners; offset fit) or 9 '
+              '(3x3 grid; affine fit)', value_range=(5, 9), check=_check_count),
+    ParamSpec('target_s', 1.5, 'How long each target is shown, s', value_range=(0.2, 60.0)),
+    ParamSpec('settle_s', SETTLE_S, 'Gaze from this long after a target appears is used '
+              '(saccade latency and landing), s', value_range=(0.0, 30.0)),
+    ParamSpec('margin', 0.1, 'Outer targets this far from the render panel edges, as a '
+              'fraction of its size', value_range=(0.01, 0.49)),
+    ParamSpec('kind', 'auto', 'Correction: offset, affine (needs 9 targets) or auto (affine '
+              'with 9 targets, else offset)', choices=('auto', 'offset', 'affine')),
+    ParamSpec('min_samples', MIN_SAMPLES, 'A target with fewer gaze samples after settle_s '
+              'refuses the correction', value_range=(2, 100000)),
+    ParamSpec('output', 'gaze_correction.yaml',
+              "Parameter file written for the bridge (--params-file); '' = none"),
+    ParamSpec('bridge_node', NODE, 'The bridge whose gaze_correction is read and set '
+              '(its parameter service)', check=_check_node_name),
+    ParamSpec('bridge_timeout_s', 5.0, "Longest wait for the bridge's parameter service, s",
+              value_range=(0.1, 600.0)),
+    ParamSpec('validate_again', True, 'After applying a correction, validate again and report '
+              'the residual'),
+    ParamSpec('on_request', False, 'false: run once at start and exit (0 applied, 1 refused); '
+              'true: run on each validation/start and keep running'),
+    ParamSpec('camera_wait_s', 5.0, 'Longest wait for camera/pose before the targets are shown '
+              '(without it they are only on validation/target, not in RViz), s',
+              value_range=(0.0, 600.0)),
+    ParamSpec('target_depth_m', 2.0, 'Targets are placed this far in front of the RViz camera, '
+              'm', value_range=(1e-3, 1e4)),
+    ParamSpec('target_size_deg', 1.0, 'Diameter of a target disc, degrees of visual angle',
+              value_range=(0.1, 10.0)),
+    ParamSpec('screen_width', DEFAULT_VIEWING.width_px, 'Width of the screen RViz is shown '
+              "on, px (as the bridge's)", value_range=(1, 16384)),
+    ParamSpec('screen_height', DEFAULT_VIEWING.height_px, 'Height of that screen, px',
+              value_range=(1, 16384)),
+    ParamSpec('screen_width_mm', DEFAULT_VIEWING.width_mm, 'Visible width of that screen, mm '
+              '(for degrees)', value_range=(1.0, 10000.0)),
+    ParamSpec('screen_height_mm', DEFAULT_VIEWING.height_mm, 'Visible height of that screen, mm',
+              value_range=(1.0, 10000.0)),
+    ParamSpec('viewing_distance_mm', DEFAULT_VIEWING.distance_mm, 'Eye to screen centre, mm',
+              value_range=(10.0, 100000.0)),
+] + [
+    replace(spec, description='RViz fixed frame: the targets are placed in it; camera/pose '
+            'must be in it.') if spec.name == 'world_frame' else spec
+    for spec in PROJECTOR_PARAMETERS if spec.name in _CAMERA_NAMES]
+
+
+def _check_all(values: Dict[str, Any]) -> Optional[str]:
+    if values['settle_s'] >= values['target_s']:
+        return (f"settle_s ({values['settle_s']:g} s) must be shorter than target_s "
+                f"({values['target_s']:g} s)")
+    if values['kind'] == 'affine' and values['targets'] < 9:
+        return 'an affine correction needs 9 targets'
+    try:
+        camera_from_parameters(values)
+    except ValueError as error:
+        return str(error)
+    return None
+
+
+def screen_geometry(values: Dict[str, Any]) -> ScreenGeometry:
+    """Return the person's screen of the parameters."""
+    return ScreenGeometry(values['screen_width'], values['screen_height'],
+                          values['screen_width_mm'], values['screen_height_mm'],
+                          values['viewing_distance_mm'])
+
+
+class GazeValidation(Node):
+    """Run the validation procedure (module doc) through the running nodes."""
+
+    def __init__(self, **kwargs):
+        """Declare parameters and topics; start the procedure unless ``on_request``."""
+        super().__init__('gaze_validation', **kwargs)
+        self._params = declare_parameters(self, PARAMETERS, self._params_changed, _check_all)
+        #: Set when the job is done and the process should end (runner.spin_nodes).
+        self.exit_status: Optional[int] = None
+        #: The last outcome (None before the first run ends).
+        self.outcome: Optional[ValidationOutcome] = None
+        self._camera = None           # the camera at the last camera/pose, or None
+        self._target_pub = self.create_publisher(PointStamped, VALIDATION_TARGET_TOPIC,
+                                                 LATCHED_QOS)
+        self._markers_pub = self.create_publisher(MarkerArray, VALIDATION_TARGETS_TOPIC,
+                                                  LATCHED_QOS)
+        self._result_pub = self.create_publisher(String, VALIDATION_RESULT_TOPIC, EVENT_QOS)
+        self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
+        self.create_subscription(PoseStamped, 'camera/pose', self._on_pose, LATCHED_QOS)
+        self.create_subscription(Empty, VALIDATION_START_TOPIC, self._on_start, EVENT_QOS)
+        self._bridge = AsyncParameterClient(self, self._params['bridge_node'])
+        # The gaze received while a pass collects: lists of (stamps (N,), xy (N, 2)).
+        self._gaze: Optional[List[tuple]] = None
+        self._newest_stamp = -math.inf
+        self._target: Optional[np.ndarray] = None    # screen px shown now
+        self._run: Optional[Iterator[None]] = None
+        self._timer = self.create_timer(TICK_S, self._step)
+        self._publish_target(None)
+        if not self._params['on_request']:
+            self._run = self._procedure()
+        else:
+            self.get_logger().info(f'waiting for {VALIDATION_START_TOPIC}')
+
+    @property
+    def running(self) -> bool:
+        """Tell whether a validation is under way."""
+        return self._run is not None
+
+    # -- inputs ------------------------------------------------------------------------------
+
+    def _params_changed(self, changed: Dict[str, Any]) -> None:
+        self._params.update(changed)
+        if 'bridge_node' in changed:
+            self._bridge = AsyncParameterClient(self, self._params['bridge_node'])
+
+    def _on_start(self, _message: Empty) -> None:
+        if self._run is not None:
+            self.get_logger().warning(f'{VALIDATION_START_TOPIC}: a validation is already '
+                                      'running; request ignored')
+            return
+        self._run = self._procedure()
+
+    def _on_gaze(self, message: PointCloud2) -> None:
+        if self._gaze is None:
+            return
+        try:
+            stamps, xy = gaze_batch_arrays(message)
+        except ValueError as error:
+            self.get_logger().warning(str(error), throttle_duration_sec=WARN_PERIOD_S)
+            return
+        if len(stamps):
+            self._gaze.append((stamps, xy))
+            self._newest_stamp = max(self._newest_stamp, float(stamps[-1]))
+
+    def _on_pose(self, message: PoseStamped) -> None:
+        frame = self._params['world_frame']
+        if message.header.frame_id and message.header.frame_id != frame:
+            self.get_logger().warning(f"camera/pose in frame '{message.header.frame_id}', not "
+                                      f"'{frame}': ignored", throttle_duration_sec=WARN_PERIOD_S)
+            return
+        try:
+            camera = camera_from_parameters(self._params)
+            self._camera = camera.with_pose(*pose_to_arrays(message.pose))
+            if self._target is not None:
+                self._publish_markers(self._target)   # keep the target where it is on screen
+        except ValueError as error:
+            self.get_logger().warning(f'camera/pose ignored: {error}',
+                                      throttle_duration_sec=WARN_PERIOD_S)
+
+    # -- the procedure -----------------------------------------------------------------------
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _step(self) -> None:
+        """Advance the procedure to its next wait (the timer's callback)."""
+        if self._run is None:
+            return
+        try:
+            next(self._run)
+        except StopIteration:
+            self._run = None
+        except Exception as error:  # noqa: B902 - report, never die in a callback
+            self._run = None
+            self._publish_target(None)
+            self._finish(ValidationOutcome(False, f'validation failed: {error}'))
+
+    def _wait(self, done: Callable[[], bool], timeout_s: float) -> Iterator[None]:
+        """Yield until ``done()`` or ``timeout_s`` passed."""
+        end = time.monotonic() + timeout_s
+        while not done() and time.monotonic() < end:
+            yield
+
+    def _procedure(self) -> Iterator[None]:
+        """Run the whole validation (module doc), one step per timer tick."""
+        params = dict(self._params)
+        screen = screen_geometry(params)
+        self.get_logger().info(f"validation: {params['targets']} targets, "
+                               f"{params['target_s']:g} s each")
+        yield from self._wait(lambda: self._camera is not None, params['camera_wait_s'])
+        if self._camera is None:
+            self.get_logger().warning('no camera/pose: the targets are not shown in RViz, only '
+                                      f'on {VALIDATION_TARGET_TOPIC}')
+        current = yield from self._read_correction(params['bridge_timeout_s'])
+        camera = self._camera or camera_from_parameters(params)
+        offset = np.asarray(camera.screen_offset, dtype=float)
+        targets = target_layout(params['targets'], *camera.image_size, params['margin']) + offset
+
+        report = yield from self._pass(targets, params, screen)
+        for line in report.lines():
+            self.get_logger().info(line)
+        base = ValidationOutcome(False, targets=len(targets), accuracy_deg=report.accuracy_deg,
+                                 precision_deg=report.precision_deg,
+                                 correction=[float(v) for v in current.ravel()])
+        try:
+            fit = fit_correction(targets, self._samples(targets, params), params['kind'],
+                                 screen, params['min_samples'])
+            total = compose_corrections(fit.matrix, current)
+            reason = implausibility(total, screen)
+            if reason:
+                raise CorrectionRefused(f'no correction: with the current one {reason}')
+        except CorrectionRefused as refused:
+            base.reason = str(refused)
+            self._finish(base)
+            return
+        values = [float(v) for v in total.ravel()]
+        output = os.path.abspath(params['output']) if params['output'] else ''
+        if output:
+            save_correction(output, values, params['bridge_node'])
+            self.get_logger().info(f'saved {output}: start the bridge with --params-file '
+                                   f'{output}')
+        problem = yield from self._set_correction(values, params['bridge_timeout_s'])
+        if problem:
+            base.reason = problem + (f' (saved to {output})' if output else '')
+            base.output = output
+            self._finish(base)
+            return
+        self.get_logger().info(f'{fit.kind} correction applied: {values} (on the fitted data '
+                               f'{fit.residual_before_deg:.2f} -> {fit.residual_after_deg:.2f} '
+                               'deg)')
+        outcome = ValidationOutcome(True, '', fit.kind, len(targets), report.accuracy_deg,
+                                    report.precision_deg, correction=values, output=output)
+        if params['validate_again']:
+            self.get_logger().info('validating again with the correction applied')
+            again = yield from self._pass(targets, params, screen)
+            for line in again.lines():
+                self.get_logger().info(f'residual: {line}')
+            outcome.residual_deg, outcome.residual_px = again.accuracy_deg, again.accuracy_px
+        self._finish(outcome)
+        yield from self._wait(lambda: False, LINGER_S)
+        if not params['on_request']:
+            self.exit_status = 0
+
+    def _pass(self, targets: np.ndarray, params: Dict[str, Any],
+              screen: ScreenGeometry) -> Iterator[None]:
+        """Show every target and collect its gaze; returns the report."""
+        self._gaze, self._newest_stamp = [], -math.inf
+        self._onsets, self._ends = [], []
+        for target in targets:
+            self._target = target
+            onset = self._now()
+            self._publish_target(target, onset)
+            self._publish_markers(target)
+            yield from self._wait(lambda: False, params['target_s'])
+            self._onsets.append(onset)
+            self._ends.append(self._now())
+        self._target = None
+        self._publish_target(None)
+        self._publish_markers(None)
+        last = self._ends[-1]
+        yield from self._wait(lambda: self._newest_stamp >= last, TAIL_WAIT_S)
+        return measure(targets, self._samples(targets, params), screen, params['min_samples'])
+
+    def _samples(self, targets: np.ndarray, params: Dict[str, Any]) -> List[np.ndarray]:
+        """Return the gaze of the last pass, per target (after settle_s)."""
+        if self._gaze:
+            stamps = np.concatenate([s for s, _ in self._gaze])
+            xy = np.concatenate([p for _, p in self._gaze])
+            order = np.argsort(stamps, kind='stable')
+            stamps, xy = stamps[order], xy[order]
+        else:
+            stamps, xy = np.zeros(0), np.zeros((0, 2))
+        return samples_per_target(stamps, xy, self._onsets, self._ends, params['settle_s'])
+
+    def _read_correction(self, timeout_s: float) -> Iterator[None]:
+        """Return the bridge's gaze_correction as (2, 3) (identity when it cannot be read)."""
+        name = self._params['bridge_node']
+        yield from self._wait(self._bridge.services_are_ready, timeout_s)
+        if self._bridge.services_are_ready():
+            future = self._bridge.get_parameters([PARAMETER])
+            yield from self._wait(future.done, timeout_s)
+            if future.done() and future.result() is not None and future.result().values:
+                value = parameter_value_to_python(future.result().values[0])
+                try:
+                    return as_matrix(value if value is not None else IDENTITY)
+                except ValueError:
+                    pass
+        self.get_logger().warning(f'cannot read {PARAMETER} of {name}: taking it as none')
+        return as_matrix(IDENTITY)
+
+    def _set_correction(self, values: List[float], timeout_s: float) -> Iterator[None]:
+        """Set the bridge's gaze_correction; returns '' or why it failed."""
+        name = self._params['bridge_node']
+        yield from self._wait(self._bridge.services_are_ready, timeout_s)
+        if not self._bridge.services_are_ready():
+            return (f'could not set {PARAMETER}: the parameter service of {name} does not '
+                    'answer (is lsl_gaze_bridge running with that name?)')
+        future = self._bridge.set_parameters([Parameter(PARAMETER, value=values)])
+        yield from self._wait(future.done, timeout_s)
+        if not future.done() or future.result() is None:
+            return f'could not set {PARAMETER}: {name} did not answer'
+        result = future.result().results[0]
+        if not result.successful:
+            return f'{name} refused {PARAMETER}: {result.reason}'
+        return ''
+
+    # -- outputs -----------------------------------------------------------------------------
+
+    def _finish(self, outcome: ValidationOutcome) -> None:
+        """Log and publish the outcome; in run-once mode a refusal ends with status 1."""
+        self.outcome = outcome
+        self._gaze = None
+        if outcome.accepted:
+            self.get_logger().info(outcome.summary())
+        else:
+            self.get_logger().error(outcome.summary())
+        self._result_pub.publish(String(data=outcome.to_json()))
+        if not outcome.accepted and not self._params['on_request']:
+            self.exit_status = 1
+
+    def _publish_target(self, target: Optional[np.ndarray], stamp_s: Optional[float] = None
+                        ) -> None:
+        message = PointStamped()
+        message.header = Header(frame_id=SCREEN_FRAME, stamp=ns_to_stamp(
+            round((self._now() if stamp_s is None else stamp_s) * 1e9)))
+        if target is None:
+            message.point = Point(x=math.nan, y=math.nan, z=0.0)
+        else:
+            message.point = Point(x=float(target[0]), y=float(target[1]), z=0.0)
+        self._target_pub.publish(message)
+
+    def _publish_markers(self, target: Optional[np.ndarray]) -> None:
+        """Show the target as a disc with a centre dot in front of the camera (or none)."""
+        frame = self._params['world_frame']
+        clear = Marker(ns=MARKER_NS, action=Marker.DELETEALL)
+        clear.header.frame_id = frame
+        array = MarkerArray(markers=[clear])
+        camera = self._camera
+        if target is not None and camera is not None:
+            depth = self._params['target_depth_m']
+            size_px = float(degrees_to_px(self._params['target_size_deg'], target[None],
+                                          screen_geometry(self._params))[0])
+            uv = camera.to_image(np.array([target, target + [size_px, 0.0]]))
+            centre, edge = camera.unproject(uv, depth)
+            diameter = float(np.linalg.norm(edge - centre))
+            # The dot sits on the camera side of the disc, so it is drawn on top.
+            dot = camera.unproject(uv[:1], depth - 0.6 * diameter)[0]
+            stamp = self.get_clock().now().to_msg()
+            for index, (where, size, colour) in enumerate((
+                    (centre, diameter, (1.0, 1.0, 1.0, 1.0)),
+                    (dot, 0.2 * diameter, (0.0, 0.0, 0.0, 1.0)))):
+                marker = Marker(ns=MARKER_NS, id=index, type=Marker.SPHERE, action=Marker.ADD)
+                marker.header.frame_id = frame
+                marker.header.stamp = stamp
+                marker.pose = arrays_to_pose(where, (0.0, 0.0, 0.0, 1.0))
+                marker.scale.x = marker.scale.y = marker.scale.z = size
+                (marker.color.r, marker.color.g, marker.color.b, marker.color.a) = colour
+                array.markers.append(marker)
+        self._markers_pub.publish(array)
+
+
+def main(args=None):
+    """Run one validation (or serve requests with on_request:=true)."""
+    spin_node(GazeValidation, args, help_modules=[__name__])
+
+
+if __name__ == '__main__':
+    main()
