@@ -72,11 +72,12 @@ an option by a tolerant classification (:mod:`eye_bci_ros2.tolerance`) need
 not be inside it, and a gaze resting between two options leaves a few such
 samples on each: so a choice also needs a share of *all* the samples, in and
 out of regions.  At the window end the chosen label must hold at least
-``min_share`` of the window's valid (finite) samples; an early decision is
-made only at a sample whose label holds at least :data:`EARLY_SHARE` of the
-valid samples stamped in the last :data:`EARLY_SHARE_S` up to it (the early
-test is made at those samples only).  ``bench/tolerance.py`` (its ``/s``
-rules) measures what it buys.
+``min_share`` of the window's valid samples (finite and within
+:data:`SCREEN_MARGIN_PX` of the screen when it is known: tracker garbage is
+not gaze); an early decision is made only at a sample whose label holds at
+least :data:`EARLY_SHARE` of the valid samples stamped in the last
+:data:`EARLY_SHARE_S` up to it (the early test is made at those samples
+only).  ``bench/tolerance.py`` (its ``/s`` rules) measures what it buys.
 
 Regions may move during a round (the camera moves, the labels stay): every
 sample is classified against the regions shown at its own time and evidence
@@ -123,6 +124,10 @@ MAX_REACTION_S = 2.0
 EARLY_SHARE_S = 0.1
 #: ... must be at least this fraction on the deciding sample's label.
 EARLY_SHARE = 0.8
+
+#: Gaze farther than this outside the screen is not a valid sample for the share test, px
+#: (the bridge's default ``offscreen_margin_px``: it drops such samples itself).
+SCREEN_MARGIN_PX = 100.0
 
 #: Label id of a sample in no region, and of a sample that is not finite (not valid).
 _NO_REGION = -1
@@ -358,12 +363,15 @@ class RoundEvidence:
         one that classifies the samples (and the window-end mean), e.g.
         :meth:`eye_bci_ros2.rounds.ArbiterSettings.regions` (the tolerant
         rule); once per set.  None: the sets as given.
+    :param screen_px: (width, height) of the screen, px: gaze far off it is not
+        a valid sample (module doc, share test); None: every finite sample is.
     """
 
     def __init__(self, start: float = 0.0, hit_rate: float = DEFAULT_HIT_RATE,
                  min_samples: int = 10, dwell_s: float = 0.0, min_reaction_s: float = 0.0,
                  min_share: float = 0.0,
-                 classifier: Optional[Callable[[RegionSet], RegionSet]] = None):
+                 classifier: Optional[Callable[[RegionSet], RegionSet]] = None,
+                 screen_px: Optional[Tuple[float, float]] = None):
         """Start an empty round."""
         check_hit_rate(hit_rate)
         check_min_share(min_share)
@@ -378,11 +386,12 @@ class RoundEvidence:
         self.dwell_s = float(dwell_s)
         self.min_reaction_s = float(min_reaction_s)
         self.min_share = float(min_share)
+        self.screen_px = None if screen_px is None else np.asarray(screen_px, dtype=float)
         self._classifier = classifier
         self._classified: Dict[int, tuple] = {}
         self.labels: list = []
         self.samples = 0
-        #: Of those, samples with finite coordinates (the share test's denominator).
+        #: Of those, valid samples (the share test's denominator, module doc).
         self.valid = 0
         self.in_region = 0
         #: Fresh in-region samples (module doc).
@@ -540,6 +549,10 @@ class RoundEvidence:
         label = ids[region[inside]]
         finite = np.isfinite(points).all(axis=1)
         self._track_rest(points, stamps, finite)
+        if self.screen_px is not None:
+            with np.errstate(invalid='ignore'):
+                finite &= np.all((points >= -SCREEN_MARGIN_PX)
+                                 & (points <= self.screen_px + SCREEN_MARGIN_PX), axis=1)
         run_count, run_start = self._runs(label, stamps[inside])
         fresh = run_start >= self.fresh_from
         stop = len(points)

@@ -257,7 +257,8 @@ class ArbiterSettings:
         """
         return RoundEvidence(start, hit_rate=self.hit_rate, min_samples=self.min_samples,
                              dwell_s=self.dwell_s, min_reaction_s=self.min_reaction_s,
-                             min_share=self.min_share, classifier=self.regions)
+                             min_share=self.min_share, classifier=self.regions,
+                             screen_px=(self.screen_width, self.screen_height))
 
     def replace(self, **changed) -> 'ArbiterSettings':
         """Return a copy with ``changed`` fields (unknown names are ignored)."""
