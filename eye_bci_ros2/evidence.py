@@ -158,6 +158,9 @@ class Decision:
         reaction to the display (module doc); for an ``early`` decision
         ``margin`` and ``posterior`` are those of the fresh counts, the
         evidence it weighed.  -1 when not known (batch functions).
+    :param round_start: the round's start, s (the clock of the stamps); the
+        samples used are those stamped from it to ``round_start +
+        time_to_decision``.  NaN when not known (batch functions).
     """
 
     label: Optional[str]
@@ -171,6 +174,7 @@ class Decision:
     mean_point: Optional[Tuple[float, float]] = None
     reason: str = ''
     fresh_samples: int = -1
+    round_start: float = math.nan
 
     def summary(self) -> str:
         """One line for a log: the choice and how it was reached."""
@@ -778,4 +782,5 @@ class RoundEvidence:
             margin, probability, mean_point = 0.0, math.nan, None
         return Decision(label, method, self.samples, self.in_region, margin, probability,
                         time_to_decision=self.last_stamp - self.start, counts=self.counts,
-                        mean_point=mean_point, reason=reason, fresh_samples=self.fresh)
+                        mean_point=mean_point, reason=reason, fresh_samples=self.fresh,
+                        round_start=self.start)

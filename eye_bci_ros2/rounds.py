@@ -234,6 +234,19 @@ class ArbiterSettings:
                               width_mm=self.screen_width_mm, height_mm=self.screen_height_mm,
                               distance_mm=self.viewing_distance_mm)
 
+    def describe(self) -> str:
+        """Name the rule in one line (logs, the demo's pictures)."""
+        if self.classification == 'tolerant':
+            where = (f"tolerant ({'size-aware, ' if self.size_aware else ''}"
+                     f'{self.error_model.tolerance_deg:.2f} deg gaze error, ratio '
+                     f'{float(self.ratio):g})')
+        else:
+            where = 'inside the outlines'
+        share = f', share test {float(self.min_share):g}' if self.min_share > 0 else ''
+        early = ', early decision' if self.early_decision else ''
+        return (f'gaze counted {where}{share}; {self.method} at the end of a '
+                f'{float(self.window_s):g} s window{early}')
+
     def regions(self, region_set: RegionSet) -> RegionSet:
         """
         Return the classifier a round uses for ``region_set`` (labels, polygons, stamp).

@@ -54,7 +54,7 @@ import math
 import os
 import sys
 import time
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 import uuid
 
 from domain_coordinator import domain_id
@@ -83,8 +83,8 @@ from eye_bci_ros2.nodes.runner import make_executor, spin_until as _spin_until
 from eye_bci_ros2.nodes.ssvep_decoder import SsvepDecoder
 from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
 from eye_bci_ros2.nodes.ssvep_stimulus_map import SsvepStimulusMap
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
-                                       SSVEP_STIMULI_TOPIC)
+from eye_bci_ros2.nodes.topics import (EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS,
+                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.scene import load_scene, Scene
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
@@ -195,6 +195,10 @@ class Selection:
     reason: str
     camera_eye: Tuple[float, float, float]
     no_choice_rounds: int = 0
+    #: Gaze samples the picture shows, and of those counted for an option (must equal
+    #: ``samples_used`` and ``in_region_samples``: the picture says what the terminal says).
+    picture_samples: int = 0
+    picture_counted: int = 0
     picture: str = ''
     # Drawing data, not written to the summary.
     screen: Optional[demo_render.ScreenPicture] = field(default=None, repr=False)
@@ -354,6 +358,9 @@ class ExperimentDriver(Node):
         self._no_choice = 0
         self._target_path: List[Tuple[float, float, float]] = []
         self.create_subscription(Empty, 'choice/request', self._on_request, EVENT_QOS)
+        # The feedback halos (choices/feedback) as RViz would show them: (ns, id) -> Marker.
+        self.halos: Dict[Tuple[str, int], Marker] = {}
+        self.create_subscription(MarkerArray, FEEDBACK_TOPIC, self._on_feedback, FEEDBACK_QOS)
         self.create_subscription(String, 'choice_menu/answer', self._on_answer, EVENT_QOS)
         self.create_subscription(MarkerArray, 'choices', self._on_choices, LATCHED_QOS)
         self.create_subscription(Pose, 'rviz/current_camera_pose', self._on_camera, LATCHED_QOS)
@@ -412,6 +419,16 @@ class ExperimentDriver(Node):
         labels, polygons = marker_array_to_regions(message)
         stamp = _seconds(message.markers[0].header.stamp) if message.markers else self.now_s()
         self.region_history.append(RegionSet(labels, polygons, stamp))
+
+    def _on_feedback(self, message: MarkerArray) -> None:
+        for marker in message.markers:
+            if marker.action == Marker.DELETEALL:
+                self.halos = {key: m for key, m in self.halos.items() if marker.ns
+                              and key[0] != marker.ns}
+            elif marker.action == Marker.DELETE:
+                self.halos.pop((marker.ns, marker.id), None)
+            else:
+                self.halos[(marker.ns, marker.id)] = marker
 
     def _on_request(self, message: Empty) -> None:
         """Note when the menu asks its question (the arbiter starts a round)."""
@@ -560,19 +577,28 @@ class ExperimentDriver(Node):
             reason=decision.reason, camera_eye=tuple(float(v) for v in self.camera.eye),
             no_choice_rounds=self._no_choice)
         selection.screen = self._picture(selection, decision, start)
+        selection.picture_samples = len(selection.screen.gaze)
+        selection.picture_counted = int(np.count_nonzero(selection.screen.gaze_in_region))
         return selection
 
     def _picture(self, selection: Selection, decision: Decision,
                  start: float) -> demo_render.ScreenPicture:
         """Collect what the screen showed during the selection and where the gaze fell."""
+        # The samples the decision weighed: from its round's start to its last sample.
+        if math.isfinite(decision.round_start):
+            start = decision.round_start
         end = start + (decision.time_to_decision if math.isfinite(decision.time_to_decision)
                        else self.options.window_s)
         stamps = np.array(self.gaze_stamps)
         points = np.array(self.gaze_points, dtype=float).reshape(-1, 2)
-        use = (stamps >= start) & (stamps <= end + 1e-6)
+        use = (stamps >= start) & (stamps <= end + 1e-9) & (stamps < start + self.options.window_s)
         stamps, points = stamps[use], points[use]
-        inside = classify_against_history(stamps, points, self.region_history)
-        latest = self.region_history[-1] if self.region_history else RegionSet([], [])
+        settings = getattr(self.arbiter, 'settings', None)
+        inside = classify_against_history(stamps, points, self.region_history,
+                                          settings.regions if settings is not None else None)
+        # The outlines shown at the last sample used (the menu may have moved on since).
+        shown = [r for r in self.region_history if r.stamp <= end] or self.region_history[:1]
+        latest = shown[-1] if shown else RegionSet([], [])
         regions = dict(zip(latest.labels, latest.polygons))
         colours = {label: marker[3] for label, marker in self.markers.items()}
         # The target since the options appeared: it moves while the camera does.
@@ -586,29 +612,50 @@ class ExperimentDriver(Node):
                  f"{f' (attempt {selection.attempt})' if selection.attempt > 1 else ''}: "
                  f"intended '{selection.intended}', chosen {chosen} -> {verdict}")
         details = [
-            f'rule {decision.method}: {decision.samples_used} gaze samples, '
-            f'{decision.in_region_samples} in regions, decided '
-            f'{decision.time_to_decision:.2f} s after the question'
+            f'{decision.method}: {decision.samples_used} gaze samples used, '
+            f'{decision.in_region_samples} counted for an option; answered '
+            f'{selection.decision_time_s:.2f} s after the question, '
+            f'{selection.selection_time_s:.2f} s after the options appeared'
             + (f' ({decision.reason})' if decision.reason else ''),
-            'samples per region: ' + (', '.join(demo_render.summarise_counts(decision.counts))
-                                      or 'none'),
+            'samples per option: ' + (', '.join(demo_render.summarise_counts(decision.counts))
+                                      or 'none')
+            + (f'; {selection.no_choice_rounds} round(s) without a choice before'
+               if selection.no_choice_rounds else ''),
         ]
         return demo_render.ScreenPicture(
             title=title, details=details, screen_size=SCREEN_SIZE,
             panel=(PANEL_OFFSET[0], PANEL_OFFSET[1], PANEL_SIZE[0], PANEL_SIZE[1]),
             floors=floor_polygons(self.scene, self.camera), regions=regions, colours=colours,
             gaze=points, gaze_in_region=inside, mean_point=decision.mean_point,
-            chosen=decision.label, intended=selection.intended, target_path=path)
+            chosen=decision.label, intended=selection.intended, target_path=path,
+            rule=settings.describe() if settings is not None else '',
+            halos=self._halos())
+
+    def _halos(self) -> List[Tuple[np.ndarray, Tuple[float, float, float, float]]]:
+        """Return the feedback halos shown now, as screen outlines with their colours."""
+        if self.camera is None or not self.halos:
+            return []
+        markers = list(self.halos.values())
+        polygons, visible = self.camera.box_regions(
+            [pose_to_arrays(m.pose)[0] for m in markers],
+            [pose_to_arrays(m.pose)[1] for m in markers],
+            [(m.scale.x, m.scale.y, m.scale.z) for m in markers])
+        return [(polygon, (m.color.r, m.color.g, m.color.b, m.color.a))
+                for polygon, shown, m in zip(polygons, visible, markers) if shown]
 
 
 def classify_against_history(stamps: np.ndarray, points: np.ndarray,
-                             history: Sequence[RegionSet]) -> np.ndarray:
+                             history: Sequence[RegionSet],
+                             classifier: Optional[Callable[[RegionSet], RegionSet]] = None
+                             ) -> np.ndarray:
     """
-    Tell which samples lie in a region shown at their own time.
+    Tell which samples count for a region shown at their own time.
 
     :param stamps: shape (N,), s, ascending.
     :param points: shape (N, 2), screen px.
     :param history: region sets in arrival order (stamps ascending).
+    :param classifier: the rule's classification of a set
+        (:meth:`ArbiterSettings.regions`); None: inside a region.
     :returns: shape (N,) bool.
     """
     inside = np.zeros(len(stamps), dtype=bool)
@@ -618,7 +665,10 @@ def classify_against_history(stamps: np.ndarray, points: np.ndarray,
     shown = np.searchsorted(history_stamps, stamps, side='right') - 1
     for index in np.unique(shown):
         rows = shown == index
-        inside[rows] = history[max(int(index), 0)].classify(points[rows]) >= 0
+        regions = history[max(int(index), 0)]
+        if classifier is not None:
+            regions = classifier(regions)
+        inside[rows] = regions.classify(points[rows]) >= 0
     return inside
 
 
@@ -649,10 +699,6 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
     source_id = f'eye_bci_demo-{uuid.uuid4()}'
 
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    rule = {'mean': 'mean (the original rule: mean of the in-region gaze must lie in a region)',
-            'vote': 'vote (the region holding most in-region gaze samples)'}[options.method]
-    log(f'decision rule: {rule}, window {options.window_s:g} s'
-        + (', early decision on (confidence 0.95)' if options.early else ''))
     asking = {'on-arrival': "the menu's protocol: asked (choice/request) once the camera has "
                             'arrived and the gaze has left the last choice',
               'on-change': 'every valid choice counts at once (menu ask_on_arrival false)'}
@@ -690,6 +736,7 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                                 'ask_on_arrival': options.ask == 'on-arrival'},
             }, with_menu=True)
             named = dict(zip(NODE_NAMES + ('choice_menu',), nodes))
+            log(f"decision rule: {named['choice_arbiter'].settings.describe()}")
             view = SimRvizView(context=context, parameter_overrides=[
                 Parameter('transition_time_s', value=float(options.transition_s))])
             nodes.append(view)
@@ -778,8 +825,11 @@ def _print_selection(selection: Selection, log) -> None:
     log(f"  person looks at '{selection.intended}' at {target}; system chose "
         f"'{selection.chosen}' -> {verdict}")
     log(f'  {selection.method}: {selection.samples_used} samples used '
-        f'({selection.in_region_samples} in regions); decision {selection.decision_time_s:.2f} '
-        f's after the question, {selection.selection_time_s:.2f} s after the options appeared'
+        f'({selection.in_region_samples} counted for an option); answered '
+        f'{selection.decision_time_s:.2f} s after the question, '
+        f'{selection.selection_time_s:.2f} s after the options appeared'
+        + (f'; {selection.no_choice_rounds} round(s) without a choice before'
+           if selection.no_choice_rounds else '')
         + (f'; {selection.reason}' if selection.reason else ''))
 
 

@@ -47,13 +47,16 @@ class ScreenPicture:
         at the decision (the choices/regions outlines).
     :ivar colours: label -> (r, g, b, a) in [0, 1], the markers' colours.
     :ivar gaze: gaze samples of the selection, shape (N, 2).
-    :ivar gaze_in_region: shape (N,) bool, each sample inside some region
-        shown at its own time.
+    :ivar gaze_in_region: shape (N,) bool, each sample counted for an option
+        by the decision's rule, against the regions shown at its own time.
+    :ivar rule: one line naming the decision rule (the legend's heading).
     :ivar mean_point: the decision's mean of the in-region samples, or None.
     :ivar chosen: label the system chose, or None.
     :ivar intended: label the person meant.
     :ivar target_path: where the intended marker's centre was over the
         selection, shape (M, 2) (the last row is the target at the decision).
+    :ivar halos: the feedback the person saw at the decision (``choices/feedback``):
+        (screen polygon (K, 2), rgba) per halo.
     """
 
     title: str
@@ -69,6 +72,8 @@ class ScreenPicture:
     chosen: Optional[str] = None
     intended: Optional[str] = None
     target_path: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    rule: str = ''
+    halos: Sequence[Tuple[np.ndarray, Tuple[float, float, float, float]]] = ()
 
 
 def _screen_figure(size: Tuple[int, int], dpi: float = 100.0):
@@ -149,6 +154,15 @@ def render_screen(picture: ScreenPicture, path: str) -> str:
                   ha='center', va='bottom', weight='bold' if chosen else 'normal', zorder=6,
                   bbox={'facecolor': 'black', 'alpha': 0.5, 'edgecolor': 'none', 'pad': 2})
 
+    for index, (polygon, colour) in enumerate(picture.halos):
+        outline = _outline(polygon)
+        if outline is None:
+            continue
+        axes.add_patch(Polygon(outline, closed=True, fill=False, edgecolor=colour[:3],
+                               linewidth=4, linestyle=':', zorder=4,
+                               label='feedback halo (choices/feedback): yellow = gazed, '
+                                     'green = chosen, size = progress' if index == 0 else None))
+
     gaze = np.asarray(picture.gaze, dtype=float).reshape(-1, 2)
     inside = np.asarray(picture.gaze_in_region, dtype=bool).reshape(-1)
     if len(inside) != len(gaze):
@@ -156,10 +170,11 @@ def render_screen(picture: ScreenPicture, path: str) -> str:
     if len(gaze):
         axes.scatter(gaze[~inside, 0], gaze[~inside, 1], s=14, c=OUT_REGION_COLOUR,
                      edgecolors='none', alpha=0.8, zorder=5,
-                     label=f'gaze outside every region ({int(np.sum(~inside))})')
+                     label=f'gaze counted for no option ({int(np.sum(~inside))})')
         axes.scatter(gaze[inside, 0], gaze[inside, 1], s=14, c=IN_REGION_COLOUR,
                      edgecolors='none', alpha=0.8, zorder=5,
-                     label=f'gaze inside a region shown at its time ({int(np.sum(inside))})')
+                     label=f'gaze counted for an option, regions at its time '
+                           f'({int(np.sum(inside))})')
 
     path_xy = np.asarray(picture.target_path, dtype=float).reshape(-1, 2)
     if len(path_xy):
@@ -178,8 +193,10 @@ def render_screen(picture: ScreenPicture, path: str) -> str:
     axes.text(20, 20, '\n'.join(lines), fontsize=15, va='top', ha='left', family='monospace',
               zorder=9)
     if axes.get_legend_handles_labels()[0]:
-        axes.legend(loc='lower left', bbox_to_anchor=(20 / width, 12 / height), fontsize=12,
-                    framealpha=0.9)
+        legend = axes.legend(loc='lower left', bbox_to_anchor=(20 / width, 12 / height),
+                             fontsize=12, framealpha=0.9, title=picture.rule or None)
+        if picture.rule:
+            legend.get_title().set_fontsize(12)
     return _save(figure, path)
 
 

@@ -256,6 +256,11 @@ class ChoiceArbiter(Node):
         return self._tracker.last_decision
 
     @property
+    def settings(self) -> ArbiterSettings:
+        """Return the decision settings in use (the rule; read them, never change them)."""
+        return self._tracker.settings
+
+    @property
     def rounds_started(self) -> int:
         """Return the number of rounds started since the node started."""
         return self._tracker.rounds_started

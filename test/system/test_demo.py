@@ -66,9 +66,14 @@ def quick_run(tmp_path_factory):
 def test_quick_demo_finishes_with_every_choice_right(quick_run):
     code, printed, _, summary = quick_run
     assert code == 0
-    assert 'decision rule: mean' in printed
+    # The node's default rule, named as the pictures' legend names it.
+    assert 'decision rule: gaze counted tolerant (size-aware' in printed
     assert 'summary: 2 selections, 2 correct: accuracy 100.0 %' in printed
     assert 'ITR' in printed
+    for row in summary['selections']:
+        # The picture shows exactly the samples the decision weighed, classified by its rule.
+        assert (row['picture_samples'], row['picture_counted']) == (
+            row['samples_used'], row['in_region_samples']), row
     selections = summary['selections']
     assert [s['correct'] for s in selections] == [True, True]
     assert summary['accuracy'] == 1.0
