@@ -71,6 +71,9 @@ from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, RoundScheduler
 from eye_bci_ros2.tolerance import CLASSIFICATIONS
 
+#: choices/feedback shows at most this many options (one halo each, ~30 times a second).
+MAX_FEEDBACK_OPTIONS = 256
+
 #: Period of the timer that closes quiet rounds and releases held decisions, s.
 TICK_S = 0.02
 
@@ -508,6 +511,13 @@ class ChoiceArbiter(Node):
 
     def _on_feedback_timer(self) -> None:
         try:
+            count = len(self._options.options)
+            if count > MAX_FEEDBACK_OPTIONS:
+                # No menu a person chooses from by gaze has that many: do not flood RViz.
+                self._log('warning', 'feedback_options',
+                          f'choices/feedback paused: {count} options offered, more than '
+                          f'{MAX_FEEDBACK_OPTIONS}')
+                return
             now = self._now()
             feedback, options = self.current_feedback(now)
             if not (self._throttle.due(feedback, now) or self._options_changed):
