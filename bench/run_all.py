@@ -40,6 +40,8 @@ REGISTRY: Dict[str, str] = {
     'latency': 'bench.latency',
     'gaze_rate': 'bench.gaze_rate',
     'decision': 'bench.decision',
+    'tolerance': 'bench.tolerance',
+    'validation': 'bench.validation',
     'calibration': 'bench.calibration_protocol',
     'ssvep': 'bench.ssvep',
 }

@@ -32,11 +32,15 @@ def test_displays_show_what_the_person_must_see():
     document = yaml.safe_load(CONFIG.read_text())
     displays = {d['Topic']['Value']: d for d in document['Visualization Manager']['Displays']
                 if d['Class'] == 'rviz_default_plugins/MarkerArray'}
-    assert set(displays) == {'/choices', '/choices/feedback', '/choices/regions'}
+    assert set(displays) == {'/choices', '/choices/feedback', '/choices/regions',
+                             '/validation/targets'}
     assert displays['/choices']['Enabled'] is True
     # The choices are latched (transient local): RViz must ask for them the same way.
     assert displays['/choices']['Topic']['Durability Policy'] == 'Transient Local'
     assert displays['/choices/feedback']['Enabled'] is True
+    # The validation targets are latched too, and shown whenever a validation runs.
+    assert displays['/validation/targets']['Enabled'] is True
+    assert displays['/validation/targets']['Topic']['Durability Policy'] == 'Transient Local'
     assert displays['/choices/regions']['Enabled'] is False   # a check display only
     classes = [d['Class'] for d in document['Visualization Manager']['Displays']]
     assert 'rviz_default_plugins/Grid' in classes
