@@ -62,7 +62,7 @@ from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, 
                                        VALIDATION_RESULT_TOPIC, VALIDATION_START_TOPIC,
                                        VALIDATION_TARGET_TOPIC, VALIDATION_TARGETS_TOPIC)
 from eye_bci_ros2.validation import (
-    as_matrix, compose_corrections, CorrectionRefused, fit_correction, IDENTITY,
+    as_matrix, compose_corrections, CorrectionRefused, error_model, fit_correction, IDENTITY,
     implausibility, measure, MIN_SAMPLES, NODE, PARAMETER, samples_per_target,
     save_correction, SETTLE_S, target_layout, ValidationOutcome)
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, degrees_to_px, ScreenGeometry
@@ -89,6 +89,10 @@ def _check_node_name(value: Any) -> Optional[str]:
     return None if str(value).strip() else 'must name the bridge node, e.g. /lsl_gaze_bridge'
 
 
+#: Longest wait for the arbiter's parameter service after a validation, s.
+ARBITER_WAIT_S = 1.0
+
+
 PARAMETERS: List[ParamSpec] = [
     ParamSpec('targets', 9, 'Number of targets: 5 (centre, corners; offset fit) or 9 '
               '(3x3 grid; affine fit)', value_range=(5, 9), check=_check_count),
@@ -105,6 +109,10 @@ PARAMETERS: List[ParamSpec] = [
               "Parameter file written for the bridge (--params-file); '' = none"),
     ParamSpec('bridge_node', NODE, 'The bridge whose gaze_correction is read and set '
               '(its parameter service)', check=_check_node_name),
+    ParamSpec('arbiter_node', '/choice_arbiter',
+              "After the second pass, set this choice_arbiter's accuracy_deg and "
+              'precision_deg to the residual error measured (the tolerant rule then fits '
+              "the corrected tracker); '' = leave the arbiter alone"),
     ParamSpec('bridge_timeout_s', 5.0, "Longest wait for the bridge's parameter service, s",
               value_range=(0.1, 600.0)),
     ParamSpec('validate_again', True, 'After applying a correction, validate again and report '
@@ -175,6 +183,7 @@ class GazeValidation(Node):
         self.create_subscription(PoseStamped, 'camera/pose', self._on_pose, LATCHED_QOS)
         self.create_subscription(Empty, VALIDATION_START_TOPIC, self._on_start, EVENT_QOS)
         self._bridge = AsyncParameterClient(self, self._params['bridge_node'])
+        self._arbiter = AsyncParameterClient(self, self._params['arbiter_node'] or 'none')
         # The gaze received while a pass collects: lists of (stamps (N,), xy (N, 2)).
         self._gaze: Optional[List[tuple]] = None
         self._newest_stamp = -math.inf
@@ -198,6 +207,8 @@ class GazeValidation(Node):
         self._params.update(changed)
         if 'bridge_node' in changed:
             self._bridge = AsyncParameterClient(self, self._params['bridge_node'])
+        if 'arbiter_node' in changed:
+            self._arbiter = AsyncParameterClient(self, self._params['arbiter_node'] or 'none')
 
     def _on_start(self, _message: Empty) -> None:
         if self._run is not None:
@@ -312,6 +323,10 @@ class GazeValidation(Node):
             for line in again.lines():
                 self.get_logger().info(f'residual: {line}')
             outcome.residual_deg, outcome.residual_px = again.accuracy_deg, again.accuracy_px
+            if params['arbiter_node']:
+                # A pipeline without an arbiter is fine: do not wait long for one.
+                yield from self._set_error_model(again, min(params['bridge_timeout_s'],
+                                                            ARBITER_WAIT_S))
         self._finish(outcome)
         yield from self._wait(lambda: False, LINGER_S)
         if not params['on_request']:
@@ -366,18 +381,38 @@ class GazeValidation(Node):
 
     def _set_correction(self, values: List[float], timeout_s: float) -> Iterator[None]:
         """Set the bridge's gaze_correction; returns '' or why it failed."""
-        name = self._params['bridge_node']
-        yield from self._wait(self._bridge.services_are_ready, timeout_s)
-        if not self._bridge.services_are_ready():
-            return (f'could not set {PARAMETER}: the parameter service of {name} does not '
-                    'answer (is lsl_gaze_bridge running with that name?)')
-        future = self._bridge.set_parameters([Parameter(PARAMETER, value=values)])
+        return (yield from self._set(self._bridge, self._params['bridge_node'], 'lsl_gaze_bridge',
+                                     [Parameter(PARAMETER, value=values)], timeout_s))
+
+    def _set_error_model(self, report, timeout_s: float) -> Iterator[None]:
+        """Give the arbiter the residual error model; a failure is a warning, not a refusal."""
+        model = error_model(report)
+        name = self._params['arbiter_node']
+        problem = yield from self._set(
+            self._arbiter, name, 'choice_arbiter',
+            [Parameter('accuracy_deg', value=float(model.accuracy_deg)),
+             Parameter('precision_deg', value=float(model.precision_deg))], timeout_s)
+        if problem:
+            self.get_logger().warning(f'{problem}; the arbiter keeps its error model')
+        else:
+            self.get_logger().info(f'{name}: accuracy_deg {model.accuracy_deg:.2f}, '
+                                   f'precision_deg {model.precision_deg:.2f} (the residual)')
+
+    def _set(self, client: AsyncParameterClient, name: str, what: str,
+             parameters: List[Parameter], timeout_s: float) -> Iterator[None]:
+        """Set parameters of another node through its service; returns '' or why it failed."""
+        names = ', '.join(parameter.name for parameter in parameters)
+        yield from self._wait(client.services_are_ready, timeout_s)
+        if not client.services_are_ready():
+            return (f'could not set {names}: the parameter service of {name} does not '
+                    f'answer (is {what} running with that name?)')
+        future = client.set_parameters(parameters)
         yield from self._wait(future.done, timeout_s)
         if not future.done() or future.result() is None:
-            return f'could not set {PARAMETER}: {name} did not answer'
-        result = future.result().results[0]
-        if not result.successful:
-            return f'{name} refused {PARAMETER}: {result.reason}'
+            return f'could not set {names}: {name} did not answer'
+        for parameter, result in zip(parameters, future.result().results):
+            if not result.successful:
+                return f'{name} refused {parameter.name}: {result.reason}'
         return ''
 
     # -- outputs -----------------------------------------------------------------------------

@@ -9,6 +9,7 @@ import pytest
 from validation_rig import camera_pose, make_rig, VIEW
 
 from eye_bci_ros2.camera_model import RvizCamera
+from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import pose_to_arrays
 from eye_bci_ros2.nodes.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
 from eye_bci_ros2.sim.person import ORIGINAL_TOBII_4C
@@ -47,6 +48,8 @@ def finished(graph, node, timeout=60.0):
 
 def test_accepted_correction_brings_the_08_deg_offset_within_02_deg(graph, rigs, tmp_path):
     rig = rigs(graph, person=OFFSET_PERSON)
+    arbiter = graph.add(ChoiceArbiter)
+    assert arbiter.settings.accuracy_deg == 0.8        # the default error model
     output = str(tmp_path / 'correction.yaml')
     node = rig.start_validation(graph, output=output)
     outcome = finished(graph, node)
@@ -63,6 +66,10 @@ def test_accepted_correction_brings_the_08_deg_offset_within_02_deg(graph, rigs,
     published = ValidationOutcome.from_json(rig.results.last.data)
     assert published.accepted and published.residual_deg == pytest.approx(outcome.residual_deg)
     assert 'residual accuracy' in json.loads(rig.results.last.data)['summary']
+    # The arbiter's tolerant rule now models the corrected tracker (set through its service).
+    assert graph.spin_until(lambda: arbiter.settings.accuracy_deg < 0.8, 5.0)
+    assert arbiter.settings.accuracy_deg == pytest.approx(outcome.residual_deg, abs=1e-6)
+    assert 0.0 < arbiter.settings.precision_deg < 1.0
 
 
 def test_targets_are_shown_in_front_of_the_camera_at_their_screen_points(graph, rigs):
