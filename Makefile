@@ -34,7 +34,7 @@ accuracy: $(STAMP)
 	$(PY) -m eye_bci_ros2.experiments.accuracy_test $(ARGS)
 
 lint: $(STAMP)
-	$(PY) -m pytest test/test_flake8.py test/test_pep257.py
+	$(PY) -m pytest test/lint
 
 # colcon build into ./install, as on a ROS machine (uses the venv's colcon and rclpy).
 build: $(STAMP)

@@ -95,7 +95,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.experiments.metrics import wolpaw_bits
+from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
 from eye_bci_ros2.experiments.trials import decide_trial, ORIGINAL, settings_for
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings
@@ -114,8 +114,6 @@ SIZES = (60, 100, 150, 200)
 PITCH = 1.5
 #: Window of the window rules and of the node's fallback, s.
 WINDOW_S = 1.0
-#: Time counted for the gaze shift in the ITR, s (from the issue).
-GAZE_SHIFT_S = 0.5
 #: The true eye within this of the target centre has landed, degrees.
 LANDED_DEG = 0.1
 #: Test trials per cell (full, quick) and tuning trials per cell and scenario at 90 Hz.

@@ -39,7 +39,7 @@ from typing import Dict, List
 
 import numpy as np
 
-from eye_bci_ros2.experiments.metrics import wolpaw_bits
+from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
 from eye_bci_ros2.sim.eeg import (calibration_session, EegSimulator, narrowband_snr_db,
                                   SUBJECTS)
@@ -53,8 +53,6 @@ from eye_bci_ros2.ssvep.training import fit_trca
 ROOMS = ('kitchen', 'living_room', 'bedroom', 'office')
 TABLES = ('table_1', 'table_2', 'table_3')
 WINDOWS_S = (0.5, 1.0, 1.5, 2.0)
-#: Time between selections besides the window (cue, gaze shift), s.
-GAZE_SHIFT_S = 0.5
 #: Longest round of the online rounds, s; the gaze window of the arbiter, s.
 ROUND_S = 5.0
 GAZE_WINDOW_S = 1.0

@@ -14,6 +14,10 @@ selections, which the caller accounts for).
 
 import math
 
+#: Time a benchmark counts between selections besides the decision: the cue and the gaze
+#: shift to the next option, s (Nakanishi et al. 2018's 0.5 s; bench/decision, bench/ssvep).
+GAZE_SHIFT_S = 0.5
+
 
 def wolpaw_bits(choices: int, accuracy: float) -> float:
     """

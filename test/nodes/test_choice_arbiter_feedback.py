@@ -1,19 +1,15 @@
 """choices/feedback from the choice_arbiter: what the person sees while the selection happens."""
 
+from arbiter_rig import ArbiterRig, to_time
 from builtin_interfaces.msg import Time
 import numpy as np
 import pytest
-from rclpy.parameter import Parameter
 from ros_harness import Collector, gaze_messages
-from sensor_msgs.msg import PointCloud2
-from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.feedback import STATE_COLOURS
-from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import cube_marker, regions_to_marker_array
-from eye_bci_ros2.nodes.topics import (CHOICES_QOS, EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC,
-                                       GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS)
+from eye_bci_ros2.nodes.topics import (CHOICES_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC)
 
 pytestmark = pytest.mark.ros
 
@@ -23,12 +19,6 @@ OPTIONS = {'kitchen': ((2.0, 6.0, 0.05), (500.0, 500.0)),
 KEYS = {('rooms', 0), ('rooms', 1)}
 TRACKER_HZ = 1200.0
 CHUNK = 24   # samples per gaze/samples message: 20 ms at 1200 Hz
-
-
-def to_time(seconds: float) -> Time:
-    """builtin_interfaces/Time of a float stamp, s."""
-    sec = int(seconds // 1)
-    return Time(sec=sec, nanosec=int(round((seconds - sec) * 1e9)) % 1000000000)
 
 
 def seconds(stamp: Time) -> float:
@@ -48,29 +38,18 @@ def state_of(marker):
                 if tuple(round(v, 3) for v in rgba) == colour(marker))
 
 
-class Rig:
+class Rig(ArbiterRig):
     """The arbiter; a driver publishing the options (world), their regions (screen) and gaze."""
 
     def __init__(self, graph, **parameters):
-        self.graph = graph
-        parameters = {'max_future_s': 5.0, **parameters}
-        self.arbiter = graph.add(ChoiceArbiter, parameter_overrides=[
-            Parameter(name, value=value) for name, value in parameters.items()])
-        driver = self.driver = graph.node('feedback_driver')
-        self.choices_pub = driver.create_publisher(MarkerArray, 'choices', CHOICES_QOS)
-        self.regions = driver.create_publisher(MarkerArray, 'choices/regions', LATCHED_QOS)
-        self.gaze = driver.create_publisher(PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)
-        self.choices = Collector(driver, String, 'choice', EVENT_QOS)
-        self.feedback = Collector(driver, MarkerArray, FEEDBACK_TOPIC, FEEDBACK_QOS)
-        publishers = (self.choices_pub, self.regions, self.gaze)
-        assert graph.spin_until(
-            lambda: all(p.get_subscription_count() > 0 for p in publishers)
-            and driver.count_publishers(FEEDBACK_TOPIC) > 0, 10.0), 'topics did not connect'
-        self.rng = np.random.default_rng(5)
+        super().__init__(graph, 'feedback_driver', 5, **parameters)
 
-    def now(self) -> float:
-        """Return the ROS clock, s."""
-        return self.driver.get_clock().now().nanoseconds * 1e-9
+    def setup(self):
+        """Add the options (``choices``) and the feedback collector."""
+        self.choices_pub = self.driver.create_publisher(MarkerArray, 'choices', CHOICES_QOS)
+        self.feedback = Collector(self.driver, MarkerArray, FEEDBACK_TOPIC, FEEDBACK_QOS)
+        self.publishers.append(self.choices_pub)
+        self.awaited.append(FEEDBACK_TOPIC)
 
     def offer(self):
         """Publish the options (as the menu does) and their screen regions (as the projector)."""

@@ -1,17 +1,15 @@
 """The choice_arbiter's default tolerant rule, through its topics and the parameter service."""
 
-from builtin_interfaces.msg import Time
+from arbiter_rig import ArbiterRig, to_time
 import numpy as np
 import pytest
 from rclpy.parameter import Parameter
-from ros_harness import Collector, gaze_messages
-from sensor_msgs.msg import PointCloud2
-from std_msgs.msg import Empty, String
-from visualization_msgs.msg import Marker, MarkerArray
+from ros_harness import gaze_messages
+from std_msgs.msg import Empty
+from visualization_msgs.msg import Marker
 
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import regions_to_marker_array
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
 
 pytestmark = pytest.mark.ros
 
@@ -27,39 +25,11 @@ LEFT_PAIR, RIGHT_PAIR, MIDWAY = (960.0, 540.0), (1060.0, 540.0), (1010.0, 540.0)
 FAR = (200.0, 950.0)
 
 
-def to_time(seconds: float) -> Time:
-    """builtin_interfaces/Time of a float stamp, s."""
-    sec = int(seconds // 1)
-    return Time(sec=sec, nanosec=int(round((seconds - sec) * 1e9)) % 1000000000)
-
-
-class Rig:
+class Rig(ArbiterRig):
     """The arbiter plus a driver publishing small regions, gaze and requests."""
 
     def __init__(self, graph, **parameters):
-        self.graph = graph
-        parameters = {'max_future_s': 5.0, **parameters}
-        self.arbiter = graph.add(ChoiceArbiter, parameter_overrides=[
-            Parameter(name, value=value) for name, value in parameters.items()])
-        self.driver = graph.node('tolerant_driver')
-        self.regions = self.driver.create_publisher(MarkerArray, 'choices/regions', LATCHED_QOS)
-        self.gaze = self.driver.create_publisher(PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)
-        self.request_pub = self.driver.create_publisher(Empty, 'choice/request', EVENT_QOS)
-        self.choices = Collector(self.driver, String, 'choice', EVENT_QOS)
-        publishers = (self.regions, self.gaze, self.request_pub)
-        assert graph.spin_until(
-            lambda: all(p.get_subscription_count() > 0 for p in publishers)
-            and self.driver.count_publishers('choice') > 0, 10.0), 'topics did not connect'
-        self.rng = np.random.default_rng(11)
-
-    @property
-    def labels(self):
-        """Return the choices received so far."""
-        return [message.data for message in self.choices.messages]
-
-    def now(self) -> float:
-        """Return the ROS clock, s."""
-        return self.driver.get_clock().now().nanoseconds * 1e-9
+        super().__init__(graph, 'tolerant_driver', 11, **parameters)
 
     def offer(self, layout, side=16.0):
         """Publish ``layout`` (label -> centre px) as ``side`` px squares; return the stamp."""
