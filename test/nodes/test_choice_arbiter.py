@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 from rclpy.parameter import Parameter
 from ros_harness import gaze_messages
-from std_msgs.msg import Empty
 from visualization_msgs.msg import Marker
 
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
@@ -45,13 +44,6 @@ class Rig(ArbiterRig):
         if new_round:
             assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, 10.0)
         return stamp
-
-    def request(self):
-        """Ask for a choice; return once the arbiter has started the round."""
-        rounds = self.arbiter.rounds_started
-        self.request_pub.publish(Empty())
-        assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, 10.0)
-        return self.now()
 
     def looks(self, centre, count, spread=15.0):
         """Gaze positions around a screen point, shape (count, 2) px."""

@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 from rclpy.parameter import Parameter
 from ros_harness import gaze_messages
-from std_msgs.msg import Empty
 from visualization_msgs.msg import Marker
 
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
@@ -43,13 +42,6 @@ class Rig(ArbiterRig):
         self.regions.publish(regions_to_marker_array(polygons, sources, to_time(stamp)))
         assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, 10.0)
         return stamp
-
-    def request(self):
-        """Ask for a choice; return once the round has started."""
-        rounds = self.arbiter.rounds_started
-        self.request_pub.publish(Empty())
-        assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, 10.0)
-        return self.now()
 
     def rest(self, point, start, seconds=1.1, lead_s=0.2):
         """Publish gaze off the options for ``lead_s`` then resting at ``point`` (100 Hz)."""

@@ -66,3 +66,10 @@ class ArbiterRig:
     def now(self) -> float:
         """Return the ROS clock, s."""
         return self.driver.get_clock().now().nanoseconds * 1e-9
+
+    def request(self) -> float:
+        """Ask for a choice; return the clock once the arbiter has started the round, s."""
+        rounds = self.arbiter.rounds_started
+        self.request_pub.publish(Empty())
+        assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, 10.0)
+        return self.now()
