@@ -55,11 +55,12 @@ Run: ``python -m bench.tolerance`` (about a minute; ``--quick``: seconds;
 """
 
 import argparse
+import functools
 import json
 import math
 import sys
 import time
-from typing import Dict, Optional, Sequence
+from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -238,7 +239,8 @@ def smallest(rules: Sequence[str] = tuple(RULES), trials: int = SEARCH_TRIALS,
 CORRECTED_ACCURACY_DEG = 0.2
 
 
-def _validated(params: GazeParams, trial_seed: int) -> list:
+@functools.lru_cache(maxsize=4096)
+def _validated(params: GazeParams, trial_seed: int) -> Tuple[float, ...]:
     """Validate one simulated person (9 targets, 1.5 s each) and return the fitted correction."""
     targets = target_layout(9, params.person.screen.width_px, params.person.screen.height_px)
     # 20 s before the trial (the drift moves on meanwhile).
@@ -247,7 +249,7 @@ def _validated(params: GazeParams, trial_seed: int) -> list:
         1.5 * len(targets), [(float(t), tuple(xy)) for t, xy in zip(onsets, targets)],
         start_s=float(onsets[0]))
     samples = samples_per_target(trace.t, trace.xy, onsets, onsets + 1.5)
-    return fit_correction(targets, samples, screen=params.person.screen).values
+    return tuple(fit_correction(targets, samples, screen=params.person.screen).values)
 
 
 def _midway_trials(count: int, size: float, seeds, params: GazeParams,

@@ -553,10 +553,11 @@ class RoundEvidence:
         label = ids[region[inside]]
         finite = np.isfinite(points).all(axis=1)
         self._track_rest(points, stamps, finite)
+        valid = finite    # the share test's samples (module doc)
         if self.screen_px is not None:
             with np.errstate(invalid='ignore'):
-                finite &= np.all((points >= -SCREEN_MARGIN_PX)
-                                 & (points <= self.screen_px + SCREEN_MARGIN_PX), axis=1)
+                valid = finite & np.all((points >= -SCREEN_MARGIN_PX)
+                                        & (points <= self.screen_px + SCREEN_MARGIN_PX), axis=1)
         run_count, run_start = self._runs(label, stamps[inside])
         fresh = run_start >= self.fresh_from
         stop = len(points)
@@ -564,7 +565,7 @@ class RoundEvidence:
         every = None
         if self.min_share > 0:
             # Label id of every sample of the batch, for the early share test.
-            every = np.where(finite, _NO_REGION, _NOT_VALID)
+            every = np.where(valid, _NO_REGION, _NOT_VALID)
             every[inside] = label
         if confidence is not None and inside.size:
             share_ok = None if every is None else \
@@ -587,12 +588,12 @@ class RoundEvidence:
             self._run_count = int(run_count[kept - 1])
             self._run_start = float(run_start[kept - 1])
         self.samples += int(stop)
-        self.valid += int(np.count_nonzero(finite[:stop]))
+        self.valid += int(np.count_nonzero(valid[:stop]))
         self.in_region += kept
         self.last_stamp = float(stamps[stop - 1])
         last = int(region[stop - 1])
         self._last_label = int(ids[last]) if last >= 0 else (
-            _NO_REGION if finite[stop - 1] else _NOT_VALID)
+            _NO_REGION if valid[stop - 1] else _NOT_VALID)
         if every is not None:
             self._remember(stamps[:stop], every[:stop])
         if decided is not None:

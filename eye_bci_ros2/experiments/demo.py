@@ -78,13 +78,15 @@ from eye_bci_ros2.menu import BACK_LABEL
 from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
                                             marker_label, pose_to_arrays)
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
+from eye_bci_ros2.nodes.feedback_markers import OptionMarkers
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.nodes.runner import make_executor, spin_until as _spin_until
 from eye_bci_ros2.nodes.ssvep_decoder import SsvepDecoder
 from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
 from eye_bci_ros2.nodes.ssvep_stimulus_map import SsvepStimulusMap
 from eye_bci_ros2.nodes.topics import (EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS,
-                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, SSVEP_STIMULI_TOPIC)
+                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, REQUEST_TOPIC,
+                                       SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.scene import load_scene, Scene
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
@@ -314,13 +316,12 @@ class ExperimentDriver(Node):
     """
 
     def __init__(self, scene: Scene, script: List[Tuple[str, str]], streamer: GazeStreamer,
-                 arbiter, view, options: DemoOptions, eeg=None, menu=None, **kwargs):
+                 arbiter, options: DemoOptions, eeg=None, menu=None, **kwargs):
         """
         Subscribe to what the screen shows and what the system decides.
 
         :param arbiter: the ChoiceArbiter node of this process (its
             ``last_decision`` is read after every callback).
-        :param view: the SimRvizView node (is the camera still moving?).
         :param eeg: the simulated EEG (an EegStreamer) for the ssvep and hybrid inputs:
             it shows the stimuli of ``ssvep/stimuli`` and attends the intended option.
         :param menu: the ChoiceMenu node of this process (its state, for messages).
@@ -331,7 +332,6 @@ class ExperimentDriver(Node):
         self.script = script
         self.streamer = streamer
         self.arbiter = arbiter
-        self.view = view
         self.menu = menu
         self.options = options
         self._base_camera = RvizCamera.from_look_at(
@@ -357,9 +357,9 @@ class ExperimentDriver(Node):
         self._seen_decision: Optional[Decision] = None
         self._no_choice = 0
         self._target_path: List[Tuple[float, float, float]] = []
-        self.create_subscription(Empty, 'choice/request', self._on_request, EVENT_QOS)
-        # The feedback halos (choices/feedback) as RViz would show them: (ns, id) -> Marker.
-        self.halos: Dict[Tuple[str, int], Marker] = {}
+        self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
+        # The feedback halos (choices/feedback) as RViz would show them.
+        self.halos = OptionMarkers()
         self.create_subscription(MarkerArray, FEEDBACK_TOPIC, self._on_feedback, FEEDBACK_QOS)
         self.create_subscription(String, 'choice_menu/answer', self._on_answer, EVENT_QOS)
         self.create_subscription(MarkerArray, 'choices', self._on_choices, LATCHED_QOS)
@@ -421,14 +421,7 @@ class ExperimentDriver(Node):
         self.region_history.append(RegionSet(labels, polygons, stamp))
 
     def _on_feedback(self, message: MarkerArray) -> None:
-        for marker in message.markers:
-            if marker.action == Marker.DELETEALL:
-                self.halos = {key: m for key, m in self.halos.items() if marker.ns
-                              and key[0] != marker.ns}
-            elif marker.action == Marker.DELETE:
-                self.halos.pop((marker.ns, marker.id), None)
-            else:
-                self.halos[(marker.ns, marker.id)] = marker
+        self.halos.apply(message)
 
     def _on_request(self, message: Empty) -> None:
         """Note when the menu asks its question (the arbiter starts a round)."""
@@ -593,9 +586,9 @@ class ExperimentDriver(Node):
         points = np.array(self.gaze_points, dtype=float).reshape(-1, 2)
         use = (stamps >= start) & (stamps <= end + 1e-9) & (stamps < start + self.options.window_s)
         stamps, points = stamps[use], points[use]
-        settings = getattr(self.arbiter, 'settings', None)
+        settings = self.arbiter.settings
         inside = classify_against_history(stamps, points, self.region_history,
-                                          settings.regions if settings is not None else None)
+                                          settings.regions)
         # The outlines shown at the last sample used (the menu may have moved on since).
         shown = [r for r in self.region_history if r.stamp <= end] or self.region_history[:1]
         latest = shown[-1] if shown else RegionSet([], [])
@@ -628,18 +621,17 @@ class ExperimentDriver(Node):
             floors=floor_polygons(self.scene, self.camera), regions=regions, colours=colours,
             gaze=points, gaze_in_region=inside, mean_point=decision.mean_point,
             chosen=decision.label, intended=selection.intended, target_path=path,
-            rule=settings.describe() if settings is not None else '',
+            rule=settings.describe(),
             halos=self._halos())
 
     def _halos(self) -> List[Tuple[np.ndarray, Tuple[float, float, float, float]]]:
         """Return the feedback halos shown now, as screen outlines with their colours."""
-        if self.camera is None or not self.halos:
+        markers = self.halos.options
+        if self.camera is None or not markers:
             return []
-        markers = list(self.halos.values())
+        positions, quaternions = zip(*(pose_to_arrays(m.pose) for m in markers))
         polygons, visible = self.camera.box_regions(
-            [pose_to_arrays(m.pose)[0] for m in markers],
-            [pose_to_arrays(m.pose)[1] for m in markers],
-            [(m.scale.x, m.scale.y, m.scale.z) for m in markers])
+            positions, quaternions, [(m.scale.x, m.scale.y, m.scale.z) for m in markers])
         return [(polygon, (m.color.r, m.color.g, m.color.b, m.color.a))
                 for polygon, shown, m in zip(polygons, visible, markers) if shown]
 
@@ -749,9 +741,8 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                 nodes.append(SsvepDecoder(context=context, parameter_overrides=[
                     Parameter('source_id', value=eeg_id),
                     Parameter('keep_scoring', value=options.input_mode == 'hybrid')]))
-            driver = ExperimentDriver(scene, script, streamer, named['choice_arbiter'], view,
-                                      options, eeg=eeg, menu=named['choice_menu'],
-                                      context=context)
+            driver = ExperimentDriver(scene, script, streamer, named['choice_arbiter'], options,
+                                      eeg=eeg, menu=named['choice_menu'], context=context)
             nodes.append(driver)
             for node in nodes:
                 executor.add_node(node)

@@ -183,7 +183,7 @@ class GazeValidation(Node):
         self.create_subscription(PoseStamped, 'camera/pose', self._on_pose, LATCHED_QOS)
         self.create_subscription(Empty, VALIDATION_START_TOPIC, self._on_start, EVENT_QOS)
         self._bridge = AsyncParameterClient(self, self._params['bridge_node'])
-        self._arbiter = AsyncParameterClient(self, self._params['arbiter_node'] or 'none')
+        self._arbiter = self._arbiter_client()
         # The gaze received while a pass collects: lists of (stamps (N,), xy (N, 2)).
         self._gaze: Optional[List[tuple]] = None
         self._newest_stamp = -math.inf
@@ -208,7 +208,12 @@ class GazeValidation(Node):
         if 'bridge_node' in changed:
             self._bridge = AsyncParameterClient(self, self._params['bridge_node'])
         if 'arbiter_node' in changed:
-            self._arbiter = AsyncParameterClient(self, self._params['arbiter_node'] or 'none')
+            self._arbiter = self._arbiter_client()
+
+    def _arbiter_client(self) -> Optional[AsyncParameterClient]:
+        """Return the parameter client of ``arbiter_node`` (None when it is '')."""
+        name = self._params['arbiter_node']
+        return AsyncParameterClient(self, name) if name else None
 
     def _on_start(self, _message: Empty) -> None:
         if self._run is not None:
@@ -323,7 +328,7 @@ class GazeValidation(Node):
             for line in again.lines():
                 self.get_logger().info(f'residual: {line}')
             outcome.residual_deg, outcome.residual_px = again.accuracy_deg, again.accuracy_px
-            if params['arbiter_node']:
+            if self._arbiter is not None:
                 # A pipeline without an arbiter is fine: do not wait long for one.
                 yield from self._set_error_model(again, min(params['bridge_timeout_s'],
                                                             ARBITER_WAIT_S))
