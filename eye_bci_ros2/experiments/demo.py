@@ -71,7 +71,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET,
                                        optical_pose_from_ogre, RVIZ_FOV_Y_DEG, RvizCamera)
-from eye_bci_ros2.evidence import Decision, METHODS
+from eye_bci_ros2.evidence import Decision
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
 from eye_bci_ros2.menu import BACK_LABEL
@@ -88,6 +88,7 @@ from eye_bci_ros2.nodes.topics import (EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC, 
                                        GAZE_SAMPLES_TOPIC, LATCHED_QOS, REQUEST_TOPIC,
                                        SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.regions import RegionSet
+from eye_bci_ros2.rounds import METHODS
 from eye_bci_ros2.scene import load_scene, Scene
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
 from eye_bci_ros2.sim.eeg_outlet import EegStreamer

@@ -55,7 +55,7 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.evidence import Decision, MAX_REACTION_S, METHODS
+from eye_bci_ros2.evidence import Decision, MAX_REACTION_S
 from eye_bci_ros2.feedback import build_feedback, Feedback, FeedbackThrottle
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
 from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
@@ -68,7 +68,7 @@ from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, EVENT_QOS, FEE
                                        NO_CHOICE_TOPIC, REQUEST_TOPIC, SCORES_QOS,
                                        SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, RoundScheduler
+from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, METHODS, RoundScheduler
 from eye_bci_ros2.tolerance import CLASSIFICATIONS
 
 #: choices/feedback shows at most this many options (one halo each, ~30 times a second).
