@@ -50,7 +50,7 @@ from eye_bci_ros2.experiments.trials import decide_trial, ORIGINAL
 from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.gaze import find_recordings, GazeRecording, load_gaze
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings
+from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE
 from eye_bci_ros2.visual_angle import px_per_degree_at
 
 #: Option sizes, px, and option counts of the intent rounds.
@@ -74,8 +74,7 @@ SWEEP_LEAD_S = 0.3
 CURVE = (0.8, 0.9, 0.95, 0.99, 0.999)
 
 #: The previous default rule (tolerant counts, share test, early decision on a 20 ms run).
-COUNT_EARLY = ArbiterSettings(method='mean', early_decision=True, confidence=0.95,
-                              dwell_s=0.02)
+COUNT_EARLY = ArbiterSettings(**dict(COUNT_RULE, early_decision=True))
 
 #: Rule name -> settings (the screen is set per recording).
 RULES: Dict[str, ArbiterSettings] = {

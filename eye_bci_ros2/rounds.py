@@ -53,6 +53,11 @@ METHODS = ('fixation',) + COUNT_METHODS
 #: every decision is the original report's.
 ORIGINAL_RULE = {'classification': 'inside', 'min_share': 0.0}
 
+#: The tolerant sample-count rule as the node ran it before the fixation rule became the
+#: default (window-end mean with the share test; its early decision, when switched on,
+#: needed a 0.95 posterior and a 20 ms run): ``ArbiterSettings(**COUNT_RULE)``.
+COUNT_RULE = {'method': 'mean', 'early_decision': False, 'confidence': 0.95, 'dwell_s': 0.02}
+
 #: Settings that make up a round's rule (classification and share test): a change applies
 #: from the next round on (:meth:`RoundScheduler.configure`).
 RULE_FIELDS = ('classification', 'accuracy_deg', 'precision_deg', 'k_sigma', 'ratio',
