@@ -18,8 +18,11 @@ velocity threshold sees a saccade in one or two samples and cannot tell it
 from noise; a dispersion test can, at every rate).  A sample farther than
 that from the mean is held back: when held-back samples keep within the
 radius of each other for :data:`SETTLE_S`, a new fixation begins at the first
-of them (the eye moved and landed); a held-back sample followed by one back
-near the mean was a spike and is dropped.  Samples moving fast (a saccade)
+of them (the eye moved and landed); held-back samples followed by one back
+near the mean were a spike and are dropped, and a fixation shorter than four
+times that after which the gaze lands back on the one before was an
+excursion (a binocular tracker switching eyes, a burst of noise): the
+earlier fixation goes on.  Samples moving fast (a saccade)
 never keep within the radius of each other, so they start no fixation.  Lost
 samples (NaN, blinks) neither end nor extend a fixation.
 
@@ -48,8 +51,10 @@ menu asks again.
 Still fixations only.  An eye following a moving thing (smooth pursuit) drags
 a dispersion window along; a fixation decides only while the means of the
 first and second halves of its last ``dwell_s`` lie within
-:data:`STILL_DEG` of each other (pursuit moves at 5-30 deg/s, fixational
-drift well under 1 deg/s).
+:data:`STILL_DEG` of each other plus :data:`STILL_SIGMAS` standard errors of
+that distance from the samples' own scatter (pursuit moves at 5-30 deg/s,
+fixational drift well under 1 deg/s; a noisy 60 Hz tracker cannot tell slow
+pursuit from a fixation within a dwell, a quiet fast one can).
 
 The rule's figures on real and simulated gaze come from
 ``python -m bench.real_gaze`` (docs/selection.md).
@@ -71,8 +76,9 @@ from eye_bci_ros2.visual_angle import px_per_degree_at, ScreenGeometry
 FIXATION_RADIUS_DEG = 1.0
 
 #: Held-back samples that keep together this long start a new fixation, s: a landing,
-#: not a spike (one sample) nor a saccade in flight (it leaves the radius in ~10 ms).
-SETTLE_S = 0.015
+#: not a spike (one or two samples) nor a saccade in flight (it leaves the radius in
+#: ~10 ms).  It costs no time: the new fixation's time counts from its first sample.
+SETTLE_S = 0.04
 
 #: A fixation within this of where the gaze rested at the round start is still the
 #: resting gaze, degrees: re-fixations and drift corrections around a point are mostly
@@ -82,6 +88,9 @@ REST_RADIUS_DEG = 2.0
 #: A fixation whose last dwell_s moved more than this (between its halves' means) is an
 #: eye in pursuit, degrees (module doc).
 STILL_DEG = 0.5
+
+#: ... beyond what the samples' own noise explains, in standard errors.
+STILL_SIGMAS = 2.0
 
 #: Spread of where a person looks within an option, per axis, as a share of its size
 #: (a uniform spread over a square is 0.29; people look nearer the centre).
@@ -95,7 +104,7 @@ MAX_SIGMAS = 3.0
 class _Fixation:
     """A fixation under way: first and last stamp, sum of its points, count."""
 
-    __slots__ = ('first', 'last', 'total', 'count', 'fresh', 'stamps', 'sums')
+    __slots__ = ('first', 'last', 'total', 'count', 'fresh', 'stamps', 'sums', 'squares')
 
     def __init__(self, samples: List[Tuple[float, np.ndarray]], fresh: bool):
         self.first, self.last = samples[0][0], samples[-1][0]
@@ -105,6 +114,7 @@ class _Fixation:
         # Stamps and running sums of its points (the stillness test over its last dwell_s).
         self.stamps = [stamp for stamp, _ in samples]
         self.sums = list(np.cumsum([point for _, point in samples], axis=0))
+        self.squares = list(np.cumsum([float(point @ point) for _, point in samples]))
 
     def add(self, stamp: float, point: np.ndarray) -> None:
         """Take one more sample."""
@@ -113,19 +123,31 @@ class _Fixation:
         self.last = stamp
         self.stamps.append(stamp)
         self.sums.append(self.sums[-1] + point)
+        self.squares.append(self.squares[-1] + float(point @ point))
 
-    def movement(self, span: float) -> float:
-        """Distance between the means of the two halves of its last ``span`` s, px."""
+    def movement(self, span: float) -> Tuple[float, float]:
+        """
+        How far its last ``span`` s moved, and what noise alone would give, px.
+
+        :returns: the distance between the means of the two halves of the
+            span, and the standard error of that distance from the samples'
+            own scatter about their mean (per axis).
+        """
         stamps = self.stamps
         first = bisect.bisect_left(stamps, self.last - span)
         middle = bisect.bisect_left(stamps, self.last - span / 2)
         last = len(stamps) - 1
         if not first < middle <= last:
-            return 0.0
+            return 0.0, 0.0
         before = self.sums[first - 1] if first else 0.0
         older = (self.sums[middle - 1] - before) / (middle - first)
         newer = (self.sums[last] - self.sums[middle - 1]) / (last - middle + 1)
-        return float(math.hypot(*(newer - older)))
+        count = last - first + 1
+        mean = (self.sums[last] - before) / count
+        squares = self.squares[last] - (self.squares[first - 1] if first else 0.0)
+        scatter = max(squares / count - float(mean @ mean), 0.0) / 2.0    # per axis, px^2
+        error = math.sqrt(scatter * (1.0 / (middle - first) + 1.0 / (last - middle + 1)))
+        return float(math.hypot(*(newer - older))), error
 
     @property
     def centre(self) -> np.ndarray:
@@ -361,10 +383,21 @@ class FixationEvidence:
         held.append((stamp, point.copy()))
         if held[-1][0] - held[0][0] < SETTLE_S:
             return False
-        if self._latest is not None:
-            self._done.append((current, self._latest))
-            del self._done[:-64]   # the window-end rule looks back a few fixations
-        self._current = self._new_fixation(list(held))
+        landing = np.mean([p for _, p in held], axis=0)
+        previous = self._done[-1][0] if self._done else None
+        if (previous is not None and current.duration < SETTLE_S * 4
+                and math.hypot(*(landing - previous.centre)) <= self._radius_px):
+            # Back where the gaze was before a short excursion (a tracker switching eyes,
+            # a burst of noise): the earlier fixation goes on, the excursion is dropped.
+            self._done.pop()
+            for sample in held:
+                previous.add(*sample)
+            self._current = previous
+        else:
+            if self._latest is not None:
+                self._done.append((current, self._latest))
+                del self._done[:-64]   # the window-end rule looks back a few fixations
+            self._current = self._new_fixation(list(held))
         held.clear()
         return True
 
@@ -380,8 +413,10 @@ class FixationEvidence:
 
     def _settled(self, fixation: _Fixation) -> bool:
         """Whether a fixation lasted dwell_s with min_samples and held still (module doc)."""
-        return (fixation.duration >= self.dwell_s - 1e-9 and fixation.count >= self.min_samples
-                and fixation.movement(self.dwell_s) <= self._still_px)
+        if fixation.duration < self.dwell_s - 1e-6 or fixation.count < self.min_samples:
+            return False
+        moved, noise = fixation.movement(self.dwell_s)
+        return moved <= self._still_px + STILL_SIGMAS * noise
 
     def _option_geometry(self, region_set: RegionSet) -> tuple:
         """Centres (R, 2) px and sizes (R,) px of a set's options (once per set)."""
