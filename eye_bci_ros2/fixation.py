@@ -18,7 +18,8 @@ velocity threshold sees a saccade in one or two samples and cannot tell it
 from noise; a dispersion test can, at every rate).  A sample farther than
 that from the mean is held back: when held-back samples keep within the
 radius of each other for :data:`SETTLE_S`, a new fixation begins at the first
-of them (the eye moved and landed); held-back samples followed by one back
+of them (the eye moved and landed; one sample far from them is a spike unless
+the next one joins it); held-back samples followed by one back
 near the mean were a spike and are dropped, and a fixation shorter than four
 times that after which the gaze lands back on the one before was an
 excursion (a binocular tracker switching eyes, a burst of noise): the
@@ -41,8 +42,8 @@ long enough for the corrective saccade that follows most transient landings.
 Fresh fixations only.  A fixation that began before ``start +
 min_reaction_s`` (a gaze resting there when the question came) or before the
 options last moved + ``min_reaction_s``, and a later one within
-:data:`REST_RADIUS_DEG` of such a resting place, are not a reaction to
-the question, and never choose, early or at the window end: a gaze resting
+:data:`REST_RADIUS_DEG` of such a resting place before the gaze has left it
+(a fixation farther away), are not a reaction to the question, and never choose, early or at the window end: a gaze resting
 near an option (looking at something else) measures inside it as often as
 the tracker's error reaches across its edge, so a choice needs the eye to move
 to the option.  The round ends without a choice, with that reason, and the
@@ -210,6 +211,8 @@ class FixationEvidence:
         self._counts: Dict[str, int] = {}
         self._current: Optional[_Fixation] = None
         self._held: List[Tuple[float, np.ndarray]] = []
+        # A held-back sample far from the others: a spike if the next one does not join it.
+        self._stray: Optional[Tuple[float, np.ndarray]] = None
         self._done: List[Tuple[_Fixation, RegionSet]] = []
         self._rest: Optional[np.ndarray] = None
         self._latest: Optional[RegionSet] = None
@@ -376,11 +379,18 @@ class FixationEvidence:
         if math.hypot(*(point - current.centre)) <= self._radius_px:
             current.add(stamp, point)
             self._held.clear()    # anything held back was a spike
+            self._stray = None
             return True
-        held = self._held
-        if held and math.hypot(*(point - held[0][1])) > self._radius_px:
-            held.clear()          # still moving: a saccade in flight
-        held.append((stamp, point.copy()))
+        held, sample = self._held, (stamp, point.copy())
+        if not held or math.hypot(*(point - held[0][1])) <= self._radius_px:
+            held.append(sample)
+            self._stray = None
+        elif self._stray is not None and math.hypot(*(point - self._stray[1])) <= self._radius_px:
+            held[:] = [self._stray, sample]     # the eye moved on: a new landing
+            self._stray = None
+        else:
+            self._stray = sample                # a spike, or a saccade in flight: wait
+            return False
         if held[-1][0] - held[0][0] < SETTLE_S:
             return False
         landing = np.mean([p for _, p in held], axis=0)
@@ -399,6 +409,7 @@ class FixationEvidence:
                 del self._done[:-64]   # the window-end rule looks back a few fixations
             self._current = self._new_fixation(list(held))
         held.clear()
+        self._stray = None
         return True
 
     def _new_fixation(self, samples: List[Tuple[float, np.ndarray]]) -> _Fixation:
@@ -406,9 +417,11 @@ class FixationEvidence:
         fixation = _Fixation(samples, fresh=samples[0][0] >= self.fresh_from)
         if not fixation.fresh:
             self._rest = fixation.centre if self._rest is None else self._rest
-        elif (self._rest is not None
-              and math.hypot(*(fixation.centre - self._rest)) <= self._rest_px):
-            fixation.fresh = False
+        elif self._rest is not None:
+            if math.hypot(*(fixation.centre - self._rest)) <= self._rest_px:
+                fixation.fresh = False
+            else:
+                self._rest = None     # the gaze left its resting place: it reacts from now on
         return fixation
 
     def _settled(self, fixation: _Fixation) -> bool:
