@@ -39,6 +39,7 @@ REGISTRY: Dict[str, str] = {
     'arbitration': 'bench.arbitration',
     'latency': 'bench.latency',
     'gaze_rate': 'bench.gaze_rate',
+    'real_gaze': 'bench.real_gaze',
     'decision': 'bench.decision',
     'tolerance': 'bench.tolerance',
     'validation': 'bench.validation',

@@ -219,8 +219,9 @@ class FixationEvidence:
         self._moved_at = -math.inf
         self._classified: Dict[int, RegionSet] = {}
         self._options: Dict[int, tuple] = {}
-        # The newest test of the current fixation: (label or None, posterior), for feedback.
-        self._leader: Tuple[Optional[str], float] = (None, 0.0)
+        # The newest test of the current fixation: (fixation, region set, its centre then,
+        # the result), not repeated while neither moved.
+        self._judged: Optional[tuple] = None
 
     # -- the interface of a round's evidence ------------------------------------------------
 
@@ -295,8 +296,7 @@ class FixationEvidence:
             current = self._current
             if confidence is None or not current.fresh or not self._settled(current):
                 continue
-            label, posterior, margin, _ = self._judge(current.centre, region_set)
-            self._leader = (label, posterior)
+            label, posterior, margin = self._judge_current(current, region_set)
             if label is not None and posterior >= confidence:
                 self.last_stamp = stamp
                 self.samples -= len(points) - index - 1
@@ -430,6 +430,18 @@ class FixationEvidence:
             return False
         moved, noise = fixation.movement(self.dwell_s)
         return moved <= self._still_px + STILL_SIGMAS * noise
+
+    def _judge_current(self, current: _Fixation, region_set: RegionSet
+                       ) -> Tuple[Optional[str], float, float]:
+        """Judge the current fixation, again only when it or the options moved (0.5 px)."""
+        centre = current.centre
+        cached = self._judged
+        if (cached is not None and cached[0] is current and cached[1] is region_set
+                and abs(cached[2][0] - centre[0]) + abs(cached[2][1] - centre[1]) < 0.5):
+            return cached[3]
+        label, posterior, margin, _ = self._judge(centre, region_set)
+        self._judged = (current, region_set, centre, (label, posterior, margin))
+        return label, posterior, margin
 
     def _option_geometry(self, region_set: RegionSet) -> tuple:
         """Centres (R, 2) px and sizes (R,) px of a set's options (once per set)."""
