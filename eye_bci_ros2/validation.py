@@ -499,13 +499,13 @@ class CorrectionFit:
 
     @property
     def values(self) -> List[float]:
-        """Return the ``gaze_correction`` parameter: 6 or 12 doubles (:func:`correction_values`)."""
+        """Return the ``gaze_correction`` parameter: :func:`correction_values`."""
         return correction_values(self.matrix)
 
 
 def choose_kind(held_out: Dict[str, np.ndarray]) -> str:
     """
-    Return the kind the held-out errors support: the simplest within one standard error of the best.
+    Return the kind held-out errors support: the simplest within one standard error of the best.
 
     :param held_out: kind -> per-target held-out errors (T,), degrees (:func:`held_out_errors`).
     """

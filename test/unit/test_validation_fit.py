@@ -6,10 +6,10 @@ offset, seen through a tracker whose error bends over the screen, and the
 real 9-point recordings when ``../shared/data/real_gaze`` is there.
 """
 
-from bench import correction_fit
 import numpy as np
 import pytest
 
+from bench import correction_fit
 from eye_bci_ros2.recordings import shared_data
 from eye_bci_ros2.sim.person import GazeSimulator, ORIGINAL_TOBII_4C
 from eye_bci_ros2.validation import (apply_correction, choose_kind, compose_corrections,
@@ -46,7 +46,7 @@ def run_validation(targets, seed, distort, correction=None):
 
 
 def layout_bend(size_px):
-    """The bend for the node's 9-target layout (outer targets at 10 % of the screen)."""
+    """Return the node's 9-target layout (outer targets at 10 % of the screen) and a bend."""
     targets = target_layout(9, SCREEN.width_px, SCREEN.height_px)
     half_span = np.abs(targets - SCREEN.centre_px).max(axis=0)
     return targets, lambda xy: bend(xy, size_px, SCREEN.centre_px, half_span)
