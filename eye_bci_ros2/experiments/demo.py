@@ -84,9 +84,10 @@ from eye_bci_ros2.nodes.runner import make_executor, spin_until as _spin_until
 from eye_bci_ros2.nodes.ssvep_decoder import SsvepDecoder
 from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
 from eye_bci_ros2.nodes.ssvep_stimulus_map import SsvepStimulusMap
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS,
-                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, REQUEST_TOPIC,
-                                       SSVEP_STIMULI_TOPIC)
+from eye_bci_ros2.nodes.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC,
+                                       GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                       MENU_ANSWER_TOPIC, MENU_RESULT_TOPIC, REGIONS_TOPIC,
+                                       REQUEST_TOPIC, RVIZ_CAMERA_POSE_TOPIC, SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.scene import load_scene, Scene
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
@@ -361,12 +362,12 @@ class ExperimentDriver(Node):
         # The feedback halos (choices/feedback) as RViz would show them.
         self.halos = OptionMarkers()
         self.create_subscription(MarkerArray, FEEDBACK_TOPIC, self._on_feedback, FEEDBACK_QOS)
-        self.create_subscription(String, 'choice_menu/answer', self._on_answer, EVENT_QOS)
-        self.create_subscription(MarkerArray, 'choices', self._on_choices, LATCHED_QOS)
-        self.create_subscription(Pose, 'rviz/current_camera_pose', self._on_camera, LATCHED_QOS)
-        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(String, MENU_ANSWER_TOPIC, self._on_answer, EVENT_QOS)
+        self.create_subscription(MarkerArray, CHOICES_TOPIC, self._on_choices, LATCHED_QOS)
+        self.create_subscription(Pose, RVIZ_CAMERA_POSE_TOPIC, self._on_camera, LATCHED_QOS)
+        self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
-        self.create_subscription(String, 'choice_menu/result', self._on_result, EVENT_QOS)
+        self.create_subscription(String, MENU_RESULT_TOPIC, self._on_result, EVENT_QOS)
         self.eeg = eeg
         # Answers the menu acted on, not yet recorded (label, ROS time s).
         self._answers: List[Tuple[str, float]] = []

@@ -63,9 +63,10 @@ from eye_bci_ros2.nodes.marker_projector import (camera_from_parameters,
                                                  PARAMETERS as PROJECTOR_PARAMETERS)
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
-                                       VALIDATION_RESULT_TOPIC, VALIDATION_START_TOPIC,
-                                       VALIDATION_TARGET_TOPIC, VALIDATION_TARGETS_TOPIC)
+from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
+                                       LATCHED_QOS, VALIDATION_RESULT_TOPIC,
+                                       VALIDATION_START_TOPIC, VALIDATION_TARGET_TOPIC,
+                                       VALIDATION_TARGETS_TOPIC)
 from eye_bci_ros2.validation import (
     as_matrix, compose_corrections, correction_values, CorrectionRefused, error_model,
     fit_correction, IDENTITY, implausibility, KINDS, measure, MIN_SAMPLES, MIN_TARGETS, NODE,
@@ -189,7 +190,7 @@ class GazeValidation(Node):
                                                   LATCHED_QOS)
         self._result_pub = self.create_publisher(String, VALIDATION_RESULT_TOPIC, EVENT_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
-        self.create_subscription(PoseStamped, 'camera/pose', self._on_pose, LATCHED_QOS)
+        self.create_subscription(PoseStamped, CAMERA_POSE_TOPIC, self._on_pose, LATCHED_QOS)
         self.create_subscription(Empty, VALIDATION_START_TOPIC, self._on_start, EVENT_QOS)
         self._bridge = AsyncParameterClient(self, self._params['bridge_node'])
         self._arbiter = self._arbiter_client()

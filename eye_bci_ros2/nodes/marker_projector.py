@@ -47,7 +47,8 @@ from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
-from eye_bci_ros2.nodes.topics import CHOICES_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, CHOICES_QOS, CHOICES_TOPIC, LATCHED_QOS,
+                                       REGIONS_TOPIC)
 
 #: Largest render panel side accepted, px.
 MAX_IMAGE_SIDE = 16384
@@ -318,9 +319,9 @@ class MarkerProjector(Node):
         self._expiry_timer.cancel()
         self._warnings = KeyedWarnings(self.get_logger())
         self._last_stamp: Optional[Time] = None
-        self._publisher = self.create_publisher(MarkerArray, 'choices/regions', LATCHED_QOS)
-        self.create_subscription(MarkerArray, 'choices', self._on_markers, CHOICES_QOS)
-        self.create_subscription(PoseStamped, 'camera/pose', self._on_camera, LATCHED_QOS)
+        self._publisher = self.create_publisher(MarkerArray, REGIONS_TOPIC, LATCHED_QOS)
+        self.create_subscription(MarkerArray, CHOICES_TOPIC, self._on_markers, CHOICES_QOS)
+        self.create_subscription(PoseStamped, CAMERA_POSE_TOPIC, self._on_camera, LATCHED_QOS)
         self.get_logger().info(f'projecting markers in \'{self._params["world_frame"]}\' with '
                                f'{self._camera!r}; waiting for camera/pose')
 
