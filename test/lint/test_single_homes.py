@@ -57,10 +57,10 @@ def test_topics_are_named_by_their_constants():
 
 def test_the_check_finds_a_literal(tmp_path):
     sample = tmp_path / 'sample.py'
-    sample.write_text("node.create_publisher(String, 'choice', 10)\n"
-                      "node.create_subscription(String, CHOICE_TOPIC, cb, 10)\n"
-                      "node.create_subscription(msg_type=String, topic=f'{ns}/x', "
-                      "callback=cb, qos_profile=10)\n")
+    sample.write_text('node.create_publisher(String, "choice", 10)\n'
+                      'node.create_subscription(String, CHOICE_TOPIC, cb, 10)\n'
+                      'node.create_subscription(msg_type=String, topic=f"{ns}/x", '
+                      'callback=cb, qos_profile=10)\n')
     assert list(topic_literals(sample)) == [(1, "'choice'"), (3, "f'{ns}/x'")]
 
 

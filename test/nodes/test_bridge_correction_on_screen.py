@@ -59,8 +59,8 @@ def test_a_correction_set_through_the_parameter_service_applies_to_the_next_samp
     np.testing.assert_allclose(push_and_wait(graph, outlet, gaze, [[100, 200]]), [[100, 200]])
 
 
-def test_a_second_order_correction_is_typed_applied_and_read_back_as_12_numbers(graph,
-                                                                                  tmp_path):
+def test_a_second_order_correction_is_set_applied_and_read_back_as_12_numbers(
+        graph, tmp_path):
     outlet, bridge, gaze = start(graph)
     result, = graph.set_parameters('/lsl_gaze_bridge', {'gaze_correction': BEND})
     assert result.successful, result.reason
