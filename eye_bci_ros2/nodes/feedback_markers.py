@@ -24,7 +24,6 @@ from eye_bci_ros2.nodes.conversions import cube_marker, marker_label, pose_to_ar
 from eye_bci_ros2.nodes.marker_store import Key, MarkerStore
 
 
-
 def option_markers(choices: MarkerArray) -> Sequence[Marker]:
     """Return the option markers of a ``choices`` message (its ADD markers)."""
     return [m for m in choices.markers if m.action == Marker.ADD]

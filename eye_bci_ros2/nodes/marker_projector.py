@@ -71,7 +71,6 @@ EXPIRY_CHECK_S = 0.05
 DEFAULT_ORTHO_SCALE = 10.0
 
 
-
 class MarkerTable:
     """
     Markers by (ns, id) as numpy rows, updated in place.
