@@ -76,7 +76,8 @@ from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import cube_marker, marker_array_to_regions
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.runner import make_executor, spin_for, spin_until
-from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, LATCHED_QOS,
+                                       REGIONS_TOPIC, REQUEST_TOPIC)
 from eye_bci_ros2.rounds import COUNT_RULE, ORIGINAL_RULE
 from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
 
@@ -196,12 +197,12 @@ class Driver(Node):
     def __init__(self, **kwargs):
         """Create the publishers and subscriptions."""
         super().__init__('latency_bench_driver', **kwargs)
-        self.choices_pub = self.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
-        self.request_pub = self.create_publisher(Empty, 'choice/request', EVENT_QOS)
+        self.choices_pub = self.create_publisher(MarkerArray, CHOICES_TOPIC, LATCHED_QOS)
+        self.request_pub = self.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
         self.received: List[Tuple[float, str]] = []
         self.regions: Optional[MarkerArray] = None
-        self.create_subscription(String, 'choice', self._on_choice, EVENT_QOS)
-        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(String, CHOICE_TOPIC, self._on_choice, EVENT_QOS)
+        self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
 
     def _on_choice(self, message: String) -> None:
         self.received.append((pylsl.local_clock(), message.data))

@@ -43,6 +43,7 @@ REGISTRY: Dict[str, str] = {
     'decision': 'bench.decision',
     'tolerance': 'bench.tolerance',
     'validation': 'bench.validation',
+    'correction_fit': 'bench.correction_fit',
     'calibration': 'bench.calibration_protocol',
     'ssvep': 'bench.ssvep',
 }

@@ -41,7 +41,7 @@ from eye_bci_ros2.nodes.conversions import arrays_to_pose
 from eye_bci_ros2.nodes.gaze_validation import GazeValidation
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.runner import make_executor, spin_until
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
+from eye_bci_ros2.nodes.topics import CAMERA_POSE_TOPIC, LATCHED_QOS
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
 from eye_bci_ros2.sim.person import PRESETS
 from eye_bci_ros2.sim.target_follower import TargetFollower
@@ -82,7 +82,7 @@ def run_once(seed: int, targets: int = 9, drift: bool = True,
             pose.header.frame_id = 'map'
             pose.pose = arrays_to_pose(*look_at_pose((0.0, -4.0, 6.0), (0.0, 0.0, 0.0),
                                                      (0.0, 0.0, 1.0)))
-            camera.create_publisher(PoseStamped, 'camera/pose', LATCHED_QOS).publish(pose)
+            camera.create_publisher(PoseStamped, CAMERA_POSE_TOPIC, LATCHED_QOS).publish(pose)
             if not spin_until(executor, lambda: bridge.counters['published'] > 50, 15.0):
                 raise RuntimeError('no gaze through the bridge')
             started = time.monotonic()

@@ -63,10 +63,10 @@ from eye_bci_ros2.nodes.feedback_markers import FeedbackMarkers, option_label, O
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, EVENT_QOS, FEEDBACK_QOS,
-                                       FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
-                                       NO_CHOICE_TOPIC, REQUEST_TOPIC, SCORES_QOS,
-                                       SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, CHOICES_TOPIC, EVENT_QOS,
+                                       FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC,
+                                       LATCHED_QOS, NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC,
+                                       SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, METHODS, RoundScheduler
 from eye_bci_ros2.tolerance import CLASSIFICATIONS
@@ -246,7 +246,7 @@ class ChoiceArbiter(Node):
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
         self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
-        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
         self._timer = self.create_timer(TICK_S, self._on_tick)
         self._init_fusion()
@@ -455,7 +455,7 @@ class ChoiceArbiter(Node):
         self._chosen: Optional[tuple] = None     # (label, shown until s, option marker)
         self._options_changed = False
         self._feedback_pub = self.create_publisher(MarkerArray, FEEDBACK_TOPIC, FEEDBACK_QOS)
-        self.create_subscription(MarkerArray, 'choices', self._on_choices, CHOICES_QOS)
+        self.create_subscription(MarkerArray, CHOICES_TOPIC, self._on_choices, CHOICES_QOS)
         self._feedback_timer = None
         self._throttle = FeedbackThrottle()
         self._start_feedback(self._feedback_values['feedback_rate_hz'])
