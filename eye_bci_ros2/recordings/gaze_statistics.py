@@ -34,9 +34,10 @@ from the previous one; the timing only for targets that jump into place,
 the ``still`` time equal to the onset):
 
 * *settled*: the median gaze ``SETTLED_WINDOW_S`` after the target is shown
-  still at its place (cut at the next target, at least ``MIN_SETTLED_S``) (where the eye rests once it has got there); its angle
-  to the target is the settled error, the mean of the per-axis errors over a
-  recording is the person's mean offset.
+  still at its place, cut at the next target but at least ``MIN_SETTLED_S``
+  (where the eye rests once it has got there); its angle to the target is
+  the settled error, the mean of the per-axis errors over a recording is the
+  person's mean offset.
 * *latency*: onset of the first saccade starting within ``LATENCY_WINDOW_S``
   of the target onset (NaN when none); under ``ANTICIPATION_S`` it counts as
   an anticipation.
@@ -261,7 +262,7 @@ def _running_median3(angles: np.ndarray) -> np.ndarray:
 
 def clean_angles(recording: GazeRecording) -> Tuple[np.ndarray, np.ndarray]:
     """
-    A recording's gaze as angles with spikes replaced by their neighbours' mean.
+    Return a recording's gaze as angles with spikes replaced by their neighbours' mean.
 
     :returns: angles (N, 2) deg, spikes (N,) bool.
     """
@@ -352,7 +353,7 @@ def _measure_one(stamps: np.ndarray, angles: np.ndarray, saccades: Saccades, ons
 
 
 def blink_count(recording: GazeRecording) -> int:
-    """Runs of lost samples lasting BLINK_S (module doc)."""
+    """Count the runs of lost samples lasting BLINK_S (module doc)."""
     lost = ~np.isfinite(recording.points).all(axis=1)
     edges = np.diff(np.concatenate([[0], lost.astype(np.int8), [0]]))
     starts = np.flatnonzero(edges == 1)
@@ -485,8 +486,11 @@ def gaze_statistics(recordings: Iterable[GazeRecording]) -> GazeStatistics:
 
 
 def main(argv=None) -> int:
-    """Print the statistics of recordings: ``python -m eye_bci_ros2.recordings.gaze_statistics
-    FILE_OR_FOLDER...`` (each file on its own, then all pooled)."""
+    """
+    Print the statistics of recordings, each on its own, then all pooled.
+
+    ``python -m eye_bci_ros2.recordings.gaze_statistics FILE_OR_FOLDER...``
+    """
     import argparse
     from pathlib import Path
 

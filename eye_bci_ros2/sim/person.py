@@ -311,8 +311,8 @@ class GazeParams:
 #: regular saccades to a step without a gap, median about 150-200 ms, SD 25-40 ms, none
 #: visually guided below about 100 ms (Fischer & Ramsperger 1984; Carpenter & Williams
 #: 1995); blinks while watching a screen (Bentivoglio et al. 1997).
-_PERSON = dict(latency_ms=180.0, latency_min_ms=100.0, latency_sd_ms=30.0,
-               blink_rate_per_min=5.0)
+_PERSON = {'latency_ms': 180.0, 'latency_min_ms': 100.0, 'latency_sd_ms': 30.0,
+           'blink_rate_per_min': 5.0}
 
 #: A consumer remote tracker (Tobii 4C/5 class): 90 Hz.  Its spatial error is what remote
 #: trackers of this class give people in real sessions, taken from the Tobii X2-60
@@ -349,8 +349,8 @@ PRO_TRACKER = GazeParams(
 #: Changes (for :meth:`GazeParams.with_changes`) that leave only the simple model: an
 #: eye that lands on the target at once, a constant offset, white jitter and the slow
 #: drift.  For tests of one mechanism at a time, and to compare with that model.
-IDEAL_EYE = dict(anticipation_prob=0.0, saccade_gain=1.0, landing_sd=0.0, pso_fraction=0.0,
-                 field_deg=0.0, wander_deg=0.0, spike_prob=0.0)
+IDEAL_EYE = {'anticipation_prob': 0.0, 'saccade_gain': 1.0, 'landing_sd': 0.0,
+             'pso_fraction': 0.0, 'field_deg': 0.0, 'wander_deg': 0.0, 'spike_prob': 0.0}
 
 #: Presets by name (the ``sim_gaze --preset`` choices).
 PRESETS = {p.name: p for p in (CONSUMER_TRACKER, ORIGINAL_TOBII_4C, PRO_TRACKER)}
@@ -554,8 +554,8 @@ class _Run:
         screen = self.person.screen
         angle = self.rng_anticipation.uniform(0.0, 2.0 * math.pi)
         size = self.rng_anticipation.uniform(*ANTICIPATION_DEG)
-        goal = screen.rotate_gaze(start[None], size * np.array([[math.cos(angle),
-                                                                  math.sin(angle)]]))[0]
+        direction = np.array([[math.cos(angle), math.sin(angle)]])
+        goal = screen.rotate_gaze(start[None], size * direction)[0]
         return np.clip(goal, 0.0, screen.size_px)
 
     def _ensure_blinks(self, t_end: float) -> None:
@@ -594,7 +594,7 @@ class _Run:
         return step * (fraction / peak) * ringing[:, None]
 
     def _wander(self, n: int) -> np.ndarray:
-        """The next n samples of the wander (Ornstein-Uhlenbeck at the tracker's rate), deg."""
+        """Draw the next n samples of the wander (Ornstein-Uhlenbeck at the tracker rate), deg."""
         person = self.person
         if person.wander_deg <= 0:
             return np.zeros((n, 2))
@@ -721,7 +721,7 @@ class GazeSimulator:
 
     def _draw_field(self, rng: np.random.Generator) -> np.ndarray:
         """
-        This person's error over the screen: polynomial coefficients (5, 2), deg.
+        Draw this person's error over the screen: polynomial coefficients (5, 2), deg.
 
         Scaled so the error's RMS over the screen is ``field_deg`` per axis.
         """
@@ -735,7 +735,7 @@ class GazeSimulator:
 
     def field_error_deg(self, xy) -> np.ndarray:
         """
-        The error that varies over the screen at screen points xy, (right, down) deg.
+        Return the error that varies over the screen at screen points xy, (right, down) deg.
 
         :param xy: screen px, shape (N, 2).
         :returns: shape (N, 2).
@@ -936,4 +936,4 @@ def record_schedule(params: GazeParams, targets: recorded.TargetSchedule,
             return previous + (places[k] - previous) * share
     trace = sim.trace(t, schedule, initial_xy=tuple(places[0]) if len(places) else None)
     return recorded.GazeRecording(name=name, stamps=trace.t, points=trace.xy, screen=screen,
-                         targets=targets, tracker=f'simulated {params.name}')
+                                  targets=targets, tracker=f'simulated {params.name}')

@@ -227,7 +227,7 @@ def test_primary_saccades_undershoot_and_far_landings_are_corrected():
     for t_jump, new in schedule:
         old = LEFT if new == RIGHT else RIGHT
         window = (trace.t >= t_jump) & (trace.t < t_jump + 1.0)
-        t, eye = trace.t[window], trace.eye_xy[window]
+        eye = trace.eye_xy[window]
         moving = np.flatnonzero(np.hypot(*np.diff(eye, axis=0).T) > 1e-6)
         # The first landing: where the eye rests for the first time after moving.
         rest = moving[np.flatnonzero(np.diff(moving) > 30)]

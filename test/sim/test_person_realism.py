@@ -45,12 +45,12 @@ pytestmark = pytest.mark.skipif(
 
 
 def recordings(kind: str):
-    """The real recordings whose file name contains ``kind``."""
+    """Load the real recordings whose file name contains ``kind``."""
     return [load_gaze(path) for path in find_recordings(REAL_GAZE) if kind in path.name]
 
 
 def simulated(params: GazeParams, real) -> GazeStatistics:
-    """The statistics of the simulated person on each real recording's schedule and screen."""
+    """Measure the simulated person on each real recording's schedule and screen."""
     return gaze_statistics([
         record_schedule(params.with_changes(rate_hz=round(recording.rate_hz)),
                         recording.targets, recording.screen, seed=seed,
@@ -68,7 +68,7 @@ def consumer():
 
 
 def disagreements(real: GazeStatistics, sim: GazeStatistics):
-    """The statistics outside their tolerance (module doc), as readable lines."""
+    """List the statistics outside their tolerance (module doc), as readable lines."""
     checks = [
         ('latency_median_ms', abs(sim.latency_median_ms - real.latency_median_ms) <= 40),
         ('latency_p90_ms', abs(sim.latency_p90_ms - real.latency_p90_ms) <= 50),
