@@ -19,7 +19,7 @@ WAIT_S = 20.0
 
 
 def simulated_recording(seconds: float = 1.0):
-    """A short recording of the simulated person (with lost samples) on two targets."""
+    """Record a short stretch of the simulated person (with lost samples) on two targets."""
     onsets = np.array([0.0, 0.5])
     places = np.array([[400.0, 300.0], [1500.0, 800.0]])
     targets = TargetSchedule(onsets, onsets, np.array([0.5, seconds]), places)
@@ -41,8 +41,8 @@ def pull_all(inlet: pylsl.StreamInlet, count: int):
 @pytest.mark.lsl
 @pytest.mark.parametrize('profile, send_lost', [('tobii_pro', True),
                                                 ('tobii_stream_engine', False)])
-def test_every_sample_goes_out_with_its_own_stamp_in_the_applications_layout(profile,
-                                                                              send_lost):
+def test_every_sample_goes_out_with_its_own_stamp_in_the_applications_layout(
+        profile, send_lost):
     recording = simulated_recording()
     source_id = f'replay-test-{uuid.uuid4().hex}'
     replayer = GazeReplayer(recording, profile, name=f'replay-{uuid.uuid4().hex}',

@@ -21,13 +21,13 @@ STAMPS = 5000.0 + np.array([0.0, 0.0168, 0.0332, 0.0501, 0.0667])
 
 
 def chunk(tag: int, content: bytes) -> bytes:
-    """One XDF chunk: [NumLengthBytes=4][Length][Tag][Content]."""
+    """Make one XDF chunk: [NumLengthBytes=4][Length][Tag][Content]."""
     return b'\x04' + struct.pack('<I', len(content) + 2) + struct.pack('<H', tag) + content
 
 
 def stream_header(stream_id: int, name: str, stream_type: str, labels: Sequence[str],
                   channel_format: str, rate: float) -> bytes:
-    """A StreamHeader chunk as LabRecorder writes it (the fields pyxdf reads)."""
+    """Make a StreamHeader chunk as LabRecorder writes it (the fields pyxdf reads)."""
     channels = ''.join(f'<channel><label>{escape(label)}</label></channel>' for label in labels)
     xml = (f'<?xml version="1.0"?><info><name>{escape(name)}</name><type>{escape(stream_type)}'
            f'</type><channel_count>{len(labels)}</channel_count><nominal_srate>{rate}'
@@ -38,7 +38,7 @@ def stream_header(stream_id: int, name: str, stream_type: str, labels: Sequence[
 
 def numeric_samples(stream_id: int, stamps: np.ndarray, values: np.ndarray,
                     dtype: str) -> bytes:
-    """A Samples chunk of numeric channels, each sample with its stamp."""
+    """Make a Samples chunk of numeric channels, each sample with its stamp."""
     body = b'\x04' + struct.pack('<I', len(stamps))
     for stamp, row in zip(stamps, values):
         body += b'\x08' + struct.pack('<d', stamp) + np.asarray(row, dtype=dtype).tobytes()
@@ -46,7 +46,7 @@ def numeric_samples(stream_id: int, stamps: np.ndarray, values: np.ndarray,
 
 
 def string_samples(stream_id: int, stamps: Sequence[float], values: Sequence[str]) -> bytes:
-    """A Samples chunk of a one-channel string stream (markers)."""
+    """Make a Samples chunk of a one-channel string stream (markers)."""
     body = b'\x04' + struct.pack('<I', len(stamps))
     for stamp, text in zip(stamps, values):
         raw = text.encode()
@@ -55,7 +55,7 @@ def string_samples(stream_id: int, stamps: Sequence[float], values: Sequence[str
 
 
 def write_xdf(path: Path, gaze_streams: List[str]) -> None:
-    """An XDF file with EEG, markers and one Tobii Pro gaze stream per name given."""
+    """Write an XDF file with EEG, markers and one Tobii Pro gaze stream per name given."""
     parts = [b'XDF:', chunk(1, b'<?xml version="1.0"?><info><version>1.0</version></info>')]
     eeg = np.random.default_rng(0).standard_normal((20, 4))
     parts.append(stream_header(1, 'amp', 'EEG', ['O1', 'O2', 'Oz', 'Pz'], 'float32', 250.0))
