@@ -23,7 +23,7 @@ WAIT_S = 30.0
 
 
 def first_seconds(recording: GazeRecording, seconds: float) -> GazeRecording:
-    """Cut the recording to its first ``seconds`` (targets untouched: the replay sends only gaze)."""
+    """Cut the recording to its first ``seconds`` (the replay sends only gaze)."""
     keep = recording.stamps < seconds
     return replace(recording, stamps=recording.stamps[keep], points=recording.points[keep])
 
