@@ -291,6 +291,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help='direction of the error (0 right, 90 down); default from seed')
     parser.add_argument('--jitter-deg', type=float, help='precision: noise SD per axis, deg')
     parser.add_argument('--drift-deg', type=float, help='slow drift RMS per axis, deg')
+    parser.add_argument('--field-deg', type=float,
+                        help='error varying over the screen, RMS per axis, deg')
+    parser.add_argument('--spike-prob', type=float,
+                        help='probability that a sample is a 2-6 deg spike')
     parser.add_argument('--loss-prob', type=float, help='probability of losing a sample')
     parser.add_argument('--blink-rate', type=float, help='blinks per minute')
     parser.add_argument('--latency-ms', type=float, help='mean saccade latency, ms')
@@ -339,6 +343,7 @@ def params_from_args(args: argparse.Namespace) -> GazeParams:
         ('rate_hz', args.rate), ('offset_deg', args.offset_deg),
         ('offset_direction_deg', args.offset_direction_deg), ('jitter_deg', args.jitter_deg),
         ('drift_deg', args.drift_deg), ('loss_prob', args.loss_prob),
+        ('field_deg', args.field_deg), ('spike_prob', args.spike_prob),
         ('blink_rate_per_min', args.blink_rate), ('latency_ms', args.latency_ms),
         ('delay_ms', args.delay_ms), ('distance_mm', args.distance_mm)) if value is not None}
     if args.screen_size is not None:

@@ -59,8 +59,15 @@ Model, per sample (see :class:`PersonParams` for the numbers and where they come
    them as NaN, which the bridge drops ('nonfinite'), like trackers that flag
    invalid gaze with NaN.
 
-Smooth pursuit is not modelled: a moving target is followed by catch-up
-saccades only.  Microsaccades are part of the wander, not separate events.
+5. Smooth pursuit of a target that moves (a callable schedule): the eye moves
+   at ``pursuit_gain`` times the target's speed ``pursuit_latency_ms`` late;
+   motion faster than 40 deg/s is a jump; catch-up saccades when the eye falls
+   1.5 deg behind; a correction when the target stops with the eye off it
+   (:meth:`GazeSimulator._pursue`).  Targets set one at a time (a list
+   schedule, :meth:`GazeSimulator.set_target` while streaming) are jumps:
+   a target that moves in small steps is followed by catch-up saccades.
+
+Microsaccades are part of the wander, not separate events.
 
 :func:`record_schedule` runs the person on a recording's target schedule and
 screen and returns a :class:`~eye_bci_ros2.recordings.gaze.GazeRecording`,
@@ -102,6 +109,16 @@ PSO_HZ = 20.0
 PSO_DECAY_S = 0.015
 #: Size range of a single-sample spike, deg.
 SPIKE_DEG = (2.0, 6.0)
+#: Smooth pursuit: faster target motion is a jump (pursuit saturates at 30-40 deg/s,
+#: Meyer, Lasker & Robinson 1985), deg/s.
+PURSUIT_MAX_DEG_S = 40.0
+#: A catch-up saccade when the eye falls this far behind a pursued target, deg (de Brouwer
+#: et al. 2002: position errors of 1-2 deg set them off).
+CATCH_UP_DEG = 1.5
+#: Time step of the pursuit, s (the eye's path is linear in between).
+PURSUIT_STEP_S = 0.01
+#: A target slower than this is still, deg/s.
+STILL_DEG_S = 0.5
 
 
 def _check(condition: bool, message: str) -> None:
@@ -156,6 +173,11 @@ class PersonParams:
         fixations (Ornstein-Uhlenbeck).
     :param wander_tau_s: correlation time of that wander, s.
     :param spike_prob: probability that a sample is a spike of 2-6 deg.
+    :param pursuit_gain: smooth pursuit of a target that moves (a callable
+        schedule): eye speed over target speed, about 0.9 up to 30-40 deg/s
+        (Meyer, Lasker & Robinson 1985); 0 = no pursuit, catch-up saccades only.
+    :param pursuit_latency_ms: the pursuit follows the target's motion this
+        late (about 100-130 ms, Carl & Gellman 1987).
     :param blink_rate_per_min: mean blinks per minute (0 = none); people
         blink about 17 times a minute at rest but 4-5 while reading or
         watching a screen closely (Bentivoglio et al. 1997).
@@ -180,13 +202,15 @@ class PersonParams:
     anticipation_prob: float = 0.05
     saccade_gain: float = 0.92
     landing_sd: float = 0.08
-    correction_min_deg: float = 0.75
+    correction_min_deg: float = 0.5
     correction_interval_ms: float = 130.0
     pso_fraction: float = 0.04
     field_deg: float = 0.0
     wander_deg: float = 0.0
     wander_tau_s: float = 0.5
     spike_prob: float = 0.0
+    pursuit_gain: float = 0.9
+    pursuit_latency_ms: float = 100.0
     blink_rate_per_min: float = 5.0
     blink_min_ms: float = 100.0
     blink_max_ms: float = 300.0
@@ -215,6 +239,7 @@ class PersonParams:
                'field_deg and wander_deg must be below 30 degrees')
         _check(0 < self.saccade_gain <= 1.5,
                f'saccade_gain must be in (0, 1.5], got {self.saccade_gain}')
+        _check(self.pursuit_gain <= 1.2, f'pursuit_gain must be <= 1.2, got {self.pursuit_gain}')
         _check(self.landing_sd < 1, f'landing_sd must be < 1, got {self.landing_sd}')
         _check(self.pso_fraction < 0.5, f'pso_fraction must be < 0.5, got {self.pso_fraction}')
         for name in ('anticipation_prob', 'spike_prob'):
@@ -350,7 +375,8 @@ PRO_TRACKER = GazeParams(
 #: eye that lands on the target at once, a constant offset, white jitter and the slow
 #: drift.  For tests of one mechanism at a time, and to compare with that model.
 IDEAL_EYE = {'anticipation_prob': 0.0, 'saccade_gain': 1.0, 'landing_sd': 0.0,
-             'pso_fraction': 0.0, 'field_deg': 0.0, 'wander_deg': 0.0, 'spike_prob': 0.0}
+             'pso_fraction': 0.0, 'field_deg': 0.0, 'wander_deg': 0.0, 'spike_prob': 0.0,
+             'pursuit_gain': 0.0}
 
 #: Presets by name (the ``sim_gaze --preset`` choices).
 PRESETS = {p.name: p for p in (CONSUMER_TRACKER, ORIGINAL_TOBII_4C, PRO_TRACKER)}
@@ -435,6 +461,8 @@ class _Run:
         self.durations: List[float] = [0.0]
         self.starts: List[np.ndarray] = [start]
         self.goals: List[np.ndarray] = [start]
+        # Whether each record is a saccade (minimum jerk, then ringing) or pursuit (linear).
+        self.saccadic: List[bool] = [True]
         # Pending saccades, in insertion order: (time, goal or None, onset, kind), kind
         # 'target' (to a target shown), 'anticipation' or 'correction'.
         self.pending: List[Tuple[float, Optional[np.ndarray], float, str]] = []
@@ -468,8 +496,13 @@ class _Run:
         shape = (excess / sd) ** 2
         return person.latency_min_ms / 1e3 + self.rng_latency.gamma(shape, excess / shape)
 
-    def add_target(self, xy: Target, t: float) -> None:
-        """Show a target (or none) from time t on; earlier times are moved to now."""
+    def add_target(self, xy: Target, t: float, anticipate: bool = True) -> None:
+        """
+        Show a target (or none) from time t on; earlier times are moved to now.
+
+        :param anticipate: whether an anticipatory saccade may come first (a target that
+            appears; not a catch-up saccade during pursuit).
+        """
         xy = _as_target(xy, 'target')
         _check(math.isfinite(t), f'target time must be finite, got {t}')
         t = max(float(t), self.last_event_t, self.t_last)
@@ -483,7 +516,7 @@ class _Run:
         self.last_event_t = t
         latency = self._latency_s()
         person = self.person
-        if (xy is not None and person.anticipation_prob > 0
+        if (xy is not None and anticipate and person.anticipation_prob > 0
                 and self.rng_anticipation.random() < person.anticipation_prob):
             early = self.rng_anticipation.uniform(0.0, ANTICIPATION_S)
             self.pending.append((t, None, t + early, 'anticipation'))
@@ -542,12 +575,25 @@ class _Run:
         self.durations.append(duration)
         self.starts.append(start)
         self.goals.append(goal)
+        self.saccadic.append(True)
         if kind == 'target' and float(screen.angle_between_deg(goal, aim)) > \
                 person.correction_min_deg:
             mean = person.correction_interval_ms / 1e3
             shape = 16.0    # SD = mean / 4
             interval = max(self.rng_saccade.gamma(shape, mean / shape), 0.06)
             self.pending.append((onset, aim, onset + duration + interval, 'correction'))
+
+    def pursue(self, t_from: float, t_to: float, shift: np.ndarray) -> None:
+        """Move the eye smoothly by ``shift`` px from t_from to t_to (after any saccade)."""
+        t_from = max(t_from, self.onsets[-1] + self.durations[-1])
+        if t_to <= t_from or not np.any(shift):
+            return
+        start = self.goals[-1]
+        self.onsets.append(t_from)
+        self.durations.append(t_to - t_from)
+        self.starts.append(start)
+        self.goals.append(np.clip(start + shift, 0.0, self.person.screen.size_px))
+        self.saccadic.append(False)
 
     def _anticipation_goal(self, start: np.ndarray) -> np.ndarray:
         """Where an anticipatory saccade goes: 1-5 deg from start, random direction, on screen."""
@@ -579,11 +625,13 @@ class _Run:
         jitter = np.clip(jitter, -0.45 * period, 0.45 * period)
         return self.t0 + (first + np.arange(count)) * period + jitter
 
-    def _oscillation(self, t: np.ndarray, index: np.ndarray, onsets: np.ndarray) -> np.ndarray:
+    def _oscillation(self, t: np.ndarray, onsets: np.ndarray) -> np.ndarray:
         """Post-saccadic oscillation of the latest saccade at times t, px (N, 2)."""
         fraction = self.person.pso_fraction
         if fraction <= 0:
             return np.zeros((len(t), 2))
+        saccades = np.flatnonzero(self.saccadic)
+        index = saccades[np.maximum(np.searchsorted(onsets[saccades], t, side='right') - 1, 0)]
         since = t - (onsets[index] + np.array(self.durations)[index])
         # Before the first saccade (onset -inf) nothing rings.
         since = np.where(np.isfinite(since) & (since > 0), since, 0.0)
@@ -636,8 +684,10 @@ class _Run:
         tau = np.clip((t - onsets[index]) / durations, 0.0, 1.0)
         starts = np.array(self.starts)[index]
         goals = np.array(self.goals)[index]
-        eye = starts + (goals - starts) * _minimum_jerk(tau)[:, None]
-        eye = eye + self._oscillation(t, index, onsets)
+        saccadic = np.array(self.saccadic)[index]
+        share = np.where(saccadic, _minimum_jerk(tau), tau)
+        eye = starts + (goals - starts) * share[:, None]
+        eye = eye + self._oscillation(t, onsets)
 
         error = (self.sim.offset_vector_deg + self.sim.field_error_deg(eye)
                  + self.sim.drift_deg(t) + self._wander(n))
@@ -656,7 +706,10 @@ class _Run:
         self.t_last = float(t[-1])
         # Keep only the saccade and blinks that later samples can still fall in.
         keep = max(int(index[-1]), 0)
+        # ... and the latest saccade before them, whose ringing may still show.
+        keep = min(keep, max((i for i in range(keep + 1) if self.saccadic[i]), default=0))
         del self.onsets[:keep], self.durations[:keep], self.starts[:keep], self.goals[:keep]
+        del self.saccadic[:keep]
         alive = self.blink_ends > self.t_last
         self.blink_starts, self.blink_ends = self.blink_starts[alive], self.blink_ends[alive]
         return GazeTrace(t=np.array(t, dtype=float), xy=xy, eye_xy=eye, blink=blink,
@@ -829,12 +882,15 @@ class GazeSimulator:
 
     @staticmethod
     def _add_callable_schedule(run: _Run, t: np.ndarray, target: Callable) -> None:
-        """Turn target(t) into discrete target changes (catch-up saccades on motion)."""
+        """Turn target(t) into saccades, and pursuit of smooth motion when the person has it."""
         if len(t) == 0:
             return
         goals = np.asarray(target(t), dtype=float)
         _check(goals.shape == (len(t), 2),
                f'target(t) must return shape ({len(t)}, 2), got {goals.shape}')
+        if run.person.pursuit_gain > 0:
+            GazeSimulator._pursue(run, t, target)
+            return
         shown = np.all(np.isfinite(goals), axis=1)
         i = 0
         # One iteration per re-targeting event, each a vectorised scan.
@@ -851,6 +907,51 @@ class GazeSimulator:
             if not len(hits):
                 return
             i += 1 + int(hits[0])
+
+    @staticmethod
+    def _pursue(run: _Run, t: np.ndarray, target: Callable) -> None:
+        """
+        Follow target(t) with saccades to jumps and smooth pursuit of motion.
+
+        Every PURSUIT_STEP_S the eye moves by ``pursuit_gain`` times the target's
+        motion ``pursuit_latency_ms`` earlier; motion faster than PURSUIT_MAX_DEG_S,
+        an appearing or vanishing target are jumps (a saccade after its latency);
+        when the eye falls CATCH_UP_DEG behind, a catch-up saccade goes to where the
+        target will be one mean latency later (people predict a steady motion, de
+        Brouwer et al. 2002).
+        """
+        person = run.person
+        screen = person.screen
+        grid = np.arange(t[0], t[-1] + PURSUIT_STEP_S, PURSUIT_STEP_S)
+        now = np.asarray(target(grid), dtype=float)
+        before = np.asarray(target(grid - person.pursuit_latency_ms / 1e3), dtype=float)
+        _check(now.shape == (len(grid), 2) and before.shape == (len(grid), 2),
+               f'target(t) must return shape (N, 2), got {now.shape}')
+        shown = np.isfinite(now).all(axis=1)
+        with np.errstate(invalid='ignore'):
+            speed_now = screen.angle_between_deg(now[:-1], now[1:]) / PURSUIT_STEP_S
+            speed_before = screen.angle_between_deg(before[:-1], before[1:]) / PURSUIT_STEP_S
+        ahead = int(round(person.latency_ms / 1e3 / PURSUIT_STEP_S))
+        run.add_target(now[0] if shown[0] else None, float(t[0]))
+        for k in range(1, len(grid)):
+            a, b = float(grid[k - 1]), float(grid[k])
+            run._plan(b)
+            if shown[k] != shown[k - 1] or (shown[k] and not speed_now[k - 1]
+                                            <= PURSUIT_MAX_DEG_S):
+                run.add_target(now[k] if shown[k] else None, b)
+                continue
+            if not shown[k]:
+                continue
+            if speed_before[k - 1] <= PURSUIT_MAX_DEG_S:
+                run.pursue(a, b, person.pursuit_gain * (before[k] - before[k - 1]))
+            # Behind a moving target: a catch-up saccade; off a target that has stopped
+            # (and the pursuit with it): a correction, as after any landing.
+            still = speed_now[k - 1] < STILL_DEG_S and not speed_before[k - 1] >= STILL_DEG_S
+            limit = person.correction_min_deg if still else CATCH_UP_DEG
+            if (not run.pending and b >= run.onsets[-1] + run.durations[-1]
+                    and screen.angle_between_deg(run.goals[-1], now[k]) > limit):
+                aim = now[min(k + ahead, len(grid) - 1)]
+                run.add_target(aim if np.isfinite(aim).all() else now[k], b, anticipate=False)
 
     # Streaming ---------------------------------------------------------------
 

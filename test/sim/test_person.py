@@ -304,6 +304,33 @@ def test_a_saccade_rings_after_it_lands():
     np.testing.assert_allclose(trace.eye_xy[window][-1], new, atol=1e-6)
 
 
+def test_a_moving_target_is_pursued_smoothly_with_a_few_catch_up_saccades():
+    params = quiet(pursuit_gain=0.9, pursuit_latency_ms=100.0)
+    speed_deg = 10.0
+    speed_px = speed_deg * px_per_degree()
+
+    def target(t):
+        return np.stack([300 + speed_px * t, np.full_like(t, 540.0)], axis=1)
+
+    rate = params.tracker.rate_hz
+    trace = GazeSimulator(params, seed=3).trace(np.arange(0, 6, 1 / rate), target,
+                                                initial_xy=(300, 540))
+    later = trace.t[1:] > 1.0
+    eye_speed = SCREEN.angle_between_deg(trace.eye_xy[:-1], trace.eye_xy[1:]) * rate
+    smooth = eye_speed[later] < 30.0
+    # Mostly smooth, at about the pursuit gain times the target's angular speed ...
+    goal = target(trace.t)
+    goal_speed = SCREEN.angle_between_deg(goal[:-1], goal[1:]) * rate
+    assert smooth.mean() > 0.9
+    gain = eye_speed[later][smooth] / goal_speed[later][smooth]
+    assert np.median(gain) == pytest.approx(0.9, abs=0.03)
+    # ... with catch-up saccades that keep the eye within a few degrees of the target.
+    catch_up = np.count_nonzero(np.diff((eye_speed[later] >= 30.0).astype(int)) == 1)
+    assert 1 <= catch_up <= 10
+    lag = SCREEN.angle_between_deg(trace.eye_xy, target(trace.t))[trace.t > 1.0]
+    assert np.median(lag) < 2.0
+
+
 # Seeds, timing, streaming ----------------------------------------------------
 
 def test_a_seed_reproduces_the_samples_and_another_seed_does_not():
