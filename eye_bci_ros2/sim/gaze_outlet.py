@@ -51,7 +51,7 @@ import yaml
 from eye_bci_ros2.gaze_profiles import DEFAULT_PROFILE, PROFILES
 from eye_bci_ros2.sim.lsl_outlet import OutletThread, stream_info
 from eye_bci_ros2.sim.person import (
-    CONSUMER_TRACKER, GazeParams, GazeSimulator, GazeTrace, PRESETS, Target)
+    CONSUMER_TRACKER, GazeParams, GazeSimulator, GazeTrace, IDEAL_EYE, PRESETS, Target)
 
 #: The original sender's screen (the Windows machine), px.
 SOURCE_SIZE = (1366, 768)
@@ -291,6 +291,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help='direction of the error (0 right, 90 down); default from seed')
     parser.add_argument('--jitter-deg', type=float, help='precision: noise SD per axis, deg')
     parser.add_argument('--drift-deg', type=float, help='slow drift RMS per axis, deg')
+    parser.add_argument('--ideal-eye', action='store_true',
+                        help='an eye that lands on the target at once, with only the offset, '
+                             'jitter and drift as error (no landing errors, error varying '
+                             'over the screen, wander, spikes or pursuit)')
     parser.add_argument('--field-deg', type=float,
                         help='error varying over the screen, RMS per axis, deg')
     parser.add_argument('--spike-prob', type=float,
@@ -346,6 +350,8 @@ def params_from_args(args: argparse.Namespace) -> GazeParams:
         ('field_deg', args.field_deg), ('spike_prob', args.spike_prob),
         ('blink_rate_per_min', args.blink_rate), ('latency_ms', args.latency_ms),
         ('delay_ms', args.delay_ms), ('distance_mm', args.distance_mm)) if value is not None}
+    if args.ideal_eye:
+        changes = {**IDEAL_EYE, **changes}
     if args.screen_size is not None:
         changes.update(width_px=args.screen_size[0], height_px=args.screen_size[1])
     if args.screen_mm is not None:
