@@ -566,8 +566,8 @@ class _Run:
             step = goal - start
             normal = np.array([-step[1], step[0]])
             along, across = self.rng_saccade.standard_normal(2) * scatter * np.array([1.0, 0.6])
-            landing = start + step * (gain + along) + normal * across
-            goal = np.clip(landing, 0.0, screen.size_px)
+            # No clipping to the screen: a person can look away from it.
+            goal = start + step * (gain + along) + normal * across
         amplitude = float(screen.angle_between_deg(start, goal))
         duration = min(person.saccade_base_ms + person.saccade_ms_per_deg * amplitude,
                        person.saccade_max_ms) / 1e3
@@ -592,7 +592,7 @@ class _Run:
         self.onsets.append(t_from)
         self.durations.append(t_to - t_from)
         self.starts.append(start)
-        self.goals.append(np.clip(start + shift, 0.0, self.person.screen.size_px))
+        self.goals.append(start + shift)
         self.saccadic.append(False)
 
     def _anticipation_goal(self, start: np.ndarray) -> np.ndarray:
