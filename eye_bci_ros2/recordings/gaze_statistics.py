@@ -57,6 +57,7 @@ samples of ``BLINK_S`` duration) per minute and the share of samples lost.
 from dataclasses import dataclass, fields
 import math
 from typing import Dict, Iterable, List, Tuple
+import warnings
 
 import numpy as np
 
@@ -252,11 +253,10 @@ def _running_median3(angles: np.ndarray) -> np.ndarray:
         return angles.copy()
     stacked = np.stack([angles[:-2], angles[1:-1], angles[2:]])
     out = angles.copy()
-    with np.errstate(all='ignore'):
-        import warnings
-        with warnings.catch_warnings():
-            warnings.simplefilter('ignore', RuntimeWarning)
-            out[1:-1] = np.nanmedian(stacked, axis=0)
+    with warnings.catch_warnings():
+        # All three lost: NaN is the answer, not a warning.
+        warnings.simplefilter('ignore', RuntimeWarning)
+        out[1:-1] = np.nanmedian(stacked, axis=0)
     return out
 
 
@@ -337,8 +337,8 @@ def _measure_one(stamps: np.ndarray, angles: np.ndarray, saccades: Saccades, ons
     landing_end = saccades.offsets[first] + LANDING_S
     if first + 1 < len(saccades.onsets):
         landing_end = min(landing_end, saccades.onsets[first + 1])
-    a, b = np.searchsorted(stamps, [saccades.offsets[first], landing_end], side='right')
     a = int(saccades.end_index[first])
+    b = int(np.searchsorted(stamps, landing_end, side='right'))
     landing = _median_point(angles[a:max(b, a + 1)])
     first_landing = float(np.hypot(*(landing - settled)))
     # Settling: the last time the smoothed gaze is outside SETTLE_DEG before the window ends.
