@@ -86,8 +86,6 @@ from typing import Callable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from scipy.signal import lfilter
-
 from eye_bci_ros2.recordings import gaze as recorded
 from eye_bci_ros2.visual_angle import ScreenGeometry
 
@@ -648,7 +646,15 @@ class _Run:
             return np.zeros((n, 2))
         a = math.exp(-1.0 / (self.sim.params.tracker.rate_hz * person.wander_tau_s))
         noise = self.rng_wander.standard_normal((n, 2)) * person.wander_deg * math.sqrt(1 - a * a)
-        out, _ = lfilter([1.0], [1.0, -a], noise, axis=0, zi=(a * self.wander)[None, :])
+        # The AR(1) recursion sample by sample: exact whatever the chunking (and no scipy
+        # import, which costs a simulated tracker seconds at start-up).
+        x, y = float(self.wander[0]), float(self.wander[1])
+        out = np.empty((n, 2))
+        for i, (nx, ny) in enumerate(noise.tolist()):
+            x = a * x + nx
+            y = a * y + ny
+            out[i, 0] = x
+            out[i, 1] = y
         self.wander = out[-1].copy()
         return out
 
