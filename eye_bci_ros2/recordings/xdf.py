@@ -20,6 +20,7 @@ is empty.
 ``pyxdf`` (PyPI) reads the file; it is imported only when an XDF file is loaded.
 """
 
+import logging
 import os
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Union
@@ -104,10 +105,10 @@ def pick_gaze_stream(streams: Sequence[Dict], name: Optional[str] = None,
         return candidates[0]
     what = f"named '{name}'" if name is not None else 'of gaze'
     if not candidates:
-        raise RecordingError(f'no stream {what} among: {_describe(streams)}; name one with '
-                             'the stream option')
+        raise RecordingError(f'no stream {what} among: {_describe(streams)}; name one '
+                             '(sim_gaze --xdf-stream NAME)')
     raise RecordingError(f'{len(candidates)} streams {what}: {_describe(candidates)}; name '
-                         'one with the stream option')
+                         'one (sim_gaze --xdf-stream NAME)')
 
 
 def gaze_from_stream(stream: Dict, profile: Optional[str] = None,
@@ -167,10 +168,17 @@ def load_xdf_gaze(path: PathLike, stream_name: Optional[str] = None,
         import pyxdf
     except ImportError:
         raise RecordingError(f'{path}: reading XDF needs pyxdf (pip install pyxdf)') from None
+    # pyxdf logs what it repairs (clock segments, chopped chunks) as warnings on stderr; a
+    # file it cannot read raises, and that is reported below in one line.
+    pyxdf_log = logging.getLogger('pyxdf')
+    level = pyxdf_log.level
+    pyxdf_log.setLevel(logging.ERROR)
     try:
         streams, _ = pyxdf.load_xdf(str(path), dejitter_timestamps=False)
     except Exception as error:  # noqa: B902 - pyxdf raises anything on a bad file
         raise RecordingError(f'{path}: not a readable XDF file ({error})') from None
+    finally:
+        pyxdf_log.setLevel(level)
     stream = pick_gaze_stream(streams, stream_name, profile)
     stamps = np.asarray(stream['time_stamps'], dtype=float)
     if not len(stamps):
