@@ -112,7 +112,7 @@ class GazeReplayer(OutletThread):
 
     @property
     def t0(self) -> Optional[float]:
-        """The first sample's stamp, ``pylsl.local_clock()`` s (None before it is due)."""
+        """Return the first sample's stamp, ``pylsl.local_clock()`` s (None before it is due)."""
         return self._t0
 
     def _begin(self, t0: float) -> None:
