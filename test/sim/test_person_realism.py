@@ -6,7 +6,8 @@ The real recordings (``../shared/data/real_gaze``, found by
 measured with :mod:`eye_bci_ros2.recordings.gaze_statistics`; the simulated
 person is recorded on each recording's own schedule and screen
 (:func:`eye_bci_ros2.sim.person.record_schedule`) at the recording's rate and
-measured with the very same code.
+measured with the very same code (:mod:`eye_bci_ros2.sim.realism`, which also
+prints them: ``python -m eye_bci_ros2.sim.realism ../shared/data/real_gaze --match X260``).
 
 Tolerances (real vs simulated), chosen as what separates "behaves like these
 people" from the earlier ideal eye, not as fits; two people are a small
@@ -34,8 +35,8 @@ import pytest
 from eye_bci_ros2.recordings import shared_data
 from eye_bci_ros2.recordings.gaze import find_recordings, load_gaze
 from eye_bci_ros2.recordings.gaze_statistics import gaze_statistics, GazeStatistics
-from eye_bci_ros2.sim.person import (
-    CONSUMER_TRACKER, GazeParams, IDEAL_EYE, PRO_TRACKER, record_schedule)
+from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeParams, IDEAL_EYE, PRO_TRACKER
+from eye_bci_ros2.sim.realism import simulate_like
 
 REAL_GAZE = shared_data('real_gaze')
 pytestmark = pytest.mark.skipif(
@@ -51,11 +52,7 @@ def recordings(kind: str):
 
 def simulated(params: GazeParams, real) -> GazeStatistics:
     """Measure the simulated person on each real recording's schedule and screen."""
-    return gaze_statistics([
-        record_schedule(params.with_changes(rate_hz=round(recording.rate_hz)),
-                        recording.targets, recording.screen, seed=seed,
-                        name=f'simulated {recording.name}')
-        for seed, recording in enumerate(real)])
+    return gaze_statistics(simulate_like(params, real))
 
 
 @pytest.fixture(scope='module')
