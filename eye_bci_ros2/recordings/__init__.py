@@ -1,30 +1,34 @@
-"""Recordings of real people (gaze, EEG) read into the core's arrays: pure loaders."""
+"""
+Recordings of real people (gaze, EEG) read into the core's arrays: pure loaders.
+
+Third-party recordings are never part of the repository: benchmarks take a
+folder (``--data DIR``), and tests and benchmarks look for the development
+copies with :func:`find_data`.
+"""
 
 import os
 from pathlib import Path
 from typing import Optional
 
-#: Environment variable naming a folder that holds the development recordings
-#: (``real_gaze/``, ``real_eeg/``), when they are not in ``../shared/data``.
+#: Environment variable naming a folder that holds ``real_gaze/``, ``real_eeg/``, ...
 DATA_ENV = 'EYE_BCI_DATA'
 
 
-def shared_data(name: str) -> Optional[Path]:
+def find_data(kind: str) -> Optional[Path]:
     """
-    Return the folder of the development recordings ``name`` (e.g. 'real_gaze'), or None.
+    Find the folder of real recordings of one kind ('real_gaze', 'real_eeg').
 
-    Looked for in ``$EYE_BCI_DATA/<name>``, then in ``shared/data/<name>``
-    beside the repository or beside any folder above it (a CI clone has
-    ``../shared`` next to it; a git worktree further down finds it too).
-    The recordings are never part of the repository: tests skip and
-    benchmarks say so when this returns None.
+    ``$EYE_BCI_DATA/<kind>`` when that variable is set, else
+    ``shared/data/<kind>`` beside the source tree or beside any folder above it
+    (a clone at ``X/main`` finds ``X/shared/data``).
+
+    :returns: the folder, or None when there is none.
     """
     if os.environ.get(DATA_ENV):
-        folder = Path(os.environ[DATA_ENV]) / name
+        folder = Path(os.environ[DATA_ENV]) / kind
         return folder if folder.is_dir() else None
-    here = Path(__file__).resolve().parents[2]      # the repository, for a source checkout
-    for parent in here.parents:
-        folder = parent / 'shared' / 'data' / name
+    for parent in Path(__file__).resolve().parents[2:]:
+        folder = parent / 'shared' / 'data' / kind
         if folder.is_dir():
             return folder
     return None

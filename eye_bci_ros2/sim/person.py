@@ -1003,20 +1003,22 @@ class GazeSimulator:
         return run.emit(t)
 
 
-def record_schedule(params: GazeParams, targets: recorded.TargetSchedule,
-                    screen: ScreenGeometry, seed: int = 0, duration_s: Optional[float] = None,
+def record_schedule(targets: recorded.TargetSchedule, screen: ScreenGeometry,
+                    params: GazeParams = CONSUMER_TRACKER, rate_hz: Optional[float] = None,
+                    seed: int = 0, duration_s: Optional[float] = None,
                     name: str = 'simulated') -> recorded.GazeRecording:
     """
     Record the simulated person on a recording's target schedule and screen.
 
     The person sees what the recorded person saw: each target from its onset;
     a target that glides into place (``still`` after ``onset``) moves in a
-    straight line from the previous place at constant speed until ``still``.
-    Before the first onset the eye rests on the first target.
+    straight line from the previous place at constant speed until ``still``
+    (and is pursued).  Before the first onset the eye rests on the first target.
 
-    :param params: the person and tracker; its screen is replaced by ``screen``.
     :param targets: a :class:`~eye_bci_ros2.recordings.gaze.TargetSchedule`.
     :param screen: the recording's screen and viewing distance.
+    :param params: the person and tracker; its screen is replaced by ``screen``.
+    :param rate_hz: the tracker's rate, e.g. the recording's (default: the params').
     :param seed: the person's seed.
     :param duration_s: how long to record, s from 0; default: until the
         last target ends.
@@ -1024,6 +1026,8 @@ def record_schedule(params: GazeParams, targets: recorded.TargetSchedule,
     :returns: a :class:`~eye_bci_ros2.recordings.gaze.GazeRecording` of the
         same form as the loaders give (stamps from 0 s, NaN where lost).
     """
+    if rate_hz is not None:
+        params = params.with_changes(rate_hz=float(rate_hz))
     params = params.with_changes(**{f.name: getattr(screen, f.name) for f in fields(screen)})
     sim = GazeSimulator(params, seed=seed)
     if duration_s is None:

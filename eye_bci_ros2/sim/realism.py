@@ -28,8 +28,8 @@ def simulate_like(params: GazeParams,
 
     Seeds 0, 1, ... in the order given: one simulated person per real one.
     """
-    return tuple(record_schedule(params.with_changes(rate_hz=round(recording.rate_hz)),
-                                 recording.targets, recording.screen, seed=seed,
+    return tuple(record_schedule(recording.targets, recording.screen, params,
+                                 rate_hz=round(recording.rate_hz), seed=seed,
                                  name=f'simulated {recording.name}')
                  for seed, recording in enumerate(real))
 

@@ -9,13 +9,13 @@ from rclpy.parameter import Parameter
 from ros_harness import GazeCollector
 
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
-from eye_bci_ros2.recordings import shared_data
+from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.gaze import find_recordings, GazeRecording, load_gaze
 from eye_bci_ros2.sim.replay import GazeReplayer
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 
-REAL_GAZE = shared_data('real_gaze')
+REAL_GAZE = find_data('real_gaze')
 #: Seconds of the recording replayed (real time: the replay keeps the recording's rate).
 REPLAY_S = 2.0
 #: Generous wait for everything to arrive, s (2 shared cores; never a timing assertion).

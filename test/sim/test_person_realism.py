@@ -2,7 +2,7 @@
 The simulated person against real people: the same statistics on the same target schedules.
 
 The real recordings (``../shared/data/real_gaze``, found by
-:func:`eye_bci_ros2.recordings.shared_data`; never part of the repository) are
+:func:`eye_bci_ros2.recordings.find_data`; never part of the repository) are
 measured with :mod:`eye_bci_ros2.recordings.gaze_statistics`; the simulated
 person is recorded on each recording's own schedule and screen
 (:func:`eye_bci_ros2.sim.person.record_schedule`) at the recording's rate and
@@ -32,13 +32,13 @@ import math
 
 import pytest
 
-from eye_bci_ros2.recordings import shared_data
+from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.gaze import find_recordings, load_gaze
 from eye_bci_ros2.recordings.gaze_statistics import gaze_statistics, GazeStatistics
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeParams, IDEAL_EYE, PRO_TRACKER
 from eye_bci_ros2.sim.realism import simulate_like
 
-REAL_GAZE = shared_data('real_gaze')
+REAL_GAZE = find_data('real_gaze')
 pytestmark = pytest.mark.skipif(
     REAL_GAZE is None, reason='no real_gaze recordings (../shared/data/real_gaze beside the '
     'repository, or $EYE_BCI_DATA/real_gaze): the simulated person is not compared with '

@@ -24,7 +24,7 @@ def simulated_recording(seconds: float = 1.0):
     places = np.array([[400.0, 300.0], [1500.0, 800.0]])
     targets = TargetSchedule(onsets, onsets, np.array([0.5, seconds]), places)
     params = CONSUMER_TRACKER.with_changes(loss_prob=0.1)
-    return record_schedule(params, targets, DEFAULT_VIEWING, seed=3)
+    return record_schedule(targets, DEFAULT_VIEWING, params, seed=3)
 
 
 def pull_all(inlet: pylsl.StreamInlet, count: int):

@@ -23,7 +23,7 @@ IDEAL = CONSUMER_TRACKER.with_changes(
 
 
 def test_an_ideal_eye_has_its_latency_lands_at_once_and_rests_on_the_target():
-    stats = gaze_statistics([record_schedule(IDEAL, SCHEDULE, DEFAULT_VIEWING)])
+    stats = gaze_statistics([record_schedule(SCHEDULE, DEFAULT_VIEWING, IDEAL)])
     assert stats.steps == len(PLACES) - 1
     # The onset is found within the velocity filter's 20 ms span.
     assert stats.latency_median_ms == pytest.approx(200.0, abs=15.0)
@@ -37,7 +37,7 @@ def test_an_ideal_eye_has_its_latency_lands_at_once_and_rests_on_the_target():
 
 def test_an_undershooting_eye_needs_a_correction_and_lands_late():
     undershoot = IDEAL.with_changes(saccade_gain=0.75, correction_interval_ms=150.0)
-    stats = gaze_statistics([record_schedule(undershoot, SCHEDULE, DEFAULT_VIEWING)])
+    stats = gaze_statistics([record_schedule(SCHEDULE, DEFAULT_VIEWING, undershoot)])
     # 25 % short of 10-25 deg steps is more than 2 deg off; corrected about 150 ms later.
     assert stats.corrective_share > 0.9
     assert stats.slow_landing_share > 0.9 and stats.settle_median_ms > 150.0
@@ -45,7 +45,7 @@ def test_an_undershooting_eye_needs_a_correction_and_lands_late():
 
 
 def test_spikes_and_blinks_put_into_a_recording_are_counted():
-    recording = record_schedule(IDEAL.with_changes(jitter_deg=0.1), SCHEDULE, DEFAULT_VIEWING,
+    recording = record_schedule(SCHEDULE, DEFAULT_VIEWING, IDEAL.with_changes(jitter_deg=0.1),
                                 seed=2)
     points = recording.points.copy()
     rate = 500
