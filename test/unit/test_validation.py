@@ -5,16 +5,17 @@ import math
 import numpy as np
 import pytest
 
-from eye_bci_ros2.sim.person import GazeSimulator, ORIGINAL_TOBII_4C
+from eye_bci_ros2.sim.person import GazeSimulator, IDEAL_EYE, ORIGINAL_TOBII_4C
 from eye_bci_ros2.validation import (apply_correction, correction_values, correction_yaml,
                                      CorrectionRefused, error_model, fit_correction, IDENTITY,
                                      implausibility, load_correction, measure,
                                      samples_per_target, save_correction, target_layout,
                                      validate_and_correct)
 
-#: The 0.8 deg person of the original set-up, without drift (a constant offset, the same
-#: direction for every seed, so a second validation sees the same person with new noise).
-PERSON = ORIGINAL_TOBII_4C.with_changes(drift_deg=0.0, offset_direction_deg=30.0)
+#: The 0.8 deg person of the original set-up, without drift and with an ideal eye (a constant
+#: offset, the same direction for every seed, so a second validation sees the same person
+#: with new noise; no error that varies over the screen, no landing errors, no spikes).
+PERSON = ORIGINAL_TOBII_4C.with_changes(drift_deg=0.0, offset_direction_deg=30.0, **IDEAL_EYE)
 SCREEN = PERSON.person.screen
 DWELL_S = 1.5
 
