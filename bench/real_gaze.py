@@ -94,9 +94,9 @@ def squares(centres: np.ndarray, size: float) -> np.ndarray:
 def _fits(centres: np.ndarray, size: float, recording: GazeRecording) -> bool:
     """Whether every option lies on the screen."""
     half = size / 2
-    return bool(np.all(centres - half >= 0) and np.all(centres[:, 0] + half <= recording
-                                                           .screen.width_px)
-                and np.all(centres[:, 1] + half <= recording.screen.height_px))
+    screen = recording.screen
+    return bool(np.all(centres - half >= 0) and np.all(centres[:, 0] + half <= screen.width_px)
+                and np.all(centres[:, 1] + half <= screen.height_px))
 
 
 def grid_at(place: np.ndarray, count: int, size: float, cell: int) -> np.ndarray:
@@ -111,7 +111,7 @@ def grid_at(place: np.ndarray, count: int, size: float, cell: int) -> np.ndarray
 
 def layout_with(place: np.ndarray, count: int, size: float, recording: GazeRecording,
                 rng: np.random.Generator) -> Optional[Tuple[np.ndarray, int]]:
-    """A layout with one option centred on ``place`` at a random cell that fits, or None."""
+    """Return a layout with one option centred on ``place`` at a random cell that fits, or None."""
     for cell in rng.permutation(count):
         centres = grid_at(place, count, size, int(cell))
         if _fits(centres, size, recording):
@@ -121,7 +121,7 @@ def layout_with(place: np.ndarray, count: int, size: float, recording: GazeRecor
 
 def settings_for_recording(settings: ArbiterSettings, recording: GazeRecording
                            ) -> ArbiterSettings:
-    """The rule on the recording's screen (px, mm, viewing distance)."""
+    """Return the rule on the recording's screen (px, mm, viewing distance)."""
     screen = recording.screen
     return settings.replace(screen_width=int(screen.width_px),
                             screen_height=int(screen.height_px),
@@ -207,7 +207,7 @@ def midas_rounds(recording: GazeRecording, seed: int = 0
 
 
 def _tally(outcomes: List[Tuple[str, float]]) -> Dict[str, float]:
-    """right / wrong / none % and the median decision time of right choices, ms."""
+    """Count right / wrong / none % and the median decision time of right choices, ms."""
     count = max(len(outcomes), 1)
     times = [t for kind, t in outcomes if kind == 'right']
     return {'rounds': len(outcomes),
@@ -251,7 +251,7 @@ def load_folder(folder) -> List[GazeRecording]:
 
 def simulated_twins(recordings: Sequence[GazeRecording], seed: int = 0
                     ) -> List[GazeRecording]:
-    """The simulated person recorded on each recording's schedule and screen."""
+    """Record the simulated person on each recording's schedule and screen."""
     from eye_bci_ros2.sim.person import record_schedule
     return [record_schedule(recording.targets, recording.screen, rate_hz=recording.rate_hz,
                             seed=seed + index, name=f'simulated {recording.name}')
@@ -277,9 +277,9 @@ def run(quick: bool = False, data=None, sizes: Sequence[int] = SIZES,
                                    f'{len(r.targets)} targets)' for r in recordings],
                     'intent': {}, 'midas': {}}
     for name, settings in RULES.items():
-        result['intent'][name] = {f'{count} x {size} px': intent(recordings, settings, count,
-                                                                   size, seed)
-                                  for count in counts for size in sizes}
+        result['intent'][name] = {
+            f'{count} x {size} px': intent(recordings, settings, count, size, seed)
+            for count in counts for size in sizes}
         result['midas'][name] = midas(recordings, settings, seed)
     if curve:
         base = RULES['default']
@@ -289,15 +289,15 @@ def run(quick: bool = False, data=None, sizes: Sequence[int] = SIZES,
             for count in counts for size in sizes} for c in CURVE}
     if simulated:
         twins = simulated_twins([r for r in recordings if r.targets.jumps], seed)
-        result['simulated'] = {f'{count} x {size} px': intent(twins, RULES['default'], count,
-                                                                size, seed)
-                               for count in counts for size in sizes}
+        result['simulated'] = {
+            f'{count} x {size} px': intent(twins, RULES['default'], count, size, seed)
+            for count in counts for size in sizes}
         result['simulated midas'] = midas(twins, RULES['default'], seed)
     return result
 
 
 def format_lines(section: Dict) -> List[str]:
-    """The tables of a section, as printed."""
+    """Return the tables of a section, as printed."""
     if 'skipped' in section:
         return [f"skipped: {section['skipped']}"]
     lines = ['recordings: ' + '; '.join(section['recordings']), '',

@@ -211,7 +211,7 @@ def check_hit_rate(hit_rate: float) -> None:
                          'must be more likely on the looked-at region than elsewhere')
 
 
-def _moved(old: RegionSet, new: RegionSet) -> bool:
+def options_moved(old: RegionSet, new: RegionSet) -> bool:
     """Tell whether ``new`` shows the same options as ``old`` moved by more than MOVED_PX."""
     if new is old or new.labels != old.labels or new.polygons.shape != old.polygons.shape:
         return False
@@ -542,7 +542,7 @@ class RoundEvidence:
         region_set = self.regions_for(region_set)
         ids, label_centroids = self._label_ids(region_set)
         if self._latest is None or region_set.stamp >= self._latest.stamp:
-            if self._latest is not None and _moved(self._latest, region_set):
+            if self._latest is not None and options_moved(self._latest, region_set):
                 self._moved_at = max(self._moved_at, region_set.stamp)
             self._latest = region_set
             # The newest geometry of each label, for the motion-compensated mean.

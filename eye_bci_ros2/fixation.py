@@ -43,11 +43,11 @@ Fresh fixations only.  A fixation that began before ``start +
 min_reaction_s`` (a gaze resting there when the question came) or before the
 options last moved + ``min_reaction_s``, and a later one within
 :data:`REST_RADIUS_DEG` of such a resting place before the gaze has left it
-(a fixation farther away), are not a reaction to the question, and never choose, early or at the window end: a gaze resting
-near an option (looking at something else) measures inside it as often as
-the tracker's error reaches across its edge, so a choice needs the eye to move
-to the option.  The round ends without a choice, with that reason, and the
-menu asks again.
+(a fixation farther away), are not a reaction to the question, and never
+choose, early or at the window end: a gaze resting near an option (looking at
+something else) measures inside it as often as the tracker's error reaches
+across its edge, so a choice needs the eye to move to the option.  The round
+ends without a choice, with that reason, and the menu asks again.
 
 Still fixations only.  An eye following a moving thing (smooth pursuit) drags
 a dispersion window along; a fixation decides only while the means of the
@@ -67,7 +67,7 @@ from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.evidence import _moved, Decision
+from eye_bci_ros2.evidence import Decision, options_moved
 from eye_bci_ros2.regions import points_array, RegionSet
 from eye_bci_ros2.visual_angle import px_per_degree_at, ScreenGeometry
 
@@ -244,7 +244,7 @@ class FixationEvidence:
 
     @property
     def counts(self) -> Dict[str, int]:
-        """Samples of the round's settled fixations per label they pointed to."""
+        """Count the samples of the round's settled fixations per label they pointed to."""
         return dict(self._counts)
 
     def regions_for(self, region_set: RegionSet) -> RegionSet:
@@ -277,7 +277,7 @@ class FixationEvidence:
         if confidence is not None and not 0.5 < confidence < 1.0:
             raise ValueError(f'confidence must be in (0.5, 1), got {confidence}')
         if self._latest is None or region_set.stamp >= self._latest.stamp:
-            if self._latest is not None and _moved(self._latest, region_set):
+            if self._latest is not None and options_moved(self._latest, region_set):
                 self._moved_at = max(self._moved_at, region_set.stamp)
             self._latest = region_set
         for label in region_set.labels:
@@ -355,7 +355,7 @@ class FixationEvidence:
         :param settings: not needed (the rule's settings are its own).
         """
         confidence = self.confidence
-        out = {label: 0.0 for label in self.labels}
+        out = dict.fromkeys(self.labels, 0.0)
         current = self._current
         if current is None or self._latest is None or not current.fresh:
             return out
@@ -413,7 +413,7 @@ class FixationEvidence:
         return True
 
     def _new_fixation(self, samples: List[Tuple[float, np.ndarray]]) -> _Fixation:
-        """A fixation of these samples; fresh unless it is a resting gaze (module doc)."""
+        """Make a fixation of these samples; fresh unless it is a resting gaze (module doc)."""
         fixation = _Fixation(samples, fresh=samples[0][0] >= self.fresh_from)
         if not fixation.fresh:
             self._rest = fixation.centre if self._rest is None else self._rest
@@ -501,8 +501,7 @@ class FixationEvidence:
                   posterior: float, margin: float, reason: str = '') -> Decision:
         """Build a Decision (counts: samples of the settled fixations per label)."""
         used = fixation.count if fixation is not None else 0
-        mean_point = None if fixation is None else (float(fixation.centre[0]),
-                                                     float(fixation.centre[1]))
+        mean_point = None if fixation is None else tuple(float(v) for v in fixation.centre)
         if label is not None:
             self._counts[label] = self._counts.get(label, 0) + used
         elapsed = (self.last_stamp - self.start) if math.isfinite(self.last_stamp) else math.nan

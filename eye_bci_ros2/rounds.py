@@ -277,12 +277,12 @@ class ArbiterSettings:
 
     @property
     def sigma_gaze_deg(self) -> float:
-        """The gaze error per axis the fixation rule expects, degrees (accuracy, precision)."""
+        """Return the gaze error per axis the fixation rule expects, degrees."""
         return math.hypot(float(self.accuracy_deg), float(self.precision_deg))
 
     def evidence(self, start: float):
         """
-        Return the empty evidence of the rule ``method`` for a round starting at ``start`` s.
+        Make the empty evidence of the rule ``method`` for a round starting at ``start`` s.
 
         A :class:`~eye_bci_ros2.fixation.FixationEvidence` for 'fixation', a
         :class:`~eye_bci_ros2.evidence.RoundEvidence` for the count rules; both
@@ -436,7 +436,7 @@ class RoundScheduler:
 
     @property
     def evidence(self):
-        """Return the open round's evidence (of its rule), or None; read it, never change it."""
+        """Return the open round's evidence, or None; read it, never change it."""
         return self._round.evidence if self._round is not None else None
 
     @property

@@ -49,8 +49,8 @@ def test_a_labs_own_csv_recording_runs_through_the_command(tmp_path, capsys):
     stamps = np.arange(0, 12 * 1.5, 1 / 60)
     target = np.minimum((stamps / 1.5).astype(int), 11)
     lag = np.minimum(((stamps - 0.25) / 1.5).astype(int).clip(0), 11)
-    points = places[np.where(stamps % 1.5 > 0.25, target, lag)] + rng.normal(0, 8, (len(stamps),
-                                                                                     2))
+    looked_at = np.where(stamps % 1.5 > 0.25, target, lag)
+    points = places[looked_at] + rng.normal(0, 8, (len(stamps), 2))
     rows = '\n'.join(f'{t:.4f},{x:.1f},{y:.1f}' for t, (x, y) in zip(stamps, points))
     (tmp_path / 'lab.gaze.csv').write_text('time_s,x_px,y_px\n' + rows + '\n')
     (tmp_path / 'lab.targets.csv').write_text(

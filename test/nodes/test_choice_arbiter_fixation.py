@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from ros_harness import Collector
 from std_msgs.msg import String
-from test_choice_arbiter import LEFT, OFF, RIGHT, Rig
+from test_choice_arbiter import LEFT, OFF, Rig, RIGHT
 
 from eye_bci_ros2.nodes.topics import EVENT_QOS, NO_CHOICE_TOPIC
 from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE

@@ -38,15 +38,15 @@ def path(segments, rate=60.0, noise_deg=0.3, seed=0):
         count = max(int(round(duration * rate)), 1)
         share = (np.arange(count) + 0.5) / count
         stamps.append(t + share * duration)
-        points.append(np.asarray(start, float) + share[:, None] * (np.asarray(end, float)
-                                                                     - np.asarray(start, float)))
+        start, end = np.asarray(start, float), np.asarray(end, float)
+        points.append(start + share[:, None] * (end - start))
         t += duration
     stamps, points = np.concatenate(stamps), np.concatenate(points)
     return stamps, points + rng.normal(0.0, noise_deg * PPD, points.shape)
 
 
 def decide(stamps, points, settings=SETTINGS, regions=None, start=0.0):
-    """The node's decision of one round starting at ``start``."""
+    """Decide one round starting at ``start`` as the node does."""
     return decide_trial(points, stamps, regions or options(start), settings, start=start)
 
 

@@ -1,4 +1,4 @@
-"""Loaders of recorded gaze (eye_bci_ros2.recordings.gaze): files the tests write, and the real ones."""
+"""Loaders of recorded gaze (recordings.gaze): files the tests write, and the real ones."""
 
 import gzip
 

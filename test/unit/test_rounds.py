@@ -23,7 +23,8 @@ class Recorder:
     def __init__(self, **settings):
         self.decisions = []
         self.logs = []
-        self.tracker = RoundScheduler(ArbiterSettings(**{**COUNT_RULE, **settings}), self.decisions.append,
+        self.tracker = RoundScheduler(ArbiterSettings(**{**COUNT_RULE, **settings}),
+                                      self.decisions.append,
                                       lambda level, key, text: self.logs.append((level, key)))
 
     @property

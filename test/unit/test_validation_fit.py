@@ -11,14 +11,14 @@ import pytest
 
 from bench import correction_fit
 from eye_bci_ros2.recordings import find_data
-from eye_bci_ros2.sim.person import GazeSimulator, ORIGINAL_TOBII_4C
+from eye_bci_ros2.sim.person import GazeSimulator, IDEAL_EYE, ORIGINAL_TOBII_4C
 from eye_bci_ros2.validation import (apply_correction, choose_kind, compose_corrections,
                                      correction_values, CorrectionRefused, fit_correction,
                                      implausibility, measure, samples_per_target,
                                      target_layout)
 
-#: A person who looks where asked (0.3 deg jitter, no offset, no drift).
-PERSON = ORIGINAL_TOBII_4C.with_changes(drift_deg=0.0, offset_deg=0.0)
+#: A person who looks where asked (0.3 deg jitter; no offset, drift, landing errors or spikes).
+PERSON = ORIGINAL_TOBII_4C.with_changes(drift_deg=0.0, offset_deg=0.0, **IDEAL_EYE)
 SCREEN = PERSON.person.screen
 DWELL_S = 1.5
 
