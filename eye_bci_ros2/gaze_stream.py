@@ -35,7 +35,7 @@ def _layout_fits(profile_name: str, labels: Sequence[str], channel_count: int) -
 
 
 def fitting_profiles(labels: Sequence[str], channel_count: int) -> List[str]:
-    """The profiles (not ``custom``) whose application sends exactly these channels."""
+    """List the profiles (not ``custom``) whose application sends exactly these channels."""
     return [name for name in PROFILE_NAMES
             if name != CUSTOM and _layout_fits(name, labels, channel_count)]
 
@@ -74,12 +74,13 @@ def misfit(config: GazeConfig, labels: Sequence[str], channel_count: int) -> Opt
         expected = PROFILES[config.profile].channel_labels
         shown = ', '.join(label or '?' for label in labels[:4]) or 'unlabelled'
         more = ', ...' if len(labels) > 4 else ''
-        reason = (f"its {channel_count} channel(s) ({shown}{more}) are not the "
+        reason = (f'its {channel_count} channel(s) ({shown}{more}) are not the '
                   f"{len(expected)} of profile '{config.profile}' ({', '.join(expected)})")
     if reason is None:
         return None
     others = [name for name in fitting_profiles(labels, channel_count) if name != config.profile]
-    hint = (f"; it fits {' or '.join(f'profile:={name}' for name in others)}" if others
+    fits = ' or '.join(f'profile:={name}' for name in others)
+    hint = (f'; it fits {fits}' if others
             else '; set profile, x_channel and y_channel to its layout')
     return f"it does not fit profile '{config.profile}': {reason}{hint}"
 
@@ -93,12 +94,12 @@ def how_to_select(stream: StreamDescription, config: GazeConfig) -> str:
     """
     for name in PROFILE_NAMES:
         profile = PROFILES[name]
-        if profile.stream_type and profile.stream_type == stream.type \
+        if profile.stream_type and profile.stream_type == stream.stream_type \
                 and profile.stream_name in ('', stream.name) and name != config.profile:
             return f'profile:={name}'
     settings = []
-    if config.stream_type and config.stream_type != stream.type:
-        settings.append(f"stream_type:='{stream.type}'")
+    if config.stream_type and config.stream_type != stream.stream_type:
+        settings.append(f"stream_type:='{stream.stream_type}'")
     if config.stream_name and config.stream_name != stream.name:
         settings.append(f"stream_name:='{stream.name}'")
     if config.source_id and config.source_id != stream.source_id:
@@ -126,7 +127,7 @@ class GazeStreamProfile:
 
     def matches(self, stream: StreamDescription) -> bool:
         """Tell whether type, name and source_id are the selected ones."""
-        return stream_matches(self.config, stream.type, stream.name, stream.source_id)
+        return stream_matches(self.config, stream.stream_type, stream.name, stream.source_id)
 
     def misfit(self, stream: StreamDescription) -> Optional[str]:
         """Say why the stream's channels do not fit (:func:`misfit`)."""

@@ -100,7 +100,7 @@ class StreamDescription:
 
     uid: str
     name: str
-    type: str
+    stream_type: str
     source_id: str
     hostname: str
     channel_count: int
@@ -115,7 +115,7 @@ class StreamDescription:
         """Name the stream in one line for log messages."""
         rate = self.nominal_srate
         rate_text = f'{rate:g} Hz' if rate > 0 else 'irregular rate'
-        return (f"'{self.name}' (type '{self.type}', source_id '{self.source_id}', "
+        return (f"'{self.name}' (type '{self.stream_type}', source_id '{self.source_id}', "
                 f'{self.channel_count} ch, {rate_text}, host {self.hostname})')
 
 
@@ -154,7 +154,7 @@ class Lsl(Protocol):
     def describe(self, stream: StreamDescription) -> StreamDescription:
         """Return ``stream`` with its labels; raise NotReady or StreamLost."""
 
-    def open(self, stream: StreamDescription, max_chunk: int) -> Inlet:
+    def open_inlet(self, stream: StreamDescription, max_chunk: int) -> Inlet:
         """Open an inlet pulling at most ``max_chunk`` samples at once."""
 
 
@@ -165,7 +165,7 @@ class StreamProfile(Protocol):
     kind: str
 
     def predicate(self) -> str:
-        """Return the LSL resolver predicate (XPath; '' = all streams)."""
+        """Return the XPath that liblsl's resolver filters by ('' = all streams)."""
 
     def matches(self, stream: StreamDescription) -> bool:
         """Tell whether type, name and source_id are the selected ones."""
@@ -480,7 +480,7 @@ class StreamConnection:
         return False
 
     def _candidates(self, now: float) -> List[StreamDescription]:
-        """The matching streams advertised now that are not ignored, oldest first."""
+        """List the matching streams advertised now that are not ignored, oldest first."""
         if self._resolver is None:
             self._start_resolver()
             if self._resolver is None:
@@ -586,7 +586,7 @@ class StreamConnection:
         self._start(chosen, now)
 
     def _choose(self, fitting: List[StreamDescription]) -> Optional[StreamDescription]:
-        """The rule of the module doc; None while none or several sources fit."""
+        """Pick a stream by the rule of the module doc; None while none or several sources fit."""
         if not fitting:
             return None
         if len(fitting) == 1:
@@ -642,7 +642,7 @@ class StreamConnection:
     def _start(self, stream: StreamDescription, now: float) -> None:
         """Open an inlet on ``stream`` and start its clock offset."""
         try:
-            inlet = self._lsl.open(stream, self.settings.max_chunk)
+            inlet = self._lsl.open_inlet(stream, self.settings.max_chunk)
             inlet.start()
         except NotReady:
             self._report.throttled('describe', f'no answer from {stream.describe()} yet; '
@@ -755,7 +755,7 @@ def how_to_choose(stream: StreamDescription, current: StreamDescription) -> str:
 
 
 def how_to_pick(stream: StreamDescription, fitting: Sequence[StreamDescription]) -> str:
-    """The parameter that picks ``stream`` out of ``fitting``: source_id, else stream_name."""
+    """Name the parameter that picks ``stream`` out of ``fitting``: source_id, else name."""
     same_source = [other for other in fitting if other.source_id == stream.source_id]
     if stream.source_id and len(same_source) == 1:
         return f"source_id:='{stream.source_id}'"

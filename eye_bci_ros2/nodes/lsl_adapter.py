@@ -40,7 +40,7 @@ def description(info: pylsl.StreamInfo,
                 labels: Optional[Tuple[str, ...]] = None) -> StreamDescription:
     """Return pylsl's ``StreamInfo`` as a :class:`StreamDescription` (handle: ``info``)."""
     return StreamDescription(
-        uid=info.uid(), name=info.name(), type=info.type(), source_id=info.source_id(),
+        uid=info.uid(), name=info.name(), stream_type=info.type(), source_id=info.source_id(),
         hostname=info.hostname(), channel_count=info.channel_count(),
         nominal_srate=info.nominal_srate(), created_at=info.created_at(),
         numeric=info.channel_format() != pylsl.cf_string, labels=labels, handle=info)
@@ -140,7 +140,7 @@ class PylslBackend:
         # The resolver's StreamInfo keeps the sender's address; the full one may not.
         return replace(description(full, channel_labels(full)), handle=stream.handle)
 
-    def open(self, stream: StreamDescription, max_chunk: int) -> PylslInlet:
+    def open_inlet(self, stream: StreamDescription, max_chunk: int) -> PylslInlet:
         """Open an inlet on ``stream``."""
         return PylslInlet(stream.handle, max_chunk)
 

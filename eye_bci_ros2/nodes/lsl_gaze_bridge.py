@@ -201,7 +201,7 @@ def _check_all(values: Dict[str, Any]) -> Optional[str]:
 
 
 def _settings(values: Dict[str, Any]) -> ConnectionSettings:
-    """The connection's settings from the parameters."""
+    """Return the connection's settings from the parameters."""
     return ConnectionSettings(stale_timeout_s=values['stale_timeout_s'],
                               time_correction_period_s=values['time_correction_period_s'],
                               max_chunk=values['max_chunk'])
@@ -252,7 +252,7 @@ class LslGazeBridge(Node):
 
     @property
     def connection(self) -> StreamConnection:
-        """Return the LSL connection (stream, clock offset, measured rate, gaps)."""
+        """Give the LSL connection in use (stream, clock offset, measured rate, gaps)."""
         return self._connection
 
     @property
@@ -354,7 +354,7 @@ class LslGazeBridge(Node):
                                       throttle_duration_sec=WARN_PERIOD_S)
 
     def _on_connected(self, stream: StreamDescription) -> None:
-        """A stream was opened: bind its channels, publish on_screen anew, start polling."""
+        """Bind a stream just opened, publish on_screen anew for it, start polling."""
         self._on_screen = None       # published once when this stream starts sending
         self._bind(stream)
         if self._poll_timer is not None:

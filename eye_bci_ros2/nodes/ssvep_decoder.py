@@ -57,6 +57,7 @@ from eye_bci_ros2.ssvep.layouts import (ANY, LAYOUT_NAMES, LAYOUTS, parse_channe
 from eye_bci_ros2.ssvep.online import OnlineDecoder, OnlineSettings
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
 
+
 def _channels_text(value) -> Optional[str]:
     try:
         parse_channels(value)
@@ -152,7 +153,7 @@ def _check_all(values: Dict[str, Any]) -> Optional[str]:
 
 
 def _connection_settings(values: Dict[str, Any]) -> ConnectionSettings:
-    """The LSL connection's settings from the parameters."""
+    """Return the LSL connection's settings from the parameters."""
     return ConnectionSettings(stale_timeout_s=values['stale_timeout_s'])
 
 
@@ -200,7 +201,7 @@ class SsvepDecoder(Node):
 
     @property
     def connection(self) -> StreamConnection:
-        """Return the LSL connection (stream, clock offset, measured rate, gaps)."""
+        """Give the LSL connection in use (stream, clock offset, measured rate, gaps)."""
         return self._connection
 
     @property
@@ -267,11 +268,11 @@ class SsvepDecoder(Node):
             self._warn('maintain', f'LSL maintenance failed: {error}')
 
     def _on_connected(self, stream: StreamDescription) -> None:
-        """A stream was opened: choose its channels."""
+        """Choose the channels of a stream just opened."""
         self._bind()
 
     def _on_quiet(self) -> None:
-        """The stream went quiet or was lost: say that no choice comes from it meanwhile."""
+        """Say that no choice comes while the stream is quiet or lost."""
         self._warn('quiet', 'no SSVEP choice until EEG samples come again')
         if self._connection.stream is None:
             self._decoder = None

@@ -1,5 +1,5 @@
 """
-Which LSL stream is the EEG amplifier's: the EEG :class:`~eye_bci_ros2.lsl_connection.StreamProfile`.
+Which LSL stream is the EEG amplifier's: the EEG stream profile of the LSL connection.
 
 The decoder (:mod:`eye_bci_ros2.nodes.ssvep_decoder`) reads its stream through
 :class:`eye_bci_ros2.lsl_connection.StreamConnection`, as the gaze bridge
@@ -16,7 +16,7 @@ from eye_bci_ros2.ssvep.layouts import ANY, LAYOUTS, stream_name_matches
 
 
 def _literal(value: str) -> Optional[str]:
-    """An XPath literal for ``value``, or None when it holds both quote characters."""
+    """Quote ``value`` as an XPath literal; None when it holds both quote characters."""
     if "'" not in value:
         return f"'{value}'"
     if '"' not in value:
@@ -37,7 +37,7 @@ class EegStreamProfile:
         self.source_id = values.get('source_id') or ''
 
     def predicate(self) -> str:
-        """Return the resolver predicate (type and source_id; names are checked after)."""
+        """Return the XPath of type and source_id (names are checked after resolving)."""
         terms = []
         for key, value in (('type', self.stream_type if self.stream_type != ANY else ''),
                            ('source_id', self.source_id if self.source_id != ANY else '')):
@@ -48,7 +48,7 @@ class EegStreamProfile:
 
     def matches(self, stream: StreamDescription) -> bool:
         """Tell whether type, name and source_id are the selected ones."""
-        return ((self.stream_type == ANY or stream.type == self.stream_type)
+        return ((self.stream_type == ANY or stream.stream_type == self.stream_type)
                 and stream_name_matches(self.layout, stream.name, self.stream_name)
                 and (self.source_id in ('', ANY) or stream.source_id == self.source_id))
 
@@ -63,7 +63,8 @@ class EegStreamProfile:
             parts.append(f"type '{self.stream_type}'")
         name = self.stream_name or self.layout.stream_name
         if name != ANY:
-            parts.append(f"name {'starting with ' if self.layout.name_is_prefix and not self.stream_name else ''}'{name}'")
+            prefix = self.layout.name_is_prefix and not self.stream_name
+            parts.append(f"name {'starting with ' if prefix else ''}'{name}'")
         if self.source_id not in ('', ANY):
             parts.append(f"source_id '{self.source_id}'")
         return ', '.join(parts)
@@ -71,8 +72,8 @@ class EegStreamProfile:
     def how_to_select(self, stream: StreamDescription) -> str:
         """Say which parameters would select ``stream``."""
         settings = []
-        if self.stream_type != ANY and stream.type != self.stream_type:
-            settings.append(f"stream_type:='{stream.type}'")
+        if self.stream_type != ANY and stream.stream_type != self.stream_type:
+            settings.append(f"stream_type:='{stream.stream_type}'")
         if not stream_name_matches(self.layout, stream.name, self.stream_name):
             settings.append(f"stream_name:='{stream.name}'")
         if self.source_id not in ('', ANY) and stream.source_id != self.source_id:

@@ -275,7 +275,7 @@ def test_lsl_stream_with_the_wrong_channel_count(graph, capfd, fault, channels):
     rig.offer_rooms()
     with fault('gaze', f'LSL stream with {channels} unlabelled channel(s) (wrong layout)'):
         # Refused before a sample is read, with the reason; its samples never become gaze.
-        assert log.wait_for(graph, "lsl_gaze_bridge.*not taking .*does not fit profile "
+        assert log.wait_for(graph, 'lsl_gaze_bridge.*not taking .*does not fit profile '
                                    "'custom': x_channel: the stream has no channel labelled 'x'",
                             mark)
         rig.request()

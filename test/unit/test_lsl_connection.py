@@ -77,7 +77,7 @@ class FakeLsl:
     def describe(self, stream):
         return next(s for s in self.streams if s.uid == stream.uid)
 
-    def open(self, stream, max_chunk):
+    def open_inlet(self, stream, max_chunk):
         self.inlets[stream.uid] = FakeInlet()
         return self.inlets[stream.uid]
 
@@ -103,8 +103,8 @@ class Log:
 
 def stream(uid, stream_type='Gaze', name='tracker', source_id='', channels=2, rate=0.0,
            created_at=1.0, labels=('', '')):
-    """A stream description as the network advertises it."""
-    return StreamDescription(uid=uid, name=name, type=stream_type, source_id=source_id,
+    """Describe a stream as the network advertises it."""
+    return StreamDescription(uid=uid, name=name, stream_type=stream_type, source_id=source_id,
                              hostname='host', channel_count=channels, nominal_srate=rate,
                              created_at=created_at, labels=tuple(labels))
 
@@ -114,7 +114,7 @@ PUPIL = stream('pupil', name='pupil_capture', channels=22,
 
 
 def connection(profile=None, lsl=None, clock=None, ros_ns=None, **settings):
-    """A connection on the fake network with the default gaze profile."""
+    """Make a connection on the fake network, by default with the default gaze profile."""
     lsl = lsl or FakeLsl()
     clock = clock or Clock()
     log = Log()
