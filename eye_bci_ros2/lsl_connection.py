@@ -485,7 +485,11 @@ class StreamConnection:
             self._start_resolver()
             if self._resolver is None:
                 return []
-        found = [stream for stream in self._resolver.results()
+        advertised = self._resolver.results()
+        # Descriptions of streams gone from the network are dropped (uids never come back).
+        seen = {stream.uid for stream in advertised}
+        self._described = {uid: full for uid, full in self._described.items() if uid in seen}
+        found = [stream for stream in advertised
                  if self.profile.matches(stream) and not self._is_ignored(stream.uid, now)]
         return sorted(found, key=lambda stream: stream.created_at)
 
