@@ -9,7 +9,7 @@ publishes
 * every valid sample on ``gaze/samples`` (sensor_msgs/PointCloud2), one
   message per pulled chunk, each sample with its own acquisition time on the
   ROS clock (:mod:`eye_bci_ros2.nodes.conversions`, "Gaze batches";
-  :mod:`eye_bci_ros2.gaze_stream` for the stamps): the cost follows the poll
+  :mod:`eye_bci_ros2.lsl_connection` for the stamps): the cost follows the poll
   rate, not the tracker rate;
 * the newest sample on ``gaze/point`` (geometry_msgs/PointStamped) at most
   ``point_rate_hz`` times a second, for people and simple tools;
