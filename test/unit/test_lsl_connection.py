@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from eye_bci_ros2.gaze_profiles import build_config, PROFILES
-from eye_bci_ros2.gaze_stream import GazeStreamProfile
+from eye_bci_ros2.gaze_stream import GazeStreamProfile, misfit
 from eye_bci_ros2.lsl_connection import (acquisition_stamps_ns, CLOCK_SYNC_TIMEOUT_S,
                                          ConnectionSettings, find_gaps, LOST_IGNORE_S,
                                          StreamConnection, StreamDescription, StreamLost)
@@ -343,3 +343,17 @@ def test_eeg_profile_selects_by_layout_type_name_and_source():
                                       source_id='amp-7'))
     assert not profile.matches(stream('x', stream_type='EEG', name='LiveAmpSN-1234',
                                       source_id='amp-8'))
+
+
+@pytest.mark.parametrize('sender', ['tobii_pro', 'pupil_capture', 'xy_pixels'])
+def test_each_application_layout_fits_its_profile_and_is_named_under_another(sender):
+    """Every tracker layout is taken by its own profile and refused, naming it, by the others."""
+    spec = PROFILES[sender]
+    labels = spec.channel_labels if spec.labelled else ('',) * len(spec.channel_labels)
+    for profile_name in ('tobii_pro', 'pupil_capture', 'xy_pixels'):
+        reason = misfit(build_config({'profile': profile_name}), labels, len(labels))
+        if profile_name == sender:
+            assert reason is None
+        elif len(PROFILES[profile_name].channel_labels) != len(labels):
+            assert f"does not fit profile '{profile_name}'" in reason
+            assert f'profile:={sender}' in reason
