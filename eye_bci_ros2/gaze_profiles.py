@@ -55,6 +55,7 @@ from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from eye_bci_ros2.validation import apply_correction
+from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
 
 #: Profile names, in the order the parameter description lists them.
 PROFILE_NAMES = ('tobii_pro', 'tobii_stream_engine', 'pupil_capture', 'xy_pixels', 'custom')
@@ -301,8 +302,8 @@ def build_config(values: Mapping[str, Any]) -> GazeConfig:
     origin = pick('origin', profile.origin)
     if origin not in ORIGINS:
         raise ValueError(f"origin '{origin}' is not one of {', '.join(ORIGINS)}")
-    screen_width = int(values.get('screen_width', 1920))
-    screen_height = int(values.get('screen_height', 1080))
+    screen_width = int(values.get('screen_width', DEFAULT_VIEWING.width_px))
+    screen_height = int(values.get('screen_height', DEFAULT_VIEWING.height_px))
     if screen_width <= 0 or screen_height <= 0:
         raise ValueError(f'screen size must be positive, got {screen_width}x{screen_height}')
     source_width = int(values.get('source_width') or profile.source_width or screen_width)

@@ -1,111 +1,91 @@
 """
-The LSL gaze stream's pure logic: stamps on the ROS clock, stream reports: no pylsl.
+Which LSL stream is an eye tracker's: the gaze :class:`~eye_bci_ros2.lsl_connection.StreamProfile`.
 
-The bridge node (:mod:`eye_bci_ros2.nodes.lsl_gaze_bridge`) does the I/O;
-what it decides is here, tested without liblsl.  A *stream* is anything with
-pylsl's ``StreamInfo`` accessors (``name()``, ``type()``, ``source_id()``,
-``channel_count()``, ``nominal_srate()``, ``hostname()``).
-
-Time stamps.  A sample's acquisition time on the ROS clock is::
-
-    t_ros = t_lsl + time_correction + (ros_now - lsl_now)
-
-where ``t_lsl`` is the sender's timestamp (its LSL clock), the time
-correction (liblsl's estimate, refreshed every few seconds) maps it to this
-machine's LSL clock, and ``ros_now - lsl_now``, read when the chunk is
-pulled (:func:`acquisition_stamps_ns`), maps this machine's LSL clock to the
-ROS clock.
+The bridge (:mod:`eye_bci_ros2.nodes.lsl_gaze_bridge`) reads its stream through
+:class:`eye_bci_ros2.lsl_connection.StreamConnection` (stamps, keeping and
+switching streams); what makes a stream a gaze stream of the configured
+tracker application is here, pure: its type / name / source_id
+(:func:`eye_bci_ros2.gaze_profiles.stream_matches`) and its channels
+(:func:`misfit`).  A stream whose channels are another application's (a
+Pupil Capture stream of type ``Gaze`` under the default ``xy_pixels``
+profile) is refused with the profile that fits it, never read as pixels.
 """
 
-import math
-from typing import List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence
 
-import numpy as np
+from eye_bci_ros2.gaze_profiles import (build_config, GazeConfig, parse_channels,
+                                        PROFILE_NAMES, PROFILES, resolve_mapping,
+                                        stream_matches, xpath_predicate)
+from eye_bci_ros2.lsl_connection import StreamDescription
 
-from eye_bci_ros2.gaze_profiles import GazeConfig, PROFILE_NAMES, PROFILES
-
-#: Inlet buffer, s of gaze (a 100 000-sample burst of a 1200 Hz tracker is 83 s); liblsl
-#: drops the oldest samples beyond it, uncounted.
-INLET_BUFFER_S = 120
-#: Rate assumed to size the inlet buffer of an irregular-rate stream, Hz
-#: (EyeLink-class trackers send 2000 Hz).
-IRREGULAR_BUFFER_RATE_HZ = 2000.0
-#: Stamps must fit builtin_interfaces/Time (int32 seconds).
-MAX_STAMP_S = 2.0 ** 31 - 1
+#: The profile that assumes nothing about the layout.
+CUSTOM = 'custom'
 
 
-def inlet_buflen(nominal_srate: float) -> int:
+def _layout_fits(profile_name: str, labels: Sequence[str], channel_count: int) -> bool:
+    """Tell whether a stream carries the channels the profile's application sends."""
+    profile = PROFILES[profile_name]
+    if channel_count != len(profile.channel_labels):
+        return False
+    if not any(labels):
+        return True   # unlabelled: the count is all there is to check
+    if not profile.labelled:
+        return True   # the application writes none; someone else's labels say nothing
+    return tuple(labels[:channel_count]) == profile.channel_labels
+
+
+def fitting_profiles(labels: Sequence[str], channel_count: int) -> List[str]:
+    """List the profiles (not ``custom``) whose application sends exactly these channels."""
+    return [name for name in PROFILE_NAMES
+            if name != CUSTOM and _layout_fits(name, labels, channel_count)]
+
+
+def _default_channels(config: GazeConfig) -> bool:
+    """Tell whether the channels are the profile's own (no x/y/confidence parameter set)."""
+    profile = PROFILES[config.profile]
+    confidence = (parse_channels('confidence_channel', profile.confidence_channel)[0]
+                  if profile.confidence_channel else None)
+    return (config.x_channels == parse_channels('x_channel', profile.x_channel)
+            and config.y_channels == parse_channels('y_channel', profile.y_channel)
+            and config.confidence_channel == confidence)
+
+
+def misfit(config: GazeConfig, labels: Sequence[str], channel_count: int) -> Optional[str]:
     """
-    Return pylsl's ``max_buflen`` for :data:`INLET_BUFFER_S` of gaze.
+    Say why a stream's channels do not fit the configuration (None: they fit).
 
-    liblsl reads it as seconds for a stream with a nominal rate, but as
-    hundreds of samples for an irregular one (nominal rate 0).
+    A profile that names an application (not ``custom``) whose channel
+    parameters are left to it expects exactly that application's channels
+    (count, and labels where both label them); otherwise the configured
+    channels must exist (:func:`eye_bci_ros2.gaze_profiles.resolve_mapping`).
+    The reason names the profile(s) the stream fits.
+
+    :param labels: the stream's channel labels ('' where none).
+    :param channel_count: channels per sample.
     """
-    if nominal_srate > 0:
-        return INLET_BUFFER_S
-    return int(math.ceil(INLET_BUFFER_S * IRREGULAR_BUFFER_RATE_HZ / 100.0))
+    labels = list(labels)
+    reason = None
+    try:
+        resolve_mapping(config, labels, channel_count)
+    except ValueError as error:
+        reason = str(error)
+    if reason is None and config.profile != CUSTOM and _default_channels(config) \
+            and not _layout_fits(config.profile, labels, channel_count):
+        expected = PROFILES[config.profile].channel_labels
+        shown = ', '.join(label or '?' for label in labels[:4]) or 'unlabelled'
+        more = ', ...' if len(labels) > 4 else ''
+        reason = (f'its {channel_count} channel(s) ({shown}{more}) are not the '
+                  f"{len(expected)} of profile '{config.profile}' ({', '.join(expected)})")
+    if reason is None:
+        return None
+    others = [name for name in fitting_profiles(labels, channel_count) if name != config.profile]
+    fits = ' or '.join(f'profile:={name}' for name in others)
+    hint = (f'; it fits {fits}' if others
+            else '; set profile, x_channel and y_channel to its layout')
+    return f"it does not fit profile '{config.profile}': {reason}{hint}"
 
 
-def acquisition_stamps_ns(timestamps: np.ndarray, time_correction: Optional[float],
-                          ros_now_ns: int, lsl_now: float) -> Tuple[np.ndarray, np.ndarray]:
-    """
-    Map the LSL timestamps of a chunk to acquisition times on the ROS clock (module doc).
-
-    :param timestamps: shape (N,), s on the sender's LSL clock.
-    :param time_correction: sender clock -> this machine's LSL clock, s; None
-        when unknown: every sample is then stamped with its arrival time
-        (``ros_now_ns``).
-    :param ros_now_ns: the ROS clock, ns, read together with ``lsl_now``.
-    :param lsl_now: this machine's LSL clock, s.
-    :returns: ``(stamps_ns, good)``: shape (N,) int64 ns (0 where not good)
-        and (N,) bool, false for a stamp that is not finite or does not fit
-        builtin_interfaces/Time (a corrupt LSL timestamp).
-    """
-    timestamps = np.asarray(timestamps, dtype=np.float64).reshape(-1)
-    if time_correction is None:
-        delta_s = np.zeros(len(timestamps))
-    else:
-        delta_s = timestamps + time_correction - lsl_now
-    with np.errstate(invalid='ignore', over='ignore'):
-        stamp_s = ros_now_ns * 1e-9 + delta_s
-        good = np.isfinite(stamp_s) & (stamp_s >= 0.0) & (stamp_s < MAX_STAMP_S)
-    stamps_ns = np.zeros(len(timestamps), dtype=np.int64)
-    stamps_ns[good] = ros_now_ns + np.rint(delta_s[good] * 1e9).astype(np.int64)
-    return stamps_ns, good
-
-
-def describe_stream(info) -> str:
-    """Name a stream in one line for log messages."""
-    rate = info.nominal_srate()
-    rate_text = f'{rate:g} Hz' if rate > 0 else 'irregular rate'
-    return (f"'{info.name()}' (type '{info.type()}', source_id '{info.source_id()}', "
-            f'{info.channel_count()} ch, {rate_text}, host {info.hostname()})')
-
-
-def channel_labels(info) -> List[str]:
-    """
-    Return a stream's channel labels (desc/channels/channel/label), '' where a channel has none.
-
-    Any LSL stream (gaze or EEG): ``info`` is a full ``StreamInfo`` (from an
-    inlet's ``info()``), whose ``desc()`` holds what the application wrote.
-    """
-    labels = []
-    channel = info.desc().child('channels').child('channel')
-    while not channel.empty():
-        labels.append(channel.child_value('label').strip())
-        channel = channel.next_sibling('channel')
-    return labels
-
-
-def how_to_choose(info, current_source_id: str) -> str:
-    """Tell the user how to select this stream instead of the one in use."""
-    if info.source_id() and info.source_id() != current_source_id:
-        return f"To use it instead, set the parameter source_id to '{info.source_id()}'."
-    return (f"It has the same source_id ('{info.source_id()}'): to use it instead, stop the "
-            f'other sender or select it by stream_name.')
-
-
-def how_to_select(info, config: GazeConfig) -> str:
+def how_to_select(stream: StreamDescription, config: GazeConfig) -> str:
     """
     Say which parameters would make the bridge take a stream it does not match now.
 
@@ -114,29 +94,49 @@ def how_to_select(info, config: GazeConfig) -> str:
     """
     for name in PROFILE_NAMES:
         profile = PROFILES[name]
-        if profile.stream_type and profile.stream_type == info.type() \
-                and profile.stream_name in ('', info.name()) and name != config.profile:
+        if profile.stream_type and profile.stream_type == stream.stream_type \
+                and profile.stream_name in ('', stream.name) and name != config.profile:
             return f'profile:={name}'
     settings = []
-    if config.stream_type and config.stream_type != info.type():
-        settings.append(f"stream_type:='{info.type()}'")
-    if config.stream_name and config.stream_name != info.name():
-        settings.append(f"stream_name:='{info.name()}'")
-    if config.source_id and config.source_id != info.source_id():
-        settings.append(f"source_id:='{info.source_id()}'")
+    if config.stream_type and config.stream_type != stream.stream_type:
+        settings.append(f"stream_type:='{stream.stream_type}'")
+    if config.stream_name and config.stream_name != stream.name:
+        settings.append(f"stream_name:='{stream.name}'")
+    if config.source_id and config.source_id != stream.source_id:
+        settings.append(f"source_id:='{stream.source_id}'")
     return ' '.join(settings) or 'nothing (it matches)'
 
 
-def report_unmatched(streams: Sequence, config: GazeConfig, limit: int = 8) -> str:
-    """
-    List the LSL streams seen while none matches, each with how to select it.
+class GazeStreamProfile:
+    """A :class:`GazeConfig` as the connection's stream profile."""
 
-    :param streams: every stream the resolver sees (any type).
-    :param limit: most streams listed; the rest are counted.
-    """
-    if not streams:
-        return 'no LSL stream at all is visible (is the sender running, on this network?)'
-    lines = [f'{describe_stream(info)}: select with {how_to_select(info, config)}'
-             for info in streams[:limit]]
-    more = f'; and {len(streams) - limit} more' if len(streams) > limit else ''
-    return 'LSL streams seen: ' + '; '.join(lines) + more
+    kind = 'gaze'
+
+    def __init__(self, config: GazeConfig):
+        """Select streams by ``config`` (type, name, source_id, channels)."""
+        self.config = config
+
+    @classmethod
+    def from_parameters(cls, values) -> 'GazeStreamProfile':
+        """Build from the bridge's parameter values (:func:`build_config`)."""
+        return cls(build_config(values))
+
+    def predicate(self) -> str:
+        """Return the resolver predicate of the selection."""
+        return xpath_predicate(self.config)
+
+    def matches(self, stream: StreamDescription) -> bool:
+        """Tell whether type, name and source_id are the selected ones."""
+        return stream_matches(self.config, stream.stream_type, stream.name, stream.source_id)
+
+    def misfit(self, stream: StreamDescription) -> Optional[str]:
+        """Say why the stream's channels do not fit (:func:`misfit`)."""
+        return misfit(self.config, stream.labels or (), stream.channel_count)
+
+    def describe(self) -> str:
+        """Say which streams are selected."""
+        return self.config.describe_selection()
+
+    def how_to_select(self, stream: StreamDescription) -> str:
+        """Say which parameters would select ``stream``."""
+        return how_to_select(stream, self.config)

@@ -9,7 +9,7 @@ publishes
 * every valid sample on ``gaze/samples`` (sensor_msgs/PointCloud2), one
   message per pulled chunk, each sample with its own acquisition time on the
   ROS clock (:mod:`eye_bci_ros2.nodes.conversions`, "Gaze batches";
-  :mod:`eye_bci_ros2.gaze_stream` for the stamps): the cost follows the poll
+  :mod:`eye_bci_ros2.lsl_connection` for the stamps): the cost follows the poll
   rate, not the tracker rate;
 * the newest sample on ``gaze/point`` (geometry_msgs/PointStamped) at most
   ``point_rate_hz`` times a second, for people and simple tools;
@@ -30,58 +30,47 @@ parameter file for ``--params-file``.  An implausible correction (scale,
 rotation or shift anywhere on the screen beyond
 :func:`eye_bci_ros2.validation.implausibility`'s limits) is refused with the reason.
 
-Nothing here blocks the executor for long: the stream is found by a
-``pylsl.ContinuousResolver`` that a timer polls, chunks are pulled with a
-zero timeout, and the clock offset to the sender is estimated by liblsl in
-the background.  The only waits are fetching the full stream description
-once per connection (at most 0.2 s, usually a few ms on a LAN).  Samples are
-held back until the first time-correction estimate (about 0.7 s after
-connecting); if none comes within 5 s (UDP time service unreachable) the
-bridge warns and stamps with arrival time until one does.
+The stream is found, kept or switched, and its samples stamped, by
+:class:`eye_bci_ros2.lsl_connection.StreamConnection` (the same connection
+the SSVEP decoder uses; its module doc gives the rules) with the gaze profile
+of :mod:`eye_bci_ros2.gaze_stream`: a stream is taken only when its channels
+fit the profile (a Pupil Capture stream under ``xy_pixels`` is refused, with
+``profile:=pupil_capture`` named), and of several fitting streams from
+different sources none is taken until ``source_id`` or ``stream_name``
+picks one.  Nothing blocks the executor for long: resolving runs in
+liblsl's background, chunks are pulled with a zero timeout, and the only
+waits are reading a stream's full description once (at most 0.2 s).
 
 Bursts: a backlog (a sender that stalled and then pushed seconds of gaze at
-once, or samples held while the executor was busy) waits in the inlet's
-buffer, which liblsl fills without loss up to ``INLET_BUFFER_S`` of gaze, and
-is published in chunks of ``max_chunk`` samples, at most
-:data:`MAX_PULLS_PER_POLL` chunks per poll so the executor keeps serving
-other callbacks.  Stamps stay acquisition times, so a drained backlog is
-exactly as old as it is.
-
-Lost streams: inlets are created with ``recover=False``, so an outlet that
-goes away raises ``LostError`` at once; the bridge then resolves again and
-re-reads the channel labels, because a restarted application may advertise
-a different layout (a lost stream is not reopened for
-:data:`LOST_IGNORE_S`, while the resolver may still list it).  A stream
-that sends nothing for ``stale_timeout_s`` is reported and kept while it
-is still advertised (Tobii Stream Engine sends nothing while it sees no
-eyes: switching then would hand control to another device's gaze); only
-when it is gone does the bridge take the newest matching stream, with a
-warning.  A further matching stream that appears while connected is
-reported once and never used.  While no stream matches, the bridge names
-the streams it does see and the parameters that would select each.
+once) waits in the inlet's buffer, which liblsl fills without loss up to
+:data:`eye_bci_ros2.lsl_connection.INLET_BUFFER_S` of gaze, and is published
+in chunks of ``max_chunk`` samples, at most
+:data:`eye_bci_ros2.lsl_connection.MAX_PULLS_PER_POLL` chunks per poll.
+Stamps stay acquisition times, so a drained backlog is exactly as old as it
+is.  A quiet stream is kept while it is advertised (Tobii Stream Engine
+sends nothing while it sees no eyes) and ``gaze/on_screen`` turns false.
 """
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 import math
 import time
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Dict, Optional
 
 from geometry_msgs.msg import PointStamped
 import numpy as np
-import pylsl
-from pylsl.util import LostError, TimeoutError as LslTimeoutError
 from rclpy.node import Node
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Bool
 
 from eye_bci_ros2.gaze_profiles import (
     ANY, build_config, convert, DEFAULT_PROFILE, DROP_REASONS, GazeConfig, GazeMapping,
-    NO_CONFIDENCE, ORIGINS, PROFILE_NAMES, resolve_mapping, stream_matches, UNITS,
-    xpath_predicate)
-from eye_bci_ros2.gaze_stream import (acquisition_stamps_ns, channel_labels, describe_stream,
-                                      how_to_choose, inlet_buflen, report_unmatched)
+    NO_CONFIDENCE, ORIGINS, PROFILE_NAMES, resolve_mapping, UNITS)
+from eye_bci_ros2.gaze_stream import GazeStreamProfile
+from eye_bci_ros2.lsl_connection import (Chunk, ConnectionSettings, StreamConnection,
+                                         StreamDescription)
 from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_point
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
+from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import (GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC, GAZE_QOS,
@@ -90,25 +79,6 @@ from eye_bci_ros2.validation import (as_matrix, correction_values, IDENTITY, imp
                                      is_identity, PARAMETER as CORRECTION_PARAMETER)
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
 
-#: Longest wait for a stream's full description when connecting, s.
-INFO_TIMEOUT_S = 0.2
-#: Without a time-correction estimate after this long, stamp by arrival, s.
-CLOCK_SYNC_TIMEOUT_S = 5.0
-#: A resolver forgets a stream this long after it stopped answering, s.
-RESOLVER_FORGET_S = 2.0
-#: A lost stream is not reopened for this long (the resolver may still list a dead
-#: outlet); after it, a stream whose connection only broke can be used again, s.
-LOST_IGNORE_S = 2.5 * RESOLVER_FORGET_S
-#: Most chunks pulled per poll, so a huge backlog cannot hog the executor (8 chunks of
-#: the default 1024 samples per 2 ms poll drain a burst at 4 million samples/s).
-MAX_PULLS_PER_POLL = 8
-#: "Still looking" at most this often, s.
-LOOKING_LOG_PERIOD_S = 10.0
-#: The first "still looking" report (naming the streams seen) this long after looking began, s.
-FIRST_REPORT_S = 1.5
-#: Tries at reading the ROS and LSL clocks together, and a bracket good enough, s.
-CLOCK_READS = 3
-CLOCK_BRACKET_S = 20e-6
 #: Counters kept and logged by the bridge.
 COUNTERS = ('received', 'published') + DROP_REASONS + ('layout', 'bad_stamp')
 
@@ -171,10 +141,10 @@ PARAMETERS = (
               '0 = profile default, else the screen width', value_range=(0, 16384)),
     ParamSpec('source_height', 0, 'height of the sender screen, px (pixels units); '
               '0 = profile default, else the screen height', value_range=(0, 16384)),
-    ParamSpec('screen_width', 1920, 'width of the screen RViz is shown on, px',
-              value_range=(1, 16384)),
-    ParamSpec('screen_height', 1080, 'height of the screen RViz is shown on, px',
-              value_range=(1, 16384)),
+    ParamSpec('screen_width', DEFAULT_VIEWING.width_px,
+              'width of the screen RViz is shown on, px', value_range=(1, 16384)),
+    ParamSpec('screen_height', DEFAULT_VIEWING.height_px,
+              'height of the screen RViz is shown on, px', value_range=(1, 16384)),
     ParamSpec('confidence_channel', '',
               f"label or index of a 0..1 confidence channel; '' = profile default, "
               f"'{NO_CONFIDENCE}' = no confidence check", check=_channel_text,
@@ -232,37 +202,11 @@ def _check_all(values: Dict[str, Any]) -> Optional[str]:
     return None
 
 
-def _resolver(predicate: str) -> Optional[pylsl.ContinuousResolver]:
-    """Resolve streams matching an XPath ``predicate`` ('' = all) in liblsl's background."""
-    try:
-        if predicate:
-            return pylsl.ContinuousResolver(pred=predicate, forget_after=RESOLVER_FORGET_S)
-        return pylsl.ContinuousResolver(forget_after=RESOLVER_FORGET_S)
-    except Exception:  # noqa: B902 - liblsl errors must not kill the node
-        return None
-
-
-@dataclass
-class _Connection:
-    """One open inlet and what the bridge knows about its stream."""
-
-    inlet: pylsl.StreamInlet
-    uid: str
-    source_id: str
-    created_at: float
-    description: str
-    labels: List[str]
-    buffer: np.ndarray
-    connected_at: float
-    nominal_srate: float
-    mapping: Optional[GazeMapping] = None
-    mapping_error: str = ''
-    time_correction: Optional[float] = None
-    time_correction_at: float = 0.0
-    arrival_stamps: bool = False
-    reading_since: Optional[float] = None
-    last_sample_at: Optional[float] = None
-    stale: bool = False
+def _settings(values: Dict[str, Any]) -> ConnectionSettings:
+    """Return the connection's settings from the parameters."""
+    return ConnectionSettings(stale_timeout_s=values['stale_timeout_s'],
+                              time_correction_period_s=values['time_correction_period_s'],
+                              max_chunk=values['max_chunk'])
 
 
 class LslGazeBridge(Node):
@@ -284,23 +228,19 @@ class LslGazeBridge(Node):
         self._correction: Optional[np.ndarray] = _correction(self._params)
         # When gaze/point was last published (monotonic s).
         self._point_at = -math.inf
-        # Every stream on the network, resolved only while none matches (for the report).
-        self._all_streams: Optional[pylsl.ContinuousResolver] = None
         self._counters = dict.fromkeys(COUNTERS, 0)
         self._logged_counters = dict(self._counters)
-        self._connection: Optional[_Connection] = None
-        self._resolver: Optional[pylsl.ContinuousResolver] = None
-        # Streams not to open: uid -> until when (monotonic s; inf = for good).
-        self._ignored: Dict[str, float] = {}
-        # Other matching streams already reported, so each is reported once.
-        self._reported_uids = set()
-        # (uid, description) of a stream that went away, until another one is opened.
-        self._gone: Optional[Tuple[str, str]] = None
-        self._last_looking_log = -LOOKING_LOG_PERIOD_S
+        # The channel mapping of the stream in use; None with the reason while it has none.
+        self._mapping: Optional[GazeMapping] = None
+        self._mapping_error = ''
         self._poll_timer = None
         self._resolve_timer = None
         self._stats_timer = None
-        self._start_resolver()
+        self._connection = StreamConnection(
+            GazeStreamProfile(self._config), PylslBackend(), _settings(self._params),
+            LogReporter(self.get_logger()),
+            ros_now_ns=lambda: self.get_clock().now().nanoseconds,
+            on_connected=self._on_connected, on_quiet=lambda: self._publish_on_screen(False))
         self._make_timers(('poll_period_s', 'resolve_period_s', 'stats_period_s'))
         self.get_logger().info(
             f"profile '{self._config.profile}': looking for {self._config.describe_selection()}")
@@ -313,6 +253,11 @@ class LslGazeBridge(Node):
         return self._config
 
     @property
+    def connection(self) -> StreamConnection:
+        """Give the LSL connection in use (stream, clock offset, measured rate, gaps)."""
+        return self._connection
+
+    @property
     def counters(self) -> Dict[str, int]:
         """Count samples received, published and dropped per reason since start."""
         return dict(self._counters)
@@ -320,12 +265,14 @@ class LslGazeBridge(Node):
     @property
     def stream(self) -> Optional[str]:
         """Describe the stream in use; None while looking."""
-        return self._connection.description if self._connection else None
+        stream = self._connection.stream
+        return stream.describe() if stream else None
 
     @property
     def stream_uid(self) -> Optional[str]:
         """Return the LSL uid of the outlet in use; None while looking."""
-        return self._connection.uid if self._connection else None
+        stream = self._connection.stream
+        return stream.uid if stream else None
 
     @property
     def correction(self) -> Optional[np.ndarray]:
@@ -340,13 +287,11 @@ class LslGazeBridge(Node):
     @property
     def stale(self) -> bool:
         """Tell whether the stream in use has sent nothing for ``stale_timeout_s``."""
-        return bool(self._connection and self._connection.stale)
+        return self._connection.stale
 
     def destroy_node(self):
         """Close the inlet and the resolver, then destroy the node."""
-        self._disconnect()
-        self._resolver = None
-        self._all_streams = None
+        self._connection.close()
         return super().destroy_node()
 
     # -- parameters -----------------------------------------------------------------
@@ -362,19 +307,19 @@ class LslGazeBridge(Node):
             if len(changed) == 1:
                 return
         old, self._config = self._config, build_config(self._params)
-        if (old.selection, old.profile) != (self._config.selection, self._config.profile):
+        profile = GazeStreamProfile(self._config)
+        if (old.selection, old.profile) != (self._config.selection, self._config.profile) \
+                or 'max_chunk' in changed:
             self.get_logger().info(
                 f'stream selection changed: now looking for {self._config.describe_selection()} '
                 f"(profile '{self._config.profile}')")
-            self._disconnect()
-            self._ignored.clear()
-            self._reported_uids.clear()
-            self._gone = None
-            self._start_resolver()
-        elif self._connection is not None:
-            if 'max_chunk' in changed:
-                self._connection.buffer = self._make_buffer(self._connection.inlet)
-            self._bind(self._connection)
+            self._poll_timer.cancel()
+            self._connection.reselect(profile, _settings(self._params))
+        else:
+            # Same streams: refused ones are judged again, the one in use is bound again.
+            self._connection.refit(profile, _settings(self._params))
+            if self._connection.stream is not None:
+                self._bind(self._connection.stream)
         self._make_timers(changed)
 
     def _make_timers(self, changed) -> None:
@@ -383,7 +328,7 @@ class LslGazeBridge(Node):
             if self._poll_timer is not None:
                 self.destroy_timer(self._poll_timer)
             self._poll_timer = self.create_timer(self._params['poll_period_s'], self._poll)
-            if self._connection is None:
+            if self._connection.stream is None:
                 self._poll_timer.cancel()   # no wake-ups while there is nothing to read
         if 'resolve_period_s' in changed:
             if self._resolve_timer is not None:
@@ -398,292 +343,71 @@ class LslGazeBridge(Node):
                 self._stats_timer = self.create_timer(
                     self._params['stats_period_s'], self._log_counters)
 
-    # -- finding and opening the stream ----------------------------------------------
-
-    def _start_resolver(self) -> None:
-        """Resolve continuously (in liblsl's background thread) for the selection."""
-        self._resolver = _resolver(xpath_predicate(self._config))
-        if self._resolver is None:
-            self.get_logger().error('cannot start the LSL resolver (liblsl failed); retrying')
-
-    def _candidates(self) -> List[pylsl.StreamInfo]:
-        """List the matching streams currently advertised (any uid), oldest first."""
-        if self._resolver is None:
-            self._start_resolver()
-            if self._resolver is None:
-                return []
-        found = [info for info in self._resolver.results() if stream_matches(
-            self._config, info.type(), info.name(), info.source_id())]
-        return sorted(found, key=lambda info: info.created_at())
+    # -- the stream -------------------------------------------------------------------
 
     def _maintain(self) -> None:
-        """Connect when idle; refresh the clock offset; report other and quiet streams."""
+        """Let the connection find, keep or switch the stream (resolve timer)."""
         try:
-            now = time.monotonic()
-            connection = self._connection
-            if connection is None:
-                self._connect_newest(now)
-                return
-            if connection.time_correction is None or now - connection.time_correction_at >= \
-                    self._params['time_correction_period_s']:
-                self._refresh_time_correction(connection, now)
-            candidates = self._candidates()
-            self._report_others(connection, candidates)
-            quiet_since = connection.last_sample_at or connection.reading_since
-            if quiet_since is None or now - quiet_since < self._params['stale_timeout_s']:
-                return  # still waiting for the clock offset, or not quiet
-            if any(info.uid() == connection.uid for info in candidates):
-                if not connection.stale:
-                    connection.stale = True
-                    self._publish_on_screen(False)
-                    self.get_logger().warning(
-                        f'no gaze samples from {connection.description} for '
-                        f'{now - quiet_since:.1f} s (no eyes detected?); it is still '
-                        f'advertised, so the bridge stays with it and waits for it to resume')
-                return
-            # Quiet and no longer advertised: the sender is gone (a lost connection
-            # usually raises LostError in _poll first).
-            self.get_logger().warning(
-                f'{connection.description} is no longer advertised; looking for another')
-            self._drop_lost(connection)
-            self._connect_newest(now)
+            self._connection.maintain()
+            if self._connection.stream is None:
+                self._poll_timer.cancel()
         except Exception as exc:  # noqa: B902 - a node never dies on a stream
             self.get_logger().warning(f'LSL maintenance failed: {exc}',
                                       throttle_duration_sec=WARN_PERIOD_S)
 
-    def _report_others(self, connection: _Connection,
-                       candidates: List[pylsl.StreamInfo]) -> None:
-        """Warn once about each further matching stream: it is not used."""
-        for info in candidates:
-            uid = info.uid()
-            if uid == connection.uid or uid in self._reported_uids \
-                    or self._is_ignored(uid, time.monotonic()):
-                continue
-            self._reported_uids.add(uid)
-            self.get_logger().warning(
-                f'another LSL stream matches {self._config.describe_selection()}: '
-                f"{describe_stream(info)}, uid '{uid}'; it is NOT used: the bridge stays with "
-                f"{connection.description}, uid '{connection.uid}'. "
-                f'{how_to_choose(info, connection.source_id)}')
-
-    def _drop_lost(self, connection: _Connection) -> None:
-        """Forget a stream that went away; the next one opened is announced as its successor."""
-        self._ignored[connection.uid] = time.monotonic() + LOST_IGNORE_S
-        self._gone = (connection.uid, connection.description)
-        self._disconnect()
-        self._publish_on_screen(False)
-
-    def _is_ignored(self, uid: str, now: float) -> bool:
-        """Tell whether the stream ``uid`` must not be opened now."""
-        until = self._ignored.get(uid)
-        if until is None:
-            return False
-        if now < until:
-            return True
-        del self._ignored[uid]
-        return False
-
-    def _connect_newest(self, now: float) -> None:
-        """Open the newest matching stream, if any."""
-        candidates = [info for info in self._candidates()
-                      if not self._is_ignored(info.uid(), now)]
-        if not candidates:
-            if self._all_streams is None:
-                self._all_streams = _resolver('')
-                # The first report once that resolver has heard the network (~1 s).
-                self._last_looking_log = now - LOOKING_LOG_PERIOD_S + FIRST_REPORT_S
-            if now - self._last_looking_log >= LOOKING_LOG_PERIOD_S:
-                self._last_looking_log = now
-                seen = self._all_streams.results() if self._all_streams is not None else []
-                self.get_logger().info(
-                    f'looking for an LSL gaze stream: {self._config.describe_selection()}; '
-                    f'{report_unmatched(seen, self._config)}')
-            return
-        self._all_streams = None
-        newest = candidates[-1]
-        if len(candidates) > 1:
-            others = '; '.join(describe_stream(info) for info in candidates[:-1])
-            self.get_logger().warning(
-                f'{len(candidates)} LSL streams match {self._config.describe_selection()}: '
-                f'using the newest, {describe_stream(newest)} (also found: {others}); set '
-                f'source_id to choose')
-            self._reported_uids.update(info.uid() for info in candidates[:-1])
-        if self._gone is not None:
-            gone_uid, gone = self._gone
-            if gone_uid == newest.uid():
-                self.get_logger().info(f'{gone} is back (its connection broke); reconnecting')
-            else:
-                self.get_logger().warning(f'{gone} is gone: switching to the newest matching '
-                                          f'stream, {describe_stream(newest)}')
-        self._open(newest, now)
-
-    def _open(self, info: pylsl.StreamInfo, now: float) -> None:
-        """Create an inlet for ``info``, read its labels, start clock sync."""
-        if info.channel_format() == pylsl.cf_string:
-            self.get_logger().warning(f'ignoring {describe_stream(info)}: it carries strings, '
-                                      f'not numbers')
-            self._ignored[info.uid()] = math.inf
-            return
-        inlet = pylsl.StreamInlet(info, max_buflen=inlet_buflen(info.nominal_srate()),
-                                  recover=False)
-        try:
-            full = inlet.info(timeout=INFO_TIMEOUT_S)
-        except LslTimeoutError:
-            self.get_logger().warning(f'no description from {describe_stream(info)} yet; retrying',
-                                      throttle_duration_sec=WARN_PERIOD_S)
-            return
-        except LostError:
-            self._ignored[info.uid()] = now + LOST_IGNORE_S
-            return
-        for call in (inlet.open_stream, inlet.time_correction):
-            try:
-                call(timeout=0.0)  # start in liblsl's background threads, do not wait
-            except LslTimeoutError:
-                pass
-        connection = _Connection(
-            inlet=inlet, uid=full.uid(), source_id=full.source_id(),
-            created_at=full.created_at(),
-            description=describe_stream(full), labels=channel_labels(full),
-            buffer=self._make_buffer(inlet), connected_at=now,
-            nominal_srate=full.nominal_srate())
-        self._connection = connection
-        self._gone = None
+    def _on_connected(self, stream: StreamDescription) -> None:
+        """Bind a stream just opened, publish on_screen anew for it, start polling."""
         self._on_screen = None       # published once when this stream starts sending
-        self._poll_timer.reset()
-        labels = ', '.join(label or '?' for label in connection.labels) or 'no labels'
-        self.get_logger().info(f'connected to LSL stream {connection.description}; '
-                               f'channels: {labels}')
-        self._bind(connection)
+        self._bind(stream)
+        if self._poll_timer is not None:
+            self._poll_timer.reset()
 
-    def _make_buffer(self, inlet: pylsl.StreamInlet) -> np.ndarray:
-        """Preallocated pull buffer, (max_chunk, channels) in the stream's dtype."""
-        return np.empty((self._params['max_chunk'], inlet.channel_count), dtype=inlet.np_dtype)
-
-    def _bind(self, connection: _Connection) -> None:
+    def _bind(self, stream: StreamDescription) -> None:
         """Map the configuration onto the stream's channels, or say why it cannot."""
         try:
-            connection.mapping = resolve_mapping(
-                self._config, connection.labels, connection.inlet.channel_count)
-            connection.mapping_error = ''
+            self._mapping = resolve_mapping(self._config, stream.labels or (),
+                                            stream.channel_count)
+            self._mapping_error = ''
         except ValueError as exc:
-            connection.mapping = None
-            connection.mapping_error = str(exc)
+            self._mapping = None
+            self._mapping_error = str(exc)
             self.get_logger().warning(
-                f'stream {connection.description} does not fit profile '
+                f'stream {stream.describe()} does not fit profile '
                 f"'{self._config.profile}': {exc}; its samples are dropped until the "
                 f'parameters match it')
-
-    def _disconnect(self) -> None:
-        """Close the current inlet, if any."""
-        connection, self._connection = self._connection, None
-        if self._poll_timer is not None:
-            self._poll_timer.cancel()
-        if connection is not None:
-            try:
-                connection.inlet.close_stream()
-            except Exception:  # noqa: B902 - closing a dead inlet may fail; nothing to do
-                pass
-
-    def _refresh_time_correction(self, connection: _Connection, now: float) -> bool:
-        """Take liblsl's latest clock-offset estimate without waiting; True if known."""
-        try:
-            connection.time_correction = connection.inlet.time_correction(timeout=0.0)
-        except LslTimeoutError:
-            return connection.time_correction is not None
-        connection.time_correction_at = now
-        if connection.arrival_stamps:
-            connection.arrival_stamps = False
-            self.get_logger().info(f'clock offset to {connection.description} known again: '
-                                   f'stamping samples with their acquisition time')
-        return True
 
     # -- pulling and publishing ------------------------------------------------------
 
     def _poll(self) -> None:
         """Pull what the inlet holds, convert and publish it."""
-        connection = self._connection
-        if connection is None:
-            return
-        now = time.monotonic()
-        if connection.time_correction is None and not connection.arrival_stamps:
-            if not self._refresh_time_correction(connection, now):
-                if now - connection.connected_at < CLOCK_SYNC_TIMEOUT_S:
-                    return  # keep samples in the inlet until they can be stamped
-                connection.arrival_stamps = True
-                self.get_logger().warning(
-                    f'no clock offset from {connection.description} after '
-                    f'{CLOCK_SYNC_TIMEOUT_S:g} s (LSL time service unreachable?): stamping '
-                    f'samples with their arrival time')
-        if connection.reading_since is None:
-            connection.reading_since = now
         try:
-            for _ in range(MAX_PULLS_PER_POLL):
-                samples, timestamps = connection.inlet.pull_chunk(
-                    timeout=0.0, max_samples=len(connection.buffer),
-                    dest_obj=connection.buffer, as_numpy=True)
-                count = len(timestamps)
-                if count == 0:
-                    break
-                self._publish_chunk(connection, samples, timestamps, now)
-                if count < len(connection.buffer):
-                    break
-        except LostError:
-            self.get_logger().warning(f'lost LSL stream {connection.description} (sender '
-                                      f'closed or connection broken); looking for a '
-                                      f'matching stream')
-            self._drop_lost(connection)
+            for chunk in self._connection.acquire():
+                self._publish_chunk(chunk, time.monotonic())
         except Exception as exc:  # noqa: B902 - a node never dies on a sample
-            self.get_logger().warning(f'failed to read {connection.description}: {exc}',
+            self.get_logger().warning(f'failed to publish gaze: {exc}',
                                       throttle_duration_sec=WARN_PERIOD_S)
+        if self._connection.stream is None:
+            self._poll_timer.cancel()
 
-    def _clock_pair(self) -> Tuple[int, float]:
-        """
-        Read the ROS clock (ns) and this machine's LSL clock (s) at the same instant.
-
-        The ROS reading is bracketed by two LSL readings and paired with their
-        midpoint; of up to :data:`CLOCK_READS` tries the narrowest bracket wins, so
-        a thread switch between the reads cannot shift a chunk's stamps.
-        """
-        best = None
-        for _ in range(CLOCK_READS):
-            before = pylsl.local_clock()
-            ros_ns = self.get_clock().now().nanoseconds
-            after = pylsl.local_clock()
-            if best is None or after - before < best[0]:
-                best = (after - before, ros_ns, 0.5 * (before + after))
-            if best[0] <= CLOCK_BRACKET_S:
-                break
-        return best[1], best[2]
-
-    def _publish_chunk(self, connection: _Connection, samples: np.ndarray,
-                       timestamps: np.ndarray, now: float) -> None:
-        """Stamp, convert and publish one chunk; count what is dropped."""
-        count = len(timestamps)
+    def _publish_chunk(self, chunk: Chunk, now: float) -> None:
+        """Convert and publish one stamped chunk; count what is dropped."""
+        count = len(chunk.stamps_ns)
         self._counters['received'] += count
-        connection.last_sample_at = now
-        if connection.stale:
-            connection.stale = False
-            self.get_logger().info(f'gaze samples from {connection.description} resumed')
-        if connection.mapping is None:
+        if self._mapping is None:
             self._counters['layout'] += count
             self.get_logger().warning(
-                f'dropping gaze samples: {connection.mapping_error}',
+                f'dropping gaze samples: {self._mapping_error}',
                 throttle_duration_sec=WARN_PERIOD_S)
             return
-
-        # Map LSL time to the ROS clock at the moment of the pull (gaze_stream).
-        ros_now_ns, lsl_now = self._clock_pair()
-        stamps_ns, good_stamp = acquisition_stamps_ns(
-            timestamps, None if connection.arrival_stamps else connection.time_correction,
-            ros_now_ns, lsl_now)
-        if not good_stamp.all():
-            self._counters['bad_stamp'] += int(np.count_nonzero(~good_stamp))
+        samples, stamps_ns = chunk.samples, chunk.stamps_ns
+        if not chunk.good.all():
+            self._counters['bad_stamp'] += int(np.count_nonzero(~chunk.good))
             self.get_logger().warning(
-                f'dropping gaze samples with unusable LSL timestamps from '
-                f'{connection.description}', throttle_duration_sec=WARN_PERIOD_S)
-            samples, stamps_ns = samples[good_stamp], stamps_ns[good_stamp]
+                f'dropping gaze samples with unusable LSL timestamps from {self.stream}',
+                throttle_duration_sec=WARN_PERIOD_S)
+            samples, stamps_ns = samples[chunk.good], stamps_ns[chunk.good]
 
-        batch = convert(samples, connection.mapping, self._correction)
+        batch = convert(samples, self._mapping, self._correction)
         if len(batch.keep):
             self._publish_on_screen(bool(batch.keep[-1]))
         dropped = sum(batch.dropped.values())

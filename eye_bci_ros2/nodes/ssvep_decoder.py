@@ -16,11 +16,12 @@ stimulus map arrives, or on ``choice/request``; it starts at the latest of
 the regions' stamp, the stimulus epoch and the request (node clock), and
 ends with its choice (:mod:`eye_bci_ros2.ssvep.online`).
 
-The stream is found by a ``pylsl.ContinuousResolver`` polled by a timer and
-read by a second timer with zero-timeout pulls, so nothing blocks the
-executor.  Sample times: the sender's LSL timestamps, corrected by liblsl's
-clock offset to this machine (refreshed in the background), then mapped to
-the ROS clock by ``ros_now - local_clock()`` at each pull.
+The stream is found, kept or switched and its samples stamped on the ROS
+clock by :class:`eye_bci_ros2.lsl_connection.StreamConnection`, the same
+connection (and the same time rule) as the gaze bridge's, with the EEG
+profile of :mod:`eye_bci_ros2.ssvep.eeg_stream`; a timer lets it look for
+the stream, a second one pulls with a zero timeout, so nothing blocks the
+executor.
 
 Bad input never chooses and never stops the node; each kind is logged as one
 line at most every 5 s: a lost stream (the node looks for it again), a quiet
@@ -30,20 +31,18 @@ not match the options or is invalid.
 """
 
 import math
-import time
 from typing import Any, Dict, Optional
 
 import numpy as np
-import pylsl
-from pylsl.util import LostError, TimeoutError as LslTimeoutError
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.gaze_stream import channel_labels
+from eye_bci_ros2.lsl_connection import ConnectionSettings, StreamConnection, StreamDescription
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
+from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.ssvep_messages import (msg_to_stimulus_map, scores_to_msg,
@@ -53,21 +52,11 @@ from eye_bci_ros2.nodes.topics import (EVENT_QOS, LATCHED_QOS, REGIONS_TOPIC, RE
                                        SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.ssvep.decision import RULES
 from eye_bci_ros2.ssvep.decoders import DECODERS, TrcaModel
+from eye_bci_ros2.ssvep.eeg_stream import EegStreamProfile
 from eye_bci_ros2.ssvep.layouts import (ANY, LAYOUT_NAMES, LAYOUTS, parse_channels,
-                                        resolve_channels, stream_name_matches)
+                                        resolve_channels)
 from eye_bci_ros2.ssvep.online import OnlineDecoder, OnlineSettings
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
-
-#: A resolver forgets a stream this long after it stopped answering, s.
-RESOLVER_FORGET_S = 2.0
-#: Longest wait for a stream's full description when connecting, s.
-INFO_TIMEOUT_S = 0.2
-#: Without a clock offset after this long, the offset is taken as 0 (same host), s.
-CLOCK_SYNC_TIMEOUT_S = 5.0
-#: Inlet buffer, s.
-INLET_BUFFER_S = 30
-#: Refresh the LSL clock offset this often, s.
-TIME_CORRECTION_PERIOD_S = 5.0
 
 
 def _channels_text(value) -> Optional[str]:
@@ -164,10 +153,9 @@ def _check_all(values: Dict[str, Any]) -> Optional[str]:
     return None
 
 
-def _describe(info: pylsl.StreamInfo) -> str:
-    rate = info.nominal_srate()
-    return (f"'{info.name()}' (type '{info.type()}', source_id '{info.source_id()}', "
-            f"{info.channel_count()} ch, {f'{rate:g} Hz' if rate > 0 else 'irregular rate'})")
+def _connection_settings(values: Dict[str, Any]) -> ConnectionSettings:
+    """Return the LSL connection's settings from the parameters."""
+    return ConnectionSettings(stale_timeout_s=values['stale_timeout_s'])
 
 
 class SsvepDecoder(Node):
@@ -187,22 +175,14 @@ class SsvepDecoder(Node):
         self._options: tuple = ()
         self._stimuli: Optional[StimulusMap] = None
         self._round_start = 0.0
-        self._inlet: Optional[pylsl.StreamInlet] = None
-        self._stream = ''
-        self._uid = ''
-        self._ignored: Dict[str, float] = {}
         self._decoder: Optional[OnlineDecoder] = None
         self._channel_indices = None
         self._bind_error = ''
-        self._labels = []
-        self._rate = 0.0
-        self._time_correction: Optional[float] = None
-        self._corrected_at = 0.0
-        self._connected_at = 0.0
-        self._last_sample_at = 0.0
-        self._buffer = None
-        self._resolver = None
-        self._start_resolver()
+        self._connection = StreamConnection(
+            EegStreamProfile(self._params), PylslBackend(),
+            _connection_settings(self._params), LogReporter(self.get_logger()),
+            ros_now_ns=lambda: self.get_clock().now().nanoseconds,
+            on_connected=self._on_connected, on_quiet=self._on_quiet)
         self._my_timers = {}
         self._make_timers(('poll_period_s', 'resolve_period_s', 'decide_period_s'))
         #: Choices published since start (for tests and tools).
@@ -217,7 +197,13 @@ class SsvepDecoder(Node):
     @property
     def stream(self) -> str:
         """Describe the EEG stream in use ('' while looking)."""
-        return self._stream
+        stream = self._connection.stream
+        return stream.describe() if stream else ''
+
+    @property
+    def connection(self) -> StreamConnection:
+        """Give the LSL connection in use (stream, clock offset, measured rate, gaps)."""
+        return self._connection
 
     @property
     def channels(self):
@@ -226,8 +212,8 @@ class SsvepDecoder(Node):
 
     def close_stream(self) -> None:
         """Close the inlet and stop looking for streams (before its outlet goes away)."""
-        self._disconnect()
-        self._resolver = None
+        self._connection.close()
+        self._decoder = None
         for key in ('poll_period_s', 'resolve_period_s'):
             timer = self._my_timers.pop(key, None)
             if timer is not None:
@@ -247,12 +233,14 @@ class SsvepDecoder(Node):
         self._params.update(changed)
         if {'decoder', 'model_file'} & set(changed):
             self._model = _load_model(self._params)
+        profile = EegStreamProfile(self._params)
         if set(_STREAM_KEYS) & set(changed):
-            self._disconnect()
-            self._ignored.clear()
-            self._start_resolver()
-        elif self._inlet is not None:
-            self._bind()
+            self._decoder = None
+            self._connection.reselect(profile, _connection_settings(self._params))
+        else:
+            self._connection.refit(profile, _connection_settings(self._params))
+            if self._connection.stream is not None:
+                self._bind()
         self._make_timers(changed)
 
     def _make_timers(self, changed) -> None:
@@ -273,156 +261,62 @@ class SsvepDecoder(Node):
 
     # -- the stream --------------------------------------------------------------------------
 
-    def _start_resolver(self) -> None:
-        layout = LAYOUTS[self._params['layout']]
-        stream_type = self._params['stream_type'] or layout.stream_type
-        terms = []
-        if stream_type != ANY and "'" not in stream_type:
-            terms.append(f"type='{stream_type}'")
-        if self._params['source_id'] and "'" not in self._params['source_id']:
-            terms.append(f"source_id='{self._params['source_id']}'")
-        try:
-            self._resolver = pylsl.ContinuousResolver(
-                pred=' and '.join(terms), forget_after=RESOLVER_FORGET_S) if terms \
-                else pylsl.ContinuousResolver(forget_after=RESOLVER_FORGET_S)
-        except Exception as error:  # noqa: B902 - liblsl errors must not kill the node
-            self._resolver = None
-            self.get_logger().error(f'cannot start the LSL resolver: {error}')
-
-    def _matches(self, info: pylsl.StreamInfo) -> bool:
-        layout = LAYOUTS[self._params['layout']]
-        stream_type = self._params['stream_type'] or layout.stream_type
-        source_id = self._params['source_id']
-        return ((stream_type == ANY or info.type() == stream_type)
-                and stream_name_matches(layout, info.name(), self._params['stream_name'])
-                and (not source_id or info.source_id() == source_id)
-                and info.channel_format() != pylsl.cf_string)
-
     def _maintain(self) -> None:
-        """Connect when idle; refresh the clock offset; report a quiet stream."""
+        """Let the connection find, keep or switch the stream (resolve timer)."""
         try:
-            now = time.monotonic()
-            if self._inlet is None:
-                self._connect(now)
-                return
-            if now - self._corrected_at >= TIME_CORRECTION_PERIOD_S:
-                self._refresh_correction(now)
-            quiet = now - max(self._last_sample_at, self._connected_at)
-            if quiet >= self._params['stale_timeout_s']:
-                self._warn('stale', f'no EEG samples from {self._stream} for {quiet:.1f} s: '
-                           'no SSVEP choice until they resume')
+            self._connection.maintain()
         except Exception as error:  # noqa: B902 - a node never dies on a stream
             self._warn('maintain', f'LSL maintenance failed: {error}')
 
-    def _connect(self, now: float) -> None:
-        if self._resolver is None:
-            self._start_resolver()
-            return
-        candidates = [info for info in self._resolver.results()
-                      if self._matches(info) and self._ignored.get(info.uid(), 0.0) <= now]
-        if not candidates:
-            self._warn('looking', f"looking for an EEG LSL stream ({self._params['layout']} "
-                       'layout); none found yet')
-            return
-        info = max(candidates, key=lambda item: item.created_at())
-        inlet = pylsl.StreamInlet(info, max_buflen=INLET_BUFFER_S, recover=False)
-        try:
-            full = inlet.info(timeout=INFO_TIMEOUT_S)
-        except LslTimeoutError:
-            return
-        except LostError:
-            self._ignored[info.uid()] = now + 2.5 * RESOLVER_FORGET_S
-            return
-        for call in (inlet.open_stream, inlet.time_correction):
-            try:
-                call(timeout=0.0)
-            except LslTimeoutError:
-                pass
-        self._inlet, self._uid, self._stream = inlet, full.uid(), _describe(full)
-        self._labels = channel_labels(full)
-        self._rate = full.nominal_srate()
-        self._connected_at = self._last_sample_at = now
-        self._time_correction = None
-        self._buffer = np.empty((1024, inlet.channel_count), dtype=inlet.np_dtype)
-        self.get_logger().info(f'connected to EEG stream {self._stream}; channels: '
-                               f"{', '.join(lb or '?' for lb in self._labels) or 'no labels'}")
+    def _on_connected(self, stream: StreamDescription) -> None:
+        """Choose the channels of a stream just opened."""
         self._bind()
+
+    def _on_quiet(self) -> None:
+        """Say that no choice comes while the stream is quiet or lost."""
+        self._warn('quiet', 'no SSVEP choice until EEG samples come again')
+        if self._connection.stream is None:
+            self._decoder = None
 
     def _bind(self) -> None:
         """Choose the channels and build the online decoder, or say why not."""
         self._decoder = None
         self._channel_indices = None
+        stream = self._connection.stream
         try:
             layout = LAYOUTS[self._params['layout']]
-            indices, names = resolve_channels(layout, self._labels, self._buffer.shape[1],
+            indices, names = resolve_channels(layout, stream.labels or (), stream.channel_count,
                                               parse_channels(self._params['channels']))
-            if self._rate <= 0:
+            if stream.nominal_srate <= 0:
                 raise ValueError('the stream has an irregular rate (nominal 0 Hz); SSVEP '
                                  'needs a regular sampling rate')
-            self._decoder = OnlineDecoder(self._rate, names, _settings(self._params),
+            self._decoder = OnlineDecoder(stream.nominal_srate, names, _settings(self._params),
                                           self._model)
         except ValueError as error:
             self._bind_error = str(error)
-            self.get_logger().warning(f'cannot decode {self._stream}: {error}; no SSVEP '
+            self.get_logger().warning(f'cannot decode {stream.describe()}: {error}; no SSVEP '
                                       'choice until the parameters fit the stream')
             return
         self._channel_indices = np.array(indices)
-        self.get_logger().info(f"decoding channels {', '.join(names)} at {self._rate:g} Hz")
+        self.get_logger().info(f"decoding channels {', '.join(names)} at "
+                               f'{stream.nominal_srate:g} Hz')
         self._restart_round(self._round_start)
-
-    def _disconnect(self) -> None:
-        inlet, self._inlet = self._inlet, None
-        self._stream, self._decoder = '', None
-        if inlet is not None:
-            try:
-                inlet.close_stream()
-            except Exception:  # noqa: B902 - closing a dead inlet may fail; nothing to do
-                pass
-
-    def _refresh_correction(self, now: float) -> bool:
-        try:
-            self._time_correction = self._inlet.time_correction(timeout=0.0)
-            self._corrected_at = now
-        except LslTimeoutError:
-            pass
-        return self._time_correction is not None
 
     def _poll(self) -> None:
         """Pull what the inlet holds and feed the decoder."""
-        if self._inlet is None:
-            return
-        now = time.monotonic()
         try:
-            if self._time_correction is None and not self._refresh_correction(now):
-                if now - self._connected_at < CLOCK_SYNC_TIMEOUT_S:
-                    return  # keep the samples in the inlet until they can be timed
-                self._time_correction = 0.0
-                self._warn('clock', f'no LSL clock offset from {self._stream}: taking it as '
-                           '0 (same machine)')
-            for _ in range(8):
-                samples, stamps = self._inlet.pull_chunk(
-                    timeout=0.0, max_samples=len(self._buffer), dest_obj=self._buffer,
-                    as_numpy=True)
-                if not len(stamps):
-                    break
-                self._last_sample_at = now
-                self._feed(np.asarray(samples, dtype=float), np.asarray(stamps, dtype=float))
-                if len(stamps) < len(self._buffer):
-                    break
-        except LostError:
-            self.get_logger().warning(f'lost EEG stream {self._stream}; no SSVEP choice '
-                                      'until it is back; looking for it')
-            self._ignored[self._uid] = now + 2.5 * RESOLVER_FORGET_S
-            self._disconnect()
+            for chunk in self._connection.acquire():
+                self._feed(chunk.samples[chunk.good], chunk.stamps_ns[chunk.good] * 1e-9)
         except Exception as error:  # noqa: B902 - a node never dies on a sample
-            self._warn('read', f'failed to read {self._stream}: {error}')
+            self._warn('read', f'failed to decode {self.stream}: {error}')
 
     def _feed(self, samples: np.ndarray, stamps: np.ndarray) -> None:
+        """Give the decoder a chunk: samples (N, C), ROS times (N,) s."""
         if self._decoder is None:
             self._warn('bind', f'EEG samples dropped: {self._bind_error}')
             return
-        offset = self._now() - pylsl.local_clock() + self._time_correction
-        self._decoder.add(stamps + offset, samples[:, self._channel_indices])
+        if len(stamps):
+            self._decoder.add(stamps, np.asarray(samples, dtype=float)[:, self._channel_indices])
 
     # -- options, stimuli, rounds ------------------------------------------------------------
 

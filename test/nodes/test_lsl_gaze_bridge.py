@@ -120,18 +120,36 @@ def test_invalid_samples_are_dropped_and_counted(graph):
     assert (counters['nonfinite'], counters['offscreen'], counters['published']) == (2, 2, 3)
 
 
-def test_wrong_layout_is_counted_and_fixed_by_a_parameter_change(graph):
+def test_a_stream_without_the_channels_is_not_taken_until_the_parameters_fit(graph, capfd):
     outlet, info = make_outlet('custom')   # 2 channels
+    log = LogTap(capfd)
     node, gaze = start_bridge(graph, **bridge_parameters('custom', info, x_channel='2',
                                                          y_channel='1'))
+    assert log.wait_for(graph, r"lsl_gaze_bridge.*not taking .*does not fit profile 'custom': "
+                               r'x_channel: channel index 2 is out of range')
+    assert node.stream is None and not outlet.have_consumers()
+    result, = graph.set_parameters('/lsl_gaze_bridge', {'x_channel': 'x'})
+    assert result.successful, result.reason
     connect(graph, outlet)
+    outlet.push_sample([5.0, 6.0])
+    np.testing.assert_allclose(wait_for(graph, gaze, 1), [[5, 6]])
+
+
+def test_wrong_layout_set_while_connected_is_counted_and_fixed(graph):
+    outlet, info = make_outlet('custom')   # 2 channels
+    node, gaze = start_bridge(graph, **bridge_parameters('custom', info))
+    connect(graph, outlet)
+    outlet.push_sample([1.0, 2.0])
+    wait_for(graph, gaze, 1)
+    result, = graph.set_parameters('/lsl_gaze_bridge', {'x_channel': '2'})
+    assert result.successful, result.reason
     outlet.push_chunk([[1.0, 2.0], [3.0, 4.0]])
     assert graph.spin_until(lambda: node.counters['layout'] == 2, WAIT_S)
-    assert gaze.messages == []
+    assert gaze.count == 1
     result, = graph.set_parameters('/lsl_gaze_bridge', {'x_channel': 'x'})
     assert result.successful, result.reason
     outlet.push_sample([5.0, 6.0])
-    np.testing.assert_allclose(wait_for(graph, gaze, 1), [[5, 6]])
+    np.testing.assert_allclose(wait_for(graph, gaze, 2)[1], [5, 6])
 
 
 def test_stamps_are_sample_times_not_arrival_times(graph):
@@ -166,11 +184,12 @@ def test_restarted_outlet_with_same_identity_is_picked_up_again(graph):
     assert node.stream_uid not in (None, first_uid)
 
 
-def test_newest_of_two_matching_outlets_is_used(graph):
-    name = unique_id('twin')
-    old, _ = make_outlet('xy_pixels', name=name)
+def test_newest_of_two_outlets_of_one_source_is_used(graph):
+    """Two streams of one source_id are one device (an application that restarted)."""
+    name, source_id = unique_id('twin'), unique_id('twin-source')
+    old, _ = make_outlet('xy_pixels', name=name, source_id=source_id)
     time.sleep(0.05)   # created_at has to differ
-    new, new_info = make_outlet('xy_pixels', name=name)
+    new, new_info = make_outlet('xy_pixels', name=name, source_id=source_id)
     # Slow first look so the resolver has heard from both outlets; no switching on silence.
     node, gaze = start_bridge(graph, stream_name=name, resolve_period_s=1.0,
                               stale_timeout_s=60.0)
