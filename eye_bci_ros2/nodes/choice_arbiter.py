@@ -63,6 +63,7 @@ from eye_bci_ros2.nodes.feedback_markers import FeedbackMarkers, option_label, O
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.screen_parameters import person_screen_parameters
 from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, EVENT_QOS, FEEDBACK_QOS,
                                        FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
                                        NO_CHOICE_TOPIC, REQUEST_TOPIC, SCORES_QOS,
@@ -174,19 +175,8 @@ PARAMETERS = (
               "Share test: a choice at the window end needs this fraction of the window's "
               'valid gaze samples on it, an early choice 0.8 of the samples of the last 0.1 s; '
               '0 = off (the original rule)', value_range=(0.0, 1.0)),
-    ParamSpec('screen_width_mm', DEFAULTS.screen_width_mm,
-              "The person's screen: visible width, mm (degrees -> px for the tolerance)",
-              value_range=(1.0, 10000.0)),
-    ParamSpec('screen_height_mm', DEFAULTS.screen_height_mm,
-              "The person's screen: visible height, mm", value_range=(1.0, 10000.0)),
-    ParamSpec('viewing_distance_mm', DEFAULTS.viewing_distance_mm,
-              "Distance from the person's eyes to the screen centre, mm",
-              value_range=(1.0, 10000.0)),
-    ParamSpec('screen_width', DEFAULTS.screen_width,
-              'The screen the gaze is in (frame screen): width, px', value_range=(1, 16384)),
-    ParamSpec('screen_height', DEFAULTS.screen_height,
-              'The screen the gaze is in (frame screen): height, px', value_range=(1, 16384)),
-)
+    # The person's screen: one table with gaze_validation's.
+) + person_screen_parameters()
 
 #: A gaze sample older than this (node clock) no longer highlights an option, s.
 GAZED_STALE_S = 0.25
