@@ -1,5 +1,6 @@
 """Choose among RViz markers by looking at them: gaze over LSL, projection, arbitration."""
 
+import os
 import sys
 
 
@@ -10,11 +11,17 @@ def _quiet_interrupt(kind, value, traceback, _previous=sys.excepthook):
     ``ros2 launch`` sends SIGINT to every node on Ctrl-C, also to those still
     importing rclpy and numpy (the first seconds): Python would print a
     KeyboardInterrupt traceback for each.  Nothing was started yet, so there
-    is nothing to report.  Other errors, and an interactive session, keep
-    Python's report.
+    is nothing to report: the process ends with status 0, as a node stopped
+    by Ctrl-C does (:mod:`eye_bci_ros2.nodes.runner`).  Other errors, and an
+    interactive session, keep Python's report.
     """
     if issubclass(kind, KeyboardInterrupt) and not hasattr(sys, 'ps1'):
-        return
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (AttributeError, OSError, ValueError):
+                pass
+        os._exit(0)
     _previous(kind, value, traceback)
 
 

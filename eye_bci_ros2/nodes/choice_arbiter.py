@@ -61,6 +61,7 @@ from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
 from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
 from eye_bci_ros2.nodes.feedback_markers import FeedbackMarkers, option_label, OptionMarkers
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
+from eye_bci_ros2.nodes.graph_watch import GraphWatch
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.screen_parameters import person_screen_parameters
@@ -230,6 +231,8 @@ class ChoiceArbiter(Node):
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
         self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
+        # Says so when a second pipeline shares this graph (two eye_bci on one domain).
+        self.graph_watch = GraphWatch(self, outputs=[CHOICE_TOPIC], inputs=[GAZE_SAMPLES_TOPIC])
         self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
         self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
         self._timer = self.create_timer(TICK_S, self._on_tick)
