@@ -105,7 +105,7 @@ def to_yaml(described: Dict[str, List[ParamInfo]]) -> str:
         lines += [f'/{node_name}:', '  ros__parameters:']
         for info in infos:
             if info.default is None:
-                # rcl's YAML parser cannot type an empty array: leave it unset.
+                # Not set (no default): leave it out of the file.
                 lines.append(f'    # {info.name}: []  (empty: {info.description})')
             else:
                 lines.append(f'    {info.name}: {_format(info.default)}')
