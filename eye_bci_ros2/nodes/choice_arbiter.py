@@ -60,8 +60,8 @@ from eye_bci_ros2.feedback import build_feedback, Feedback, FeedbackThrottle
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
 from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
 from eye_bci_ros2.nodes.feedback_markers import FeedbackMarkers, option_label, OptionMarkers
-from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.graph_watch import GraphWatch
+from eye_bci_ros2.nodes.log_throttle import KeyedWarnings, QuietRepeats
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.screen_parameters import person_screen_parameters
@@ -227,6 +227,8 @@ class ChoiceArbiter(Node):
         self._config = declare_parameters(self, PARAMETERS, self._on_parameters,
                                           _settings_problem)
         self._warnings = KeyedWarnings(self.get_logger())
+        # Rounds that end without a choice, again and again, are not logged each (log_throttle).
+        self._quiet = QuietRepeats(self.get_logger())
         self._tracker = RoundScheduler(ArbiterSettings(**self._config), self._publish, self._log)
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
         self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
@@ -366,7 +368,9 @@ class ChoiceArbiter(Node):
     def _log(self, level: str, key: str, text: str) -> None:
         """Log ``text``; warnings of one ``key`` at most once per WARN_PERIOD_S."""
         if level != 'warning':
-            self.get_logger().info(text)
+            if text.startswith('choice '):
+                self._quiet.reset()      # a choice is news: the rounds after it are shown again
+            self._quiet.info(text)
             return
         self._warnings.warn(key, text)
 

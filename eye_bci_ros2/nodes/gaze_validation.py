@@ -13,9 +13,9 @@ The procedure (:mod:`eye_bci_ros2.validation` holds the arithmetic):
    from its screen point with the camera model of the running
    ``marker_projector``'s parameters, read at each start (``projector_node``;
    this node's own parameters of the same names when it does not answer),
-   ``target_size_deg`` across; re-placed when the camera moves) and as its screen point on ``validation/target`` (geometry_msgs/
-   PointStamped, frame ``screen``, px; NaN when none; the simulated person
-   follows it);
+   ``target_size_deg`` across; re-placed when the camera moves) and as its
+   screen point on ``validation/target`` (geometry_msgs/PointStamped, frame
+   ``screen``, px; NaN when none; the simulated person follows it);
 3. collects ``gaze/samples`` from ``settle_s`` after each onset to its end,
    and logs accuracy and precision per target and overall, in degrees (for
    ``screen_width_mm`` x ``screen_height_mm`` seen from
@@ -135,8 +135,8 @@ PARAMETERS: List[ParamSpec] = [
     ParamSpec('target_size_deg', 1.0, 'Diameter of a target disc, degrees of visual angle',
               value_range=(0.1, 10.0)),
     ParamSpec('projector_node', PROJECTOR_NODE,
-              "The marker_projector whose panel geometry (image size, screen offset, field of "
-              "view, projection, rviz_config) the targets are laid out in, read over its "
+              'The marker_projector whose panel geometry (image size, screen offset, field of '
+              'view, projection, rviz_config) the targets are laid out in, read over its '
               "parameter service at each validation; '' or not answering = this node's own "
               'parameters of the same names'),
 ] + list(person_screen_parameters()) + [

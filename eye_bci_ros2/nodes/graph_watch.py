@@ -87,4 +87,3 @@ class GraphWatch:
 
 def _full_name(namespace: str, name: str) -> str:
     return namespace.rstrip('/') + '/' + name
-

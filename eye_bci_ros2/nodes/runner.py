@@ -224,9 +224,9 @@ def command_line_problem(argv: Sequence[str], options: Sequence[str] = ()) -> Op
             continue
         if arg in ROS_ONLY_ARGS or ':=' in arg:
             return (f"'{arg}' is a ROS argument and must follow --ros-args, e.g. "
-                    f"--ros-args -p NAME:=VALUE (without it ROS ignores it)")
+                    '--ros-args -p NAME:=VALUE (without it ROS ignores it)')
         close = difflib.get_close_matches(arg, list(options) + ['--help', '--ros-args'], n=1)
-        hint = f": did you mean {close[0]}?" if close else ' (--help lists the options)'
+        hint = f': did you mean {close[0]}?' if close else ' (--help lists the options)'
         return f"unknown option '{arg}'{hint}"
     return None
 

@@ -62,4 +62,4 @@ def test_without_a_projector_it_says_so_and_uses_its_own_panel(graph, capfd):
     point = first_target(graph, image_width=1000, image_height=500)
     expected = target_layout(9, 1000, 500, 0.1)[0] + (320.0, 180.0)
     np.testing.assert_allclose(point, expected, atol=1e-6)
-    assert "cannot read the panel geometry of /marker_projector" in log.read()
+    assert 'cannot read the panel geometry of /marker_projector' in log.read()
