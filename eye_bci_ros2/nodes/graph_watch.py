@@ -34,6 +34,7 @@ class GraphWatch:
     """
 
     def __init__(self, node: Node, outputs: Iterable[str], inputs: Iterable[str]):
+        """Start looking every CHECK_PERIOD_S (a timer of ``node``)."""
         self._node = node
         self._outputs = list(outputs)
         self._inputs = list(inputs)

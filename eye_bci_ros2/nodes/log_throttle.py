@@ -97,7 +97,7 @@ class QuietRepeats:
             self._logger.info(f'(the last {len(self._shapes)} kind(s) of line repeated {held} '
                               f'time(s) in {now - self._since:.0f} s; ros2 run ... --ros-args '
                               '--log-level debug shows each)')
-            self._shapes = {key: 0 for key in self._shapes}
+            self._shapes = dict.fromkeys(self._shapes, 0)
             self._since = now
         return False
 

@@ -177,7 +177,7 @@ def help_text(modules: Sequence[str], usage: str, options: Sequence[str] = ()) -
     """
     Say what an executable does, in plain text: its nodes' summaries and parameters.
 
-    One node: its summary and one line per parameter.  Several nodes
+    One node: its docstring (plain) and one line per parameter.  Several nodes
     (``eye_bci``): one line per node and where to find each one's parameters.
 
     :param modules: names of the node modules (their docstring and ``PARAMETERS``).
@@ -187,15 +187,19 @@ def help_text(modules: Sequence[str], usage: str, options: Sequence[str] = ()) -
     """
     parts = [f'usage: {usage} [--ros-args -p NAME:=VALUE ... --params-file FILE]', '']
     loaded = [importlib.import_module(name) for name in modules]
-    parts.append(summary(loaded[0].__doc__ or ''))
     if len(loaded) > 1:
+        parts.append(summary(loaded[0].__doc__ or ''))
         parts += ['', 'nodes (ros2 run eye_bci_ros2 NODE --help: its parameters):']
         for module in loaded[1:]:
             parts.append(f'  {module.__name__.rsplit(".", 1)[-1]}: {summary(module.__doc__)}')
     else:
+        parts.append(plain_text((loaded[0].__doc__ or '').strip()))
         specs = [spec for table in ('PARAMETERS', 'FEEDBACK_PARAMETERS')
                  for spec in getattr(loaded[0], table, ())]
-        if specs:
+        if not specs:
+            parts += ['', 'parameters: ros2 param describe on the running node, or '
+                      'docs/parameters.md']
+        else:
             parts += ['', 'parameters (ros2 param describe NODE NAME for ranges; '
                       'docs/parameters.md):']
             for spec in specs:
@@ -259,7 +263,11 @@ def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] =
     argv = list(sys.argv if args is None else args)
     program = os.path.splitext(os.path.basename(argv[0]))[0] if argv else 'NODE'
     if {'-h', '--help'} & set(non_ros_args(argv)[1:]):
-        print(help_text(help_modules, usage or f'ros2 run eye_bci_ros2 {program}', options))
+        try:
+            print(help_text(help_modules, usage or f'ros2 run eye_bci_ros2 {program}', options))
+            sys.stdout.flush()
+        except BrokenPipeError:     # `--help | head`: the reader has what it wanted
+            os._exit(0)
         sys.exit(0)
     problem = command_line_problem(argv, [option for option, _ in options])
     if problem:
