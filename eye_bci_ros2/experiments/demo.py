@@ -235,7 +235,6 @@ class DemoResult:
     files: List[str]
 
 
-
 @contextmanager
 def demo_domain() -> Iterator[int]:
     """
@@ -251,6 +250,7 @@ def demo_domain() -> Iterator[int]:
         return
     with domain_id() as domain:
         yield domain
+
 
 def itr_bits_per_minute(offered_counts: Sequence[int], accuracy: float,
                         mean_time_s: float) -> float:

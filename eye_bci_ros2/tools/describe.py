@@ -131,7 +131,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0].strip())
     group = parser.add_mutually_exclusive_group(required=True)
     group.add_argument('--yaml', action='store_true', help='print config/eye_bci.yaml')
-    group.add_argument('--markdown', action='store_true', help='print the tables of docs/parameters.md')
+    group.add_argument('--markdown', action='store_true', help='print docs/parameters.md tables')
     args = parser.parse_args(argv)
     # The nodes log their start-up; keep stdout for the document.
     os.environ.setdefault('RCUTILS_LOGGING_USE_STDOUT', '0')
