@@ -191,7 +191,10 @@ def help_text(modules: Sequence[str], usage: str, options: Sequence[str] = ()) -
         parts.append(summary(loaded[0].__doc__ or ''))
         parts += ['', 'nodes (ros2 run eye_bci_ros2 NODE --help: its parameters):']
         for module in loaded[1:]:
-            parts.append(f'  {module.__name__.rsplit(".", 1)[-1]}: {summary(module.__doc__)}')
+            name = module.__name__.rsplit('.', 1)[-1]
+            # Their docstrings start "Node NAME: ..." or "NAME: ...": said once here.
+            text = re.sub(rf'^(Node )?`*{name}`*: ', '', summary(module.__doc__))
+            parts.append(f'  {name}: {text}')
     else:
         parts.append(plain_text((loaded[0].__doc__ or '').strip()))
         specs = [spec for table in ('PARAMETERS', 'FEEDBACK_PARAMETERS')

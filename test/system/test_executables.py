@@ -45,6 +45,19 @@ def test_help_says_what_it_subscribes_publishes_and_its_parameters(module):
     assert 'parameters' in out and 'publish' in out
 
 
+@pytest.mark.parametrize('module, args, reason', [
+    ('eye_bci', ['--with-menus'], "unknown option '--with-menus': did you mean --with-menu?"),
+    ('marker_projector', ['-p', 'screen_offset_x:=64'], "'-p' is a ROS argument and must "
+     'follow --ros-args'),
+])
+def test_a_mistyped_command_line_is_refused_in_one_line(module, args, reason):
+    status, out, err = run(module, *args)
+    assert status == 1 and err.strip().splitlines()[-1] == f'cannot start: {reason}' + (
+        '' if module == 'eye_bci' else ', e.g. --ros-args -p NAME:=VALUE (without it ROS '
+        'ignores it)'), err
+    assert 'Traceback' not in err
+
+
 @pytest.mark.parametrize('args, reason', [
     (['-p', 'method:=median'], 'median'),
     (['-p', 'window_s:=abc'], 'window_s'),
