@@ -136,7 +136,7 @@ def _open_text(path: Path) -> io.TextIOBase:
 
 
 def _stem(path: Path) -> str:
-    """The file name without .gz and its format's extension."""
+    """Return the file name without .gz and its format's extension."""
     name = path.name
     for ending in ('.gz', '.txt', '.tsv', '.csv', '.gaze', '.targets'):
         if name.endswith(ending):
@@ -283,7 +283,7 @@ def load_etdq(path: PathLike, screen: ScreenGeometry = ETDQ_SCREEN) -> GazeRecor
 
 
 def _screen_from_comments(path: Path) -> ScreenGeometry:
-    """The screen of a CSV recording from its leading comment lines (module doc)."""
+    """Return the screen of a CSV recording from its leading comment lines (module doc)."""
     found: Dict[str, str] = {}
     with _open_text(path) as handle:
         for line in handle:

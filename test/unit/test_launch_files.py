@@ -5,7 +5,8 @@ The launch files name only what the package installs, without running ``launch``
 launch`` when the real command line is at hand).  The files are read with
 ``ast``: every ``Node(package='eye_bci_ros2', executable=...)`` must be a
 console script of setup.py, every file reached through
-``FindPackageShare('eye_bci_ros2')`` must be installed by setup.py's ``data_files`` (evaluated by running setup.py with ``setuptools.setup``
+``FindPackageShare('eye_bci_ros2')`` must be installed by setup.py's
+``data_files`` (evaluated by running setup.py with ``setuptools.setup``
 captured), every ``LaunchConfiguration`` must be declared in its file, and
 the files may import only launch, launch_ros, ament_index_python and os.
 """
