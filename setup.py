@@ -2,34 +2,17 @@
 
 from glob import glob
 import os
+import runpy
 
 from setuptools import find_packages, setup
 
 package_name = 'eye_bci_ros2'
 
-# Executables, as `ros2 run eye_bci_ros2 <exe>` finds them in lib/eye_bci_ros2.
-console_scripts = [
-    'lsl_gaze_bridge = eye_bci_ros2.nodes.lsl_gaze_bridge:main',
-    'camera_tracker = eye_bci_ros2.nodes.camera_tracker:main',
-    'marker_projector = eye_bci_ros2.nodes.marker_projector:main',
-    'choice_arbiter = eye_bci_ros2.nodes.choice_arbiter:main',
-    'choice_menu = eye_bci_ros2.nodes.choice_menu:main',
-    'gaze_validation = eye_bci_ros2.nodes.gaze_validation:main',
-    'eye_bci = eye_bci_ros2.nodes.eye_bci:main',
-    'sim_rviz_view = eye_bci_ros2.sim.rviz_view:main',
-    'sim_gaze = eye_bci_ros2.sim.gaze_outlet:main',
-    'calibrate = eye_bci_ros2.tools.calibrate:main',
-    'accuracy_test = eye_bci_ros2.experiments.accuracy_test:main',
-    'demo = eye_bci_ros2.experiments.demo:main',
-    'find_panel = eye_bci_ros2.tools.find_panel:main',
-    'monitor = eye_bci_ros2.tools.monitor:main',
-    'view_animated_bridge = eye_bci_ros2.nodes.view_animated_bridge:main',
-    'ssvep_decoder = eye_bci_ros2.nodes.ssvep_decoder:main',
-    'sim_eeg = eye_bci_ros2.sim.eeg_outlet:main',
-    'ssvep_calibrate = eye_bci_ros2.tools.ssvep_calibrate:main',
-    'ssvep_stimulus = eye_bci_ros2.nodes.ssvep_stimulus:main',
-    'ssvep_stimulus_map = eye_bci_ros2.nodes.ssvep_stimulus_map:main',
-]
+# Executables, as `ros2 run eye_bci_ros2 <exe>` finds them in lib/eye_bci_ros2: from the one
+# registry (read by path: the package and rclpy cannot be imported while it is being built).
+_REGISTRY = runpy.run_path(os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                        package_name, 'nodes', 'registry.py'))
+console_scripts = list(_REGISTRY['console_scripts']())
 
 setup(
     name=package_name,

@@ -31,7 +31,7 @@ from bench.timing import measure
 from eye_bci_ros2 import geometry
 
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE, RoundScheduler
+from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE, ORIGINAL_RULE, RoundScheduler
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
 
 #: Metrics shown in the printed table (the JSON has them all).
@@ -152,7 +152,8 @@ def per_message_tracker(polygons: np.ndarray) -> Optional[Callable[[list], objec
 
     def feed(points: list) -> object:
         window_s = len(points) * 1e-3 + 1.0
-        tracker = RoundScheduler(ArbiterSettings(window_s=window_s, **ORIGINAL_RULE))
+        tracker = RoundScheduler(ArbiterSettings(**{**COUNT_RULE, **ORIGINAL_RULE},
+                                                 window_s=window_s))
         tracker.add_regions(region_set, now=0.0)  # new labels: a round starts at stamp 0
         for index, (x, y) in enumerate(points):
             stamp = index * 1e-3

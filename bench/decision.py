@@ -98,7 +98,7 @@ import numpy as np
 from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
 from eye_bci_ros2.experiments.trials import decide_trial, ORIGINAL, settings_for
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings
+from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeParams, GazeSimulator
 
 #: The simulated person and tracker.
@@ -151,6 +151,9 @@ QUICK_GRID = {
 ITR_TOLERANCE = 0.01
 #: The node's early decision at its defaults (every trial's rule is the node's settings).
 NODE_DEFAULT = settings_for('early', ArbiterSettings(window_s=WINDOW_S))
+#: The tolerant sample-count rule with its early decision (the default before the fixation
+#: rule): what bench/tolerance.py varies.
+COUNT_EARLY = settings_for('early', ArbiterSettings(**COUNT_RULE, window_s=WINDOW_S))
 #: The settings an early-decision configuration is reported by (the tuned ones and their context).
 EARLY_FIELDS = ('confidence', 'min_samples', 'dwell_s', 'hit_rate', 'method', 'window_s',
                 'min_reaction_s')

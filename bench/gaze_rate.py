@@ -60,7 +60,8 @@ from eye_bci_ros2.nodes.conversions import cube_marker, marker_array_to_regions
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.runner import make_executor, spin_for, spin_until
-from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, LATCHED_QOS,
+                                       REGIONS_TOPIC, REQUEST_TOPIC)
 from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
 
 #: Goals of issue 13 (2-core machine).
@@ -117,13 +118,13 @@ class Driver(Node):
     def __init__(self, **kwargs):
         """Create the publishers and subscriptions."""
         super().__init__('gaze_rate_driver', **kwargs)
-        self.choices_pub = self.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
-        self.request_pub = self.create_publisher(Empty, 'choice/request', EVENT_QOS)
+        self.choices_pub = self.create_publisher(MarkerArray, CHOICES_TOPIC, LATCHED_QOS)
+        self.request_pub = self.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
         self.regions: Optional[MarkerArray] = None
         self.received: List[tuple] = []
-        self.create_subscription(String, 'choice', lambda m: self.received.append(
+        self.create_subscription(String, CHOICE_TOPIC, lambda m: self.received.append(
             (time.monotonic(), m.data)), EVENT_QOS)
-        self.create_subscription(MarkerArray, 'choices/regions',
+        self.create_subscription(MarkerArray, REGIONS_TOPIC,
                                  lambda m: setattr(self, 'regions', m), LATCHED_QOS)
 
     def offer(self) -> None:

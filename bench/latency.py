@@ -76,8 +76,9 @@ from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import cube_marker, marker_array_to_regions
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.runner import make_executor, spin_for, spin_until
-from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
-from eye_bci_ros2.rounds import ORIGINAL_RULE
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, LATCHED_QOS,
+                                       REGIONS_TOPIC, REQUEST_TOPIC)
+from eye_bci_ros2.rounds import COUNT_RULE, ORIGINAL_RULE
 from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
 
 #: Push rate of the simulated tracker, Hz.
@@ -97,7 +98,7 @@ MARKER_SCALE = (1.5, 1.5, 0.05)
 OFF_REGION_PX = (60.0, 60.0)
 #: Arbiter settings that make the first in-region sample decide a round (the inside
 #: classification without the share test: one sample among off-region ones must decide).
-ARBITER_PARAMETERS = {'early_decision': True, 'min_samples': 1, 'dwell_s': 0.0,
+ARBITER_PARAMETERS = {**COUNT_RULE, 'early_decision': True, 'min_samples': 1, 'dwell_s': 0.0,
                       'min_reaction_s': 0.0, 'confidence': 0.8, 'window_s': 30.0,
                       **ORIGINAL_RULE}
 #: Waits, s.
@@ -196,12 +197,12 @@ class Driver(Node):
     def __init__(self, **kwargs):
         """Create the publishers and subscriptions."""
         super().__init__('latency_bench_driver', **kwargs)
-        self.choices_pub = self.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
-        self.request_pub = self.create_publisher(Empty, 'choice/request', EVENT_QOS)
+        self.choices_pub = self.create_publisher(MarkerArray, CHOICES_TOPIC, LATCHED_QOS)
+        self.request_pub = self.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
         self.received: List[Tuple[float, str]] = []
         self.regions: Optional[MarkerArray] = None
-        self.create_subscription(String, 'choice', self._on_choice, EVENT_QOS)
-        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(String, CHOICE_TOPIC, self._on_choice, EVENT_QOS)
+        self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
 
     def _on_choice(self, message: String) -> None:
         self.received.append((pylsl.local_clock(), message.data))

@@ -24,7 +24,7 @@ from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.nodes.conversions import gaze_point, marker_array_to_regions
-from eye_bci_ros2.nodes.topics import GAZE_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import GAZE_QOS, LATCHED_QOS, REGIONS_TOPIC
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, RoundScheduler
 
@@ -61,7 +61,7 @@ class ReferenceArbiter(Node):
         super().__init__('reference_arbiter')
         self.rounds = RoundScheduler(ArbiterSettings())
         self.create_subscription(PointStamped, TOPIC, self.on_gaze, GAZE_QOS)
-        self.create_subscription(MarkerArray, 'choices/regions', self.on_regions, LATCHED_QOS)
+        self.create_subscription(MarkerArray, REGIONS_TOPIC, self.on_regions, LATCHED_QOS)
 
     def now(self) -> float:
         """Return the ROS clock, s."""

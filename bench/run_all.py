@@ -39,9 +39,11 @@ REGISTRY: Dict[str, str] = {
     'arbitration': 'bench.arbitration',
     'latency': 'bench.latency',
     'gaze_rate': 'bench.gaze_rate',
+    'real_gaze': 'bench.real_gaze',
     'decision': 'bench.decision',
     'tolerance': 'bench.tolerance',
     'validation': 'bench.validation',
+    'correction_fit': 'bench.correction_fit',
     'calibration': 'bench.calibration_protocol',
     'ssvep': 'bench.ssvep',
 }

@@ -59,7 +59,8 @@ from eye_bci_ros2.nodes.conversions import cube_marker
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.runner import executor_kind, make_executor, spin_until
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, GAZE_QOS,
+                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS)
 from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
 
 #: Static RViz view of the soak (world frame ``map``, m).
@@ -177,10 +178,10 @@ class Soak:
         self.executor = make_executor(context=context)
         for node in self.nodes + [self.driver]:
             self.executor.add_node(node)
-        self.choices_pub = self.driver.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
+        self.choices_pub = self.driver.create_publisher(MarkerArray, CHOICES_TOPIC, LATCHED_QOS)
         self.gaze_received = 0
         self.driver.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
-        self.driver.create_subscription(String, 'choice', self._on_choice, EVENT_QOS)
+        self.driver.create_subscription(String, CHOICE_TOPIC, self._on_choice, EVENT_QOS)
         self.targets = screen_targets()
         self.pusher = GazePusher(self.outlet, args.rate)
         self.rounds: List[Round] = []

@@ -7,7 +7,7 @@ stamp order, as ``bench/decision.py`` and the accuracy test do), named in
 :data:`RULES`:
 
 * ``mean`` (the original), ``vote``, ``early`` (the node's early decision,
-  :data:`bench.decision.NODE_DEFAULT`, mean at the window end):
+  :data:`bench.decision.COUNT_EARLY`, mean at the window end):
   inside-only classification, today's code;
 * ``tol_*``: the same code given a :class:`TolerantRegions` (a ``RegionSet``
   whose ``classify`` and ``classify_one`` apply
@@ -135,7 +135,7 @@ def settings_for(rule: str, config: ArbiterSettings, params: GazeParams) -> Arbi
     Return the choice_arbiter settings of a rule of :data:`RULES` for one simulated person.
 
     ``config``'s early decision and window (``bench/decision.py``'s
-    ``NODE_DEFAULT``); the rule's method, classification, ratio, size awareness
+    ``COUNT_EARLY``); the rule's method, classification, ratio, size awareness
     and share test; the gaze-error model :func:`model_for` the person, on the
     person's screen.
     """
@@ -202,7 +202,7 @@ def smallest(rules: Sequence[str] = tuple(RULES), trials: int = SEARCH_TRIALS,
     """
     scenario = accuracy_test.RoomScenario(load_scene(default_scene_path()))
     settings = accuracy_test.TrialSettings(params=params)
-    config = decision.NODE_DEFAULT.replace(window_s=settings.window_s)
+    config = decision.COUNT_EARLY.replace(window_s=settings.window_s)
     data = []
     for trial in range(trials):
         target = trial % len(scenario.labels)
@@ -287,7 +287,7 @@ def midway(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
         the error model of a validated tracker (accuracy :data:`VALIDATED_ACCURACY_DEG`, as
         a user sets ``accuracy_deg`` after ``gaze_validation``).
     """
-    config = decision.NODE_DEFAULT
+    config = decision.COUNT_EARLY
     rule_params = params.with_changes(offset_deg=VALIDATED_ACCURACY_DEG) if corrected \
         else params
     table: Dict[str, Dict] = {rule: {} for rule in rules}
@@ -309,7 +309,7 @@ def other_target(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
                  params: GazeParams = CONSUMER_TRACKER, counts=(3, 4, 9),
                  sizes=decision.SIZES) -> Dict[str, Dict]:
     """Accuracy and wrong fraction in bench/decision.py's stress scenario, per rule."""
-    config = decision.NODE_DEFAULT
+    config = decision.COUNT_EARLY
     out: Dict[str, Dict] = {rule: {'wrong': 0, 'correct': 0, 'trials': 0} for rule in rules}
     seeds = range(decision.TEST_SEED, decision.TEST_SEED + trials)
     for count in counts:
@@ -363,7 +363,7 @@ def speed(rules: Sequence[str] = tuple(RULES), trials: int = TRIALS,
     The decision time is the deciding sample's stamp for an early decision,
     the window end otherwise (as ``bench/decision.py`` counts it).
     """
-    config = decision.NODE_DEFAULT
+    config = decision.COUNT_EARLY
     seeds = range(decision.TEST_SEED, decision.TEST_SEED + trials)
     out: Dict[str, Dict[str, list]] = {rule: {'correct': [], 'ms': []} for rule in rules}
     for count in counts:

@@ -96,6 +96,7 @@ from typing import Callable, Dict, Optional, Tuple
 
 import numpy as np
 
+from eye_bci_ros2.feedback import early_progress, window_progress
 from eye_bci_ros2.regions import points_array, RegionSet
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, px_per_degree_at
 
@@ -730,6 +731,34 @@ class RoundEvidence:
                 and self.last_stamp - self._run_start >= self.dwell_s - 1e-9):
             self.decision = self._decision(self.labels[leader], 'early')
         return self.decision
+
+    def configure(self, settings) -> None:
+        """Take the evidence settings of an :class:`ArbiterSettings` from the next sample on."""
+        self.hit_rate = float(settings.hit_rate)
+        self.min_samples = int(settings.min_samples)
+        self.dwell_s = float(settings.dwell_s)
+        self.min_reaction_s = float(settings.min_reaction_s)
+
+    def progress(self, settings) -> Dict[str, float]:
+        """
+        Return the progress towards each label seen, 0..1 (feedback).
+
+        The window rule's (:func:`eye_bci_ros2.feedback.window_progress`, over
+        the valid samples so far) and, with ``settings.early_decision``, the
+        larger of it and the early decision's
+        (:func:`eye_bci_ros2.feedback.early_progress`; a stale run gives none).
+        """
+        counts = self.counts
+        out = window_progress(counts, self.valid, self.elapsed, settings.window_s)
+        if settings.early_decision:
+            fresh = self.fresh_counts
+            run = self.run_label if self.run_fresh else None
+            early = early_progress(fresh, settings.hit_rate, settings.confidence, run,
+                                   self.run_count, settings.min_samples,
+                                   self.last_stamp - self.run_start if run else 0.0,
+                                   settings.dwell_s)
+            out = {label: max(value, early.get(label, 0.0)) for label, value in out.items()}
+        return out
 
     def mean_point(self) -> Optional[np.ndarray]:
         """Motion-compensated mean of the in-region samples, shape (2,) px, or None."""

@@ -421,8 +421,8 @@ def convert(samples: np.ndarray, mapping: GazeMapping,
     Convert a chunk of samples to screen points, dropping the invalid ones.
 
     Per sample: the eyes whose x and y are both finite are averaged and
-    scaled to the screen, then ``correction`` (a validation's 2 x 3 affine,
-    :func:`eye_bci_ros2.validation.apply_correction`; None = none) moves the
+    scaled to the screen, then ``correction`` (a validation's affine or
+    second-order map, :func:`eye_bci_ros2.validation.apply_correction`; None = none) moves the
     point; no finite eye -> dropped as 'nonfinite'.  Confidence below the minimum (or not
     finite) -> 'low_confidence'.  More than the margin outside the screen ->
     'offscreen'.  Each dropped sample is counted once, under the first
@@ -430,7 +430,8 @@ def convert(samples: np.ndarray, mapping: GazeMapping,
 
     :param samples: shape (N, channel_count), any real dtype.
     :param mapping: from :func:`resolve_mapping`.
-    :param correction: shape (2, 3) screen px affine, or None.
+    :param correction: shape (2, 6) (or (2, 3) affine) screen px map
+        (:func:`eye_bci_ros2.validation.as_matrix`), or None.
     :returns: the accepted points in ``screen`` px and the drop counts.
     :raises ValueError: samples whose channel count differs from the stream's.
     """

@@ -17,8 +17,8 @@ import numpy as np
 
 from eye_bci_ros2.evidence import (check_hit_rate, check_min_reaction, check_min_share,
                                    Decision, DEFAULT_HIT_RATE, DEFAULT_MIN_REACTION_S,
-                                   METHODS, RoundEvidence)
-from eye_bci_ros2.feedback import early_progress, window_progress
+                                   METHODS as COUNT_METHODS, RoundEvidence)
+from eye_bci_ros2.fixation import FixationEvidence
 from eye_bci_ros2.regions import points_array, RegionSet
 from eye_bci_ros2.tolerance import (CLASSIFICATIONS, DEFAULT_RATIO, GazeErrorModel,
                                     TolerantRegions)
@@ -43,10 +43,20 @@ _EMPTY_REGIONS = RegionSet([], np.zeros((0, 3, 2)))
 
 _DEFAULT_MODEL = GazeErrorModel()
 
+#: The decision rules (``method``): the fixation rule (:mod:`eye_bci_ros2.fixation`, the
+#: default) and the sample-count rules of :mod:`eye_bci_ros2.evidence` ('mean' is the
+#: original report's).  :meth:`ArbiterSettings.evidence` makes each rule's evidence.
+METHODS = ('fixation',) + COUNT_METHODS
+
 #: The settings that make the original rule (docs/DESIGN.md, "Decision"): samples count
 #: only inside an option, no share test; with ``method`` 'mean' (and no early decision)
 #: every decision is the original report's.
 ORIGINAL_RULE = {'classification': 'inside', 'min_share': 0.0}
+
+#: The tolerant sample-count rule as the node ran it before the fixation rule became the
+#: default (window-end mean with the share test; its early decision, when switched on,
+#: needed a 0.95 posterior and a 20 ms run): ``ArbiterSettings(**COUNT_RULE)``.
+COUNT_RULE = {'method': 'mean', 'early_decision': False, 'confidence': 0.95, 'dwell_s': 0.02}
 
 #: Settings that make up a round's rule (classification and share test): a change applies
 #: from the next round on (:meth:`RoundScheduler.configure`).
@@ -115,7 +125,9 @@ class ArbiterSettings:
     """
     Settings of a :class:`RoundScheduler` (the choice_arbiter's parameters).
 
-    :param method: decision rule at the window end, one of :data:`METHODS`.
+    :param method: the decision rule, one of :data:`METHODS`: 'fixation' (default:
+        the option a settled fixation clearly lands on, :mod:`eye_bci_ros2.fixation`),
+        'mean' (the original) or 'vote' (sample counts, :mod:`eye_bci_ros2.evidence`).
     :param window_s: gaze collection time of a round, s of sample stamps (> 0).
     :param early_decision: decide before the window ends on strong evidence.
     :param confidence: posterior needed for an early decision, in (0.5, 1).
@@ -164,14 +176,16 @@ class ArbiterSettings:
     ``bench/tolerance.py``'s ``size_mean/s``.
     """
 
-    method: str = 'mean'
+    method: str = 'fixation'
     window_s: float = 1.0
-    early_decision: bool = False
+    early_decision: bool = True
     # Early-decision defaults: the configuration bench/decision.py selects on its
     # tuning persons (90 Hz and 1200 Hz trackers, gaze off the menu or on another target).
-    confidence: float = 0.95
+    confidence: float = 0.9
     min_samples: int = 2
-    dwell_s: float = 0.02
+    # A fixation (or an early run) must last this: longer than the transient landing of
+    # a saccade before its corrective saccade (mostly < 150 ms; bench/real_gaze.py).
+    dwell_s: float = 0.15
     min_reaction_s: float = DEFAULT_MIN_REACTION_S
     hit_rate: float = DEFAULT_HIT_RATE
     reorder_s: float = 0.0
@@ -261,13 +275,25 @@ class ArbiterSettings:
         return TolerantRegions.of(region_set, model=self.error_model, ratio=float(self.ratio),
                                   screen=self.screen, size_aware=bool(self.size_aware))
 
-    def evidence(self, start: float) -> 'RoundEvidence':
-        """
-        Return an empty :class:`RoundEvidence` for a round starting at ``start`` s.
+    @property
+    def sigma_gaze_deg(self) -> float:
+        """The gaze error per axis the fixation rule expects, degrees (accuracy, precision)."""
+        return math.hypot(float(self.accuracy_deg), float(self.precision_deg))
 
-        It weighs with the whole rule: the share test, and every region set
-        given to it classified by :meth:`regions` (once per set).
+    def evidence(self, start: float):
         """
+        Return the empty evidence of the rule ``method`` for a round starting at ``start`` s.
+
+        A :class:`~eye_bci_ros2.fixation.FixationEvidence` for 'fixation', a
+        :class:`~eye_bci_ros2.evidence.RoundEvidence` for the count rules; both
+        weigh with the whole rule (every region set given to them classified by
+        :meth:`regions`, once per set; the count rules' share test).
+        """
+        if self.method == 'fixation':
+            return FixationEvidence(start, self.screen, self.sigma_gaze_deg,
+                                    dwell_s=self.dwell_s, min_samples=self.min_samples,
+                                    min_reaction_s=self.min_reaction_s,
+                                    confidence=self.confidence, classifier=self.regions)
         return RoundEvidence(start, hit_rate=self.hit_rate, min_samples=self.min_samples,
                              dwell_s=self.dwell_s, min_reaction_s=self.min_reaction_s,
                              min_share=self.min_share, classifier=self.regions,
@@ -409,8 +435,8 @@ class RoundScheduler:
         return self._round.start if self._round is not None else None
 
     @property
-    def evidence(self) -> Optional[RoundEvidence]:
-        """Return the open round's RoundEvidence, or None; read it, never change it."""
+    def evidence(self):
+        """Return the open round's evidence (of its rule), or None; read it, never change it."""
         return self._round.evidence if self._round is not None else None
 
     @property
@@ -454,21 +480,8 @@ class RoundScheduler:
         round_ = self._round
         if round_ is None:
             return {}
-        settings, evidence = self.settings, round_.evidence
-        offered = sorted(self._offered)
-        counts = evidence.counts
-        counts = {label: counts.get(label, 0) for label in offered}
-        out = window_progress(counts, evidence.valid, evidence.elapsed, settings.window_s)
-        if settings.early_decision:
-            fresh = evidence.fresh_counts
-            run = evidence.run_label if evidence.run_fresh else None
-            early = early_progress({label: fresh.get(label, 0) for label in offered},
-                                   settings.hit_rate, settings.confidence, run,
-                                   evidence.run_count, settings.min_samples,
-                                   evidence.last_stamp - evidence.run_start if run else 0.0,
-                                   settings.dwell_s)
-            out = {label: max(value, early.get(label, 0.0)) for label, value in out.items()}
-        return out
+        progress = round_.evidence.progress(self.settings)
+        return {label: progress.get(label, 0.0) for label in sorted(self._offered)}
 
     def configure(self, **changed) -> None:
         """
@@ -483,11 +496,7 @@ class RoundScheduler:
         if self._round is not None:
             self._round.settings = self._round.settings.replace(
                 **{name: value for name, value in changed.items() if name not in RULE_FIELDS})
-            evidence = self._round.evidence
-            evidence.hit_rate = float(self.settings.hit_rate)
-            evidence.min_samples = int(self.settings.min_samples)
-            evidence.dwell_s = float(self.settings.dwell_s)
-            evidence.min_reaction_s = float(self.settings.min_reaction_s)
+            self._round.evidence.configure(self.settings)
 
     # -- inputs ---------------------------------------------------------------------------
 

@@ -586,7 +586,8 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
     from eye_bci_ros2.nodes.conversions import arrays_to_pose, cube_marker
     from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes
     from eye_bci_ros2.nodes.runner import make_executor, spin_until as spin
-    from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
+    from eye_bci_ros2.nodes.topics import (CAMERA_GOAL_TOPIC, CHOICES_TOPIC, EVENT_QOS,
+                                           LATCHED_QOS, REQUEST_TOPIC)
     from eye_bci_ros2.camera_model import look_at_pose
 
     scenario = RoomScenario(scene, image_size=args.image_size, screen_offset=args.screen_offset)
@@ -618,9 +619,9 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
         bridge, arbiter = nodes[0], nodes[3]
         helper = Node('accuracy_test', context=context)
         nodes.append(helper)
-        choices = helper.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
-        goal = helper.create_publisher(PoseStamped, 'camera/goal', LATCHED_QOS)
-        request = helper.create_publisher(Empty, 'choice/request', EVENT_QOS)
+        choices = helper.create_publisher(MarkerArray, CHOICES_TOPIC, LATCHED_QOS)
+        goal = helper.create_publisher(PoseStamped, CAMERA_GOAL_TOPIC, LATCHED_QOS)
+        request = helper.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
         for node in nodes:
             executor.add_node(node)
         selection = bridge.config.describe_selection()

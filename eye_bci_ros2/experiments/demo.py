@@ -68,27 +68,29 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Empty, String
-from visualization_msgs.msg import Marker, MarkerArray
+from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET,
                                        optical_pose_from_ogre, RVIZ_FOV_Y_DEG, RvizCamera)
-from eye_bci_ros2.evidence import Decision, METHODS
+from eye_bci_ros2.evidence import Decision
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
 from eye_bci_ros2.menu import BACK_LABEL
 from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
-                                            marker_label, pose_to_arrays)
+                                            pose_to_arrays)
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
-from eye_bci_ros2.nodes.feedback_markers import OptionMarkers
+from eye_bci_ros2.nodes.feedback_markers import option_label, OptionMarkers
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.nodes.runner import make_executor, spin_until as _spin_until
 from eye_bci_ros2.nodes.ssvep_decoder import SsvepDecoder
 from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
 from eye_bci_ros2.nodes.ssvep_stimulus_map import SsvepStimulusMap
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS,
-                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, REQUEST_TOPIC,
-                                       SSVEP_STIMULI_TOPIC)
+from eye_bci_ros2.nodes.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC,
+                                       GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                       MENU_ANSWER_TOPIC, MENU_RESULT_TOPIC, REGIONS_TOPIC,
+                                       REQUEST_TOPIC, RVIZ_CAMERA_POSE_TOPIC, SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.regions import RegionSet
+from eye_bci_ros2.rounds import METHODS
 from eye_bci_ros2.scene import load_scene, Scene
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
 from eye_bci_ros2.sim.eeg_outlet import EegStreamer
@@ -356,7 +358,9 @@ class ExperimentDriver(Node):
             *scene.overview.as_tuple(), image_size=PANEL_SIZE, fov_y_deg=FOV_Y_DEG,
             screen_offset=PANEL_OFFSET)
         self.camera: Optional[RvizCamera] = None
-        # label -> (position (3,), quaternion xyzw (4,), scale (3,), colour rgba (4,))
+        # The options on choices, and by label: (position (3,), quaternion xyzw (4,),
+        # scale (3,), colour rgba (4,)).
+        self._choices = OptionMarkers()
         self.markers: Dict[str, tuple] = {}
         self.offered: Tuple[str, ...] = ()
         self.region_history: List[RegionSet] = []
@@ -379,12 +383,12 @@ class ExperimentDriver(Node):
         # The feedback halos (choices/feedback) as RViz would show them.
         self.halos = OptionMarkers()
         self.create_subscription(MarkerArray, FEEDBACK_TOPIC, self._on_feedback, FEEDBACK_QOS)
-        self.create_subscription(String, 'choice_menu/answer', self._on_answer, EVENT_QOS)
-        self.create_subscription(MarkerArray, 'choices', self._on_choices, LATCHED_QOS)
-        self.create_subscription(Pose, 'rviz/current_camera_pose', self._on_camera, LATCHED_QOS)
-        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(String, MENU_ANSWER_TOPIC, self._on_answer, EVENT_QOS)
+        self.create_subscription(MarkerArray, CHOICES_TOPIC, self._on_choices, LATCHED_QOS)
+        self.create_subscription(Pose, RVIZ_CAMERA_POSE_TOPIC, self._on_camera, LATCHED_QOS)
+        self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
-        self.create_subscription(String, 'choice_menu/result', self._on_result, EVENT_QOS)
+        self.create_subscription(String, MENU_RESULT_TOPIC, self._on_result, EVENT_QOS)
         self.eeg = eeg
         # Answers the menu acted on, not yet recorded (label, ROS time s).
         self._answers: List[Tuple[str, float]] = []
@@ -405,17 +409,16 @@ class ExperimentDriver(Node):
     # -- what the screen shows ------------------------------------------------------------
 
     def _on_choices(self, message: MarkerArray) -> None:
-        for marker in message.markers:
-            if marker.action == Marker.DELETEALL:
-                self.markers = {}
-            elif marker.action == Marker.DELETE:
-                self.markers.pop(marker_label(marker.ns, marker.id, marker.text), None)
-            else:
-                position, quaternion = pose_to_arrays(marker.pose)
-                scale = np.array([marker.scale.x, marker.scale.y, marker.scale.z])
-                colour = (marker.color.r, marker.color.g, marker.color.b, marker.color.a)
-                self.markers[marker_label(marker.ns, marker.id, marker.text)] = (
-                    position, quaternion, scale, colour)
+        # The options as RViz shows them (OptionMarkers: RViz2's semantics, a DELETEALL
+        # clears its namespace only), seen by label.
+        for problem in self._choices.apply(message):
+            self.get_logger().warning(f'choices: {problem}')
+        self.markers = {}
+        for marker in self._choices.options:
+            position, quaternion = pose_to_arrays(marker.pose)
+            scale = np.array([marker.scale.x, marker.scale.y, marker.scale.z])
+            colour = (marker.color.r, marker.color.g, marker.color.b, marker.color.a)
+            self.markers[option_label(marker)] = (position, quaternion, scale, colour)
         labels = tuple(self.markers)
         if set(labels) != set(self.offered):
             self.offered = labels

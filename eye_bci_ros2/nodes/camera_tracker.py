@@ -44,7 +44,8 @@ from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
-from eye_bci_ros2.nodes.topics import LATCHED_QOS, RVIZ_POSE_QOS
+from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, LATCHED_QOS, RVIZ_CAMERA_POSE_TOPIC,
+                                       RVIZ_POSE_QOS)
 
 #: Default static view: the overview of the default scene (config/scene.yaml,
 #: a 20 m x 12 m map), from 17 m up and 8 m south of the map centre (10, 6, 0),
@@ -53,9 +54,6 @@ from eye_bci_ros2.nodes.topics import LATCHED_QOS, RVIZ_POSE_QOS
 DEFAULT_EYE = [10.0, -2.0, 17.0]
 DEFAULT_FOCUS = [10.0, 6.0, 0.0]
 DEFAULT_UP = [0.0, 0.0, 1.0]
-
-#: The ROS 1 animated view controller's topic (Pose, Ogre convention).
-ROS1_POSE_TOPIC = 'rviz/current_camera_pose'
 
 #: Pose topic of the first instance of the Jazzy port (PoseStamped, x forward).
 PORT_POSE_TOPIC = 'rviz_plugin_view_animated_1/pose'
@@ -117,9 +115,9 @@ PARAMETERS: List[ParamSpec] = [
     ParamSpec('world_frame', 'map',
               'Frame of camera/pose: the RViz fixed frame the markers are in.',
               check=check_frame_id),
-    ParamSpec('pose_topic', ROS1_POSE_TOPIC,
+    ParamSpec('pose_topic', RVIZ_CAMERA_POSE_TOPIC,
               'Where the RViz camera pose comes from (Pose or PoseStamped, type taken from '
-              f'the graph): {ROS1_POSE_TOPIC} (ROS 1 controller, simulated RViz) or '
+              f'the graph): {RVIZ_CAMERA_POSE_TOPIC} (ROS 1 controller, simulated RViz) or '
               '/rviz_plugin_view_animated_<N>/pose (Jazzy rviz_plugin_view_animated; N counts '
               'its instances from 1).',
               check=_check_topic),
@@ -157,7 +155,7 @@ class CameraTracker(Node):
         self._subscription = None
         self._subscribed_type = None
         self._graph_note: Optional[str] = None
-        self._publisher = self.create_publisher(PoseStamped, 'camera/pose', LATCHED_QOS)
+        self._publisher = self.create_publisher(PoseStamped, CAMERA_POSE_TOPIC, LATCHED_QOS)
         self._publish()
         eye, focus, up, source = static_view(self._params)
         self.get_logger().info(

@@ -55,7 +55,7 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.evidence import Decision, MAX_REACTION_S, METHODS
+from eye_bci_ros2.evidence import Decision, MAX_REACTION_S
 from eye_bci_ros2.feedback import build_feedback, Feedback, FeedbackThrottle
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
 from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
@@ -65,12 +65,12 @@ from eye_bci_ros2.nodes.log_throttle import KeyedWarnings, QuietRepeats
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.screen_parameters import person_screen_parameters
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, EVENT_QOS, FEEDBACK_QOS,
-                                       FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
-                                       NO_CHOICE_TOPIC, REQUEST_TOPIC, SCORES_QOS,
-                                       SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, CHOICES_TOPIC, EVENT_QOS,
+                                       FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC,
+                                       LATCHED_QOS, NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC,
+                                       SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, RoundScheduler
+from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, METHODS, RoundScheduler
 from eye_bci_ros2.tolerance import CLASSIFICATIONS
 
 #: choices/feedback shows at most this many options (one halo each, ~30 times a second).
@@ -102,33 +102,38 @@ DEFAULTS = ArbiterSettings()
 
 PARAMETERS = (
     ParamSpec('method', DEFAULTS.method,
-              'Decision rule at the window end: mean = the original rule (mean of the '
-              'in-region samples must lie in a region), vote = region with most samples',
+              'Decision rule: fixation = the option a still fixation of dwell_s clearly '
+              'lands on (posterior from the gaze-error model, fresh fixations only; holds on '
+              'real gaze: docs/selection.md); mean = the original rule (mean of the in-region '
+              'samples must lie in a region); vote = region with most samples',
               choices=METHODS),
     ParamSpec('window_s', DEFAULTS.window_s,
               'Gaze collection time of a round, s of sample stamps from the round start',
               value_range=(0.0, 60.0), check=_positive),
     ParamSpec('early_decision', DEFAULTS.early_decision,
-              'Decide before the window ends once the fresh evidence for one region reaches '
-              'confidence (and min_samples / dwell_s / min_reaction_s hold); the defaults of '
-              'those are the configuration bench/decision.py selects'),
+              'Decide before the window ends, as soon as the evidence for one option reaches '
+              'confidence (fixation: a fresh still fixation of dwell_s on it; mean/vote: '
+              'fresh in-region samples, min_samples / dwell_s / min_reaction_s); else at '
+              'the window end'),
     ParamSpec('confidence', DEFAULTS.confidence,
-              'Posterior probability of the leading region needed for an early decision',
+              'Posterior probability of the leading option a choice needs (fixation: early '
+              'and at the window end; mean/vote: the early decision)',
               value_range=(0.5, 1.0), check=_open_unit_half),
     ParamSpec('min_samples', DEFAULTS.min_samples,
-              'Early decision: fresh in-region samples needed, and the most recent ones the '
-              'leading region must hold without interruption',
+              'Samples a deciding fixation must hold (fixation); fresh in-region samples an '
+              'early decision needs, the most recent ones on the leader without interruption '
+              '(mean/vote)',
               value_range=(1, 100000)),
     ParamSpec('dwell_s', DEFAULTS.dwell_s,
-              'Early decision: sample time the uninterrupted run on the leading region must '
-              'span, s (keeps a saccade that crosses a region from choosing it, at any '
-              'tracker rate)',
+              'Time a fixation must last before it decides (fixation: longer than the '
+              'transient landing before a corrective saccade), or the early run on the leader '
+              'must span (mean/vote), s',
               value_range=(0.0, 10.0)),
     ParamSpec('min_reaction_s', DEFAULTS.min_reaction_s,
-              'Early decision: shortest reaction to a new display, s; gaze on a region from '
-              'before round start + min_reaction_s (a gaze already resting there) counts '
-              'only after it has moved to another region; 0 = off. The window-end rule '
-              'always uses every sample',
+              'Shortest reaction to a new display, s: gaze resting on or near an option from '
+              'before round start + min_reaction_s is not a reaction and counts only after '
+              'the gaze has moved away (fixation: never chooses; mean/vote: the early '
+              'decision only, the window end uses every sample); 0 = off',
               value_range=(0.0, MAX_REACTION_S)),
     ParamSpec('hit_rate', DEFAULTS.hit_rate,
               'Evidence model: probability that an in-region sample is on the looked-at region',
@@ -155,10 +160,11 @@ PARAMETERS = (
               'inside = the original rule (inside only). With min_share 0 and method mean, '
               'inside gives the original decisions', choices=CLASSIFICATIONS),
     ParamSpec('accuracy_deg', DEFAULTS.accuracy_deg,
-              "Tolerant rule: the tracker's accuracy (constant offset) for this person, "
-              'degrees of visual angle (a validation measures it)', value_range=(0.0, 10.0)),
+              "Gaze-error model: the tracker's accuracy for this person, degrees of visual "
+              'angle (a validation measures it); with precision_deg the error the fixation '
+              'rule and the tolerant classification expect', value_range=(0.0, 10.0)),
     ParamSpec('precision_deg', DEFAULTS.precision_deg,
-              "Tolerant rule: the tracker's precision (sample-to-sample noise per axis), "
+              "Gaze-error model: the tracker's precision (sample-to-sample noise per axis), "
               'degrees', value_range=(0.0, 10.0)),
     ParamSpec('k_sigma', DEFAULTS.k_sigma,
               'Tolerant rule: tolerance in standard deviations of the radial gaze error '
@@ -235,7 +241,7 @@ class ChoiceArbiter(Node):
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
         # Says so when a second pipeline shares this graph (two eye_bci on one domain).
         self.graph_watch = GraphWatch(self, outputs=[CHOICE_TOPIC], inputs=[GAZE_SAMPLES_TOPIC])
-        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
         self._timer = self.create_timer(TICK_S, self._on_tick)
         self._init_fusion()
@@ -446,7 +452,7 @@ class ChoiceArbiter(Node):
         self._chosen: Optional[tuple] = None     # (label, shown until s, option marker)
         self._options_changed = False
         self._feedback_pub = self.create_publisher(MarkerArray, FEEDBACK_TOPIC, FEEDBACK_QOS)
-        self.create_subscription(MarkerArray, 'choices', self._on_choices, CHOICES_QOS)
+        self.create_subscription(MarkerArray, CHOICES_TOPIC, self._on_choices, CHOICES_QOS)
         self._feedback_timer = None
         self._throttle = FeedbackThrottle()
         self._start_feedback(self._feedback_values['feedback_rate_hz'])

@@ -74,9 +74,11 @@ from eye_bci_ros2.nodes.log_throttle import QuietRepeats, WARN_PERIOD_S
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_ON_SCREEN_TOPIC,
-                                       GAZE_POINT_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
-                                       REQUEST_TOPIC, VALIDATION_RESULT_TOPIC,
+from eye_bci_ros2.nodes.topics import (CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC, CHOICE_TOPIC,
+                                       CHOICES_TOPIC, EVENT_QOS, GAZE_ON_SCREEN_TOPIC,
+                                       GAZE_POINT_TOPIC, LATCHED_QOS, MENU_ANSWER_TOPIC,
+                                       MENU_RESULT_TOPIC, MENU_STATE_TOPIC, NO_CHOICE_TOPIC,
+                                       REGIONS_TOPIC, REQUEST_TOPIC, VALIDATION_RESULT_TOPIC,
                                        VALIDATION_START_TOPIC, VIEW_QOS)
 from eye_bci_ros2.scene import CubeMarker, load_scene, Scene, View
 from eye_bci_ros2.validation import ValidationOutcome
@@ -161,16 +163,16 @@ class ChoiceMenu(Node):
         self._protocol = MenuProtocol(scene, self._settings(values))
         self._state = ''
 
-        self._choices_pub = self.create_publisher(MarkerArray, 'choices', LATCHED_QOS)
-        self._goal_pub = self.create_publisher(PoseStamped, 'camera/goal', LATCHED_QOS)
-        self._result_pub = self.create_publisher(String, 'choice_menu/result', EVENT_QOS)
-        self._answer_pub = self.create_publisher(String, 'choice_menu/answer', EVENT_QOS)
+        self._choices_pub = self.create_publisher(MarkerArray, CHOICES_TOPIC, LATCHED_QOS)
+        self._goal_pub = self.create_publisher(PoseStamped, CAMERA_GOAL_TOPIC, LATCHED_QOS)
+        self._result_pub = self.create_publisher(String, MENU_RESULT_TOPIC, EVENT_QOS)
+        self._answer_pub = self.create_publisher(String, MENU_ANSWER_TOPIC, EVENT_QOS)
         self._request_pub = self.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
-        self._state_pub = self.create_publisher(String, 'choice_menu/state', LATCHED_QOS)
+        self._state_pub = self.create_publisher(String, MENU_STATE_TOPIC, LATCHED_QOS)
         self.create_subscription(String, CHOICE_TOPIC, self._on_choice, EVENT_QOS)
         self.create_subscription(String, NO_CHOICE_TOPIC, self._on_no_choice, EVENT_QOS)
-        self.create_subscription(PoseStamped, 'camera/pose', self._on_pose, LATCHED_QOS)
-        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(PoseStamped, CAMERA_POSE_TOPIC, self._on_pose, LATCHED_QOS)
+        self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self.create_subscription(PointStamped, GAZE_POINT_TOPIC, self._on_gaze_point,
                                  VIEW_QOS)
         self.create_subscription(Bool, GAZE_ON_SCREEN_TOPIC, self._on_screen, LATCHED_QOS)

@@ -20,17 +20,13 @@ from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from eye_bci_ros2.nodes import registry
 from eye_bci_ros2.nodes.runner import non_ros_args, spin_nodes
 
-#: (node name, module, class) of each pipeline node, in start-up order.
-PIPELINE = (
-    ('lsl_gaze_bridge', 'eye_bci_ros2.nodes.lsl_gaze_bridge', 'LslGazeBridge'),
-    ('camera_tracker', 'eye_bci_ros2.nodes.camera_tracker', 'CameraTracker'),
-    ('marker_projector', 'eye_bci_ros2.nodes.marker_projector', 'MarkerProjector'),
-    ('choice_arbiter', 'eye_bci_ros2.nodes.choice_arbiter', 'ChoiceArbiter'),
-)
+#: (node name, module, class) of each pipeline node, in start-up order (from the registry).
+PIPELINE = registry.pipeline()
 #: The original experiment's menu, composed only when asked for.
-MENU = ('choice_menu', 'eye_bci_ros2.nodes.choice_menu', 'ChoiceMenu')
+MENU = registry.menu()
 #: The command-line option that composes :data:`MENU` too.
 WITH_MENU = '--with-menu'
 

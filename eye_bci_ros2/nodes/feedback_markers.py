@@ -10,23 +10,18 @@ progress of the decision (:func:`eye_bci_ros2.feedback.halo_scale`).  An
 option no longer offered gets a DELETE (same ns and id) once.
 
 :class:`OptionMarkers` keeps the options of the ``choices`` topic with RViz2's
-MarkerArray semantics (as the marker_projector does: ADD/MODIFY adds or
-replaces, DELETE removes one, DELETEALL with an empty ns every marker and with
-an ns that namespace's; a marker with NaN or infinite values, or an ADD with a
-bad pose or scale, is skipped with a reason).
+MarkerArray semantics (:class:`eye_bci_ros2.nodes.marker_store.MarkerStore`, as
+the marker_projector does).
 """
 
-from typing import Dict, Iterable, List, Optional, Sequence, Set, Tuple
+from typing import Iterable, List, Optional, Sequence, Set, Tuple
 
 from builtin_interfaces.msg import Time
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.feedback import Feedback, halo_scale, NONE, STATE_COLOURS
 from eye_bci_ros2.nodes.conversions import cube_marker, marker_label, pose_to_arrays
-from eye_bci_ros2.nodes.marker_projector import marker_box, non_finite_fields
-
-#: A marker's identity in RViz.
-Key = Tuple[str, int]
+from eye_bci_ros2.nodes.marker_store import Key, MarkerStore
 
 
 def option_markers(choices: MarkerArray) -> Sequence[Marker]:
@@ -89,48 +84,14 @@ def option_label(marker: Marker) -> str:
     return marker_label(marker.ns, marker.id, marker.text)
 
 
-class OptionMarkers:
+class OptionMarkers(MarkerStore):
     """The options offered on ``choices``, by (ns, id), in the order they were added."""
-
-    def __init__(self):
-        """Start with no options."""
-        self._markers: Dict[Key, Marker] = {}
 
     @property
     def options(self) -> List[Marker]:
         """Return the option markers held."""
-        return list(self._markers.values())
+        return self.markers
 
     def get(self, label: str) -> Optional[Marker]:
         """Return the option marker with ``label``, or None."""
-        return next((m for m in self._markers.values() if option_label(m) == label), None)
-
-    def apply(self, message: MarkerArray) -> List[str]:
-        """
-        Apply a ``choices`` message (module doc).
-
-        :returns: one reason per marker skipped (empty when all were applied).
-        """
-        problems = []
-        for marker in message.markers:
-            key = (marker.ns, marker.id)
-            name = f'{marker.ns}/{marker.id}'
-            if marker.action == Marker.ADD:
-                try:
-                    marker_box(marker)
-                except ValueError as error:
-                    problems.append(f'skipped marker {name}: {error}')
-                    continue
-            broken = non_finite_fields(marker)
-            if broken:
-                problems.append(f"skipped marker {name}: NaN or infinite {', '.join(broken)}")
-            elif marker.action == Marker.ADD:
-                self._markers[key] = marker
-            elif marker.action == Marker.DELETE:
-                self._markers.pop(key, None)
-            elif marker.action == Marker.DELETEALL:
-                for old in [k for k in self._markers if not marker.ns or k[0] == marker.ns]:
-                    del self._markers[old]
-            else:
-                problems.append(f'skipped marker {name}: unknown action {marker.action}')
-        return problems
+        return next((m for m in self.markers if option_label(m) == label), None)

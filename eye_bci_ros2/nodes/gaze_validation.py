@@ -20,9 +20,14 @@ The procedure (:mod:`eye_bci_ros2.validation` holds the arithmetic):
    and logs accuracy and precision per target and overall, in degrees (for
    ``screen_width_mm`` x ``screen_height_mm`` seen from
    ``viewing_distance_mm``) and px;
-4. fits a correction (``kind``: offset; affine with 9 targets); when a
-   target got fewer than ``min_samples`` samples or the fit is implausible it
-   refuses: one line with the reason, nothing saved or applied;
+4. fits a correction (``kind``; with ``auto`` the kind that does best at
+   targets left out of the fit: offset, affine or, with 9 targets,
+   second-order, :func:`eye_bci_ros2.validation.fit_correction`); when a
+   target got fewer than ``min_samples`` samples, the fit is implausible
+   anywhere on the screen or it would not reduce the error it refuses: one
+   line with the reason, nothing saved or applied (a more flexible fit that
+   is implausible falls back to a simpler one, and the outcome's ``note``
+   says why);
 5. otherwise composes it with the bridge's current correction, saves it as a
    parameter file (``output``; ``--params-file`` for the bridge), sets the
    bridge's ``gaze_correction`` (what ``ros2 param set`` does) and validates
@@ -60,13 +65,15 @@ from eye_bci_ros2.nodes.marker_projector import (camera_from_parameters,
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.screen_parameters import person_screen, person_screen_parameters
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
-                                       VALIDATION_RESULT_TOPIC, VALIDATION_START_TOPIC,
-                                       VALIDATION_TARGET_TOPIC, VALIDATION_TARGETS_TOPIC)
+from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
+                                       LATCHED_QOS, VALIDATION_RESULT_TOPIC,
+                                       VALIDATION_START_TOPIC, VALIDATION_TARGET_TOPIC,
+                                       VALIDATION_TARGETS_TOPIC)
 from eye_bci_ros2.validation import (
-    as_matrix, compose_corrections, CorrectionRefused, error_model, fit_correction, IDENTITY,
-    implausibility, measure, MIN_SAMPLES, NODE, PARAMETER, samples_per_target,
-    save_correction, SETTLE_S, target_layout, ValidationOutcome)
+    as_matrix, compose_corrections, correction_values, CorrectionRefused, error_model,
+    fit_correction, IDENTITY, implausibility, KINDS, measure, MIN_SAMPLES, MIN_TARGETS, NODE,
+    PARAMETER, samples_per_target, save_correction, SETTLE_S, target_layout,
+    ValidationOutcome)
 from eye_bci_ros2.visual_angle import degrees_to_px, ScreenGeometry
 
 #: Step of the procedure's timer, s.
@@ -103,14 +110,17 @@ ARBITER_WAIT_S = 1.0
 
 PARAMETERS: List[ParamSpec] = [
     ParamSpec('targets', 9, 'Number of targets: 5 (centre, corners; offset fit) or 9 '
-              '(3x3 grid; affine fit)', value_range=(5, 9), check=_check_count),
+              '(3x3 grid; offset, affine or second-order fit)', value_range=(5, 9),
+              check=_check_count),
     ParamSpec('target_s', 1.5, 'How long each target is shown, s', value_range=(0.2, 60.0)),
     ParamSpec('settle_s', SETTLE_S, 'Gaze from this long after a target appears is used '
               '(saccade latency and landing), s', value_range=(0.0, 30.0)),
     ParamSpec('margin', 0.1, 'Outer targets this far from the render panel edges, as a '
               'fraction of its size', value_range=(0.01, 0.49)),
-    ParamSpec('kind', 'auto', 'Correction: offset, affine (needs 9 targets) or auto (affine '
-              'with 9 targets, else offset)', choices=('auto', 'offset', 'affine')),
+    ParamSpec('kind', 'auto', 'Correction: offset, affine or quadratic (second-order; these '
+              'two need 9 targets), or auto: the one with the least error at targets left out '
+              'of the fit (the simplest within one standard error), plausible over the whole '
+              'screen', choices=('auto',) + KINDS),
     ParamSpec('min_samples', MIN_SAMPLES, 'A target with fewer gaze samples after settle_s '
               'refuses the correction', value_range=(2, 100000)),
     ParamSpec('output', 'gaze_correction.yaml',
@@ -149,8 +159,8 @@ def _check_all(values: Dict[str, Any]) -> Optional[str]:
     if values['settle_s'] >= values['target_s']:
         return (f"settle_s ({values['settle_s']:g} s) must be shorter than target_s "
                 f"({values['target_s']:g} s)")
-    if values['kind'] == 'affine' and values['targets'] < 9:
-        return 'an affine correction needs 9 targets'
+    if values['kind'] in MIN_TARGETS and values['targets'] < MIN_TARGETS[values['kind']]:
+        return f"kind {values['kind']} needs {MIN_TARGETS[values['kind']]} or more targets"
     try:
         camera_from_parameters(values)
     except ValueError as error:
@@ -181,7 +191,7 @@ class GazeValidation(Node):
                                                   LATCHED_QOS)
         self._result_pub = self.create_publisher(String, VALIDATION_RESULT_TOPIC, EVENT_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
-        self.create_subscription(PoseStamped, 'camera/pose', self._on_pose, LATCHED_QOS)
+        self.create_subscription(PoseStamped, CAMERA_POSE_TOPIC, self._on_pose, LATCHED_QOS)
         self.create_subscription(Empty, VALIDATION_START_TOPIC, self._on_start, EVENT_QOS)
         self._bridge = AsyncParameterClient(self, self._params['bridge_node'])
         self._arbiter = self._arbiter_client()
@@ -318,11 +328,11 @@ class GazeValidation(Node):
             self.get_logger().info(line)
         base = ValidationOutcome(False, targets=len(targets), accuracy_deg=report.accuracy_deg,
                                  precision_deg=report.precision_deg,
-                                 correction=[float(v) for v in current.ravel()])
+                                 correction=correction_values(current))
         try:
             fit = fit_correction(targets, self._samples(targets, params), params['kind'],
                                  screen, params['min_samples'])
-            total = compose_corrections(fit.matrix, current)
+            total = compose_corrections(fit.matrix, current, screen)
             reason = implausibility(total, screen)
             if reason:
                 raise CorrectionRefused(f'no correction: with the current one {reason}')
@@ -330,7 +340,7 @@ class GazeValidation(Node):
             base.reason = str(refused)
             self._finish(base)
             return
-        values = [float(v) for v in total.ravel()]
+        values = correction_values(total)
         output = os.path.abspath(params['output']) if params['output'] else ''
         if output:
             save_correction(output, values, params['bridge_node'])
@@ -342,11 +352,15 @@ class GazeValidation(Node):
             base.output = output
             self._finish(base)
             return
-        self.get_logger().info(f'{fit.kind} correction applied: {values} (on the fitted data '
-                               f'{fit.residual_before_deg:.2f} -> {fit.residual_after_deg:.2f} '
-                               'deg)')
+        held = ', '.join(f'{kind} {deg:.2f}' for kind, deg in fit.candidates.items())
+        self.get_logger().info(
+            f'{fit.kind} correction applied: {values} (on the fitted data '
+            f'{fit.residual_before_deg:.2f} -> {fit.residual_after_deg:.2f} deg'
+            + (f'; at targets left out of the fit, deg: {held}' if held else '') + ')'
+            + (f'; {fit.note}' if fit.note else ''))
         outcome = ValidationOutcome(True, '', fit.kind, len(targets), report.accuracy_deg,
-                                    report.precision_deg, correction=values, output=output)
+                                    report.precision_deg, correction=values, output=output,
+                                    held_out_deg=fit.held_out_deg, note=fit.note)
         if params['validate_again']:
             self.get_logger().info('validating again with the correction applied')
             again = yield from self._pass(targets, params, screen)
@@ -440,7 +454,7 @@ class GazeValidation(Node):
             f"({values['screen_offset_x']:g}, {values['screen_offset_y']:g}) px)")
 
     def _read_correction(self, timeout_s: float) -> Iterator[None]:
-        """Return the bridge's gaze_correction as (2, 3) (identity when it cannot be read)."""
+        """Return the bridge's gaze_correction as (2, 6) (identity when it cannot be read)."""
         name = self._params['bridge_node']
         yield from self._wait(self._bridge.services_are_ready, timeout_s)
         if self._bridge.services_are_ready():

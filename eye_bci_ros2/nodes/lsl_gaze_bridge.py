@@ -20,14 +20,15 @@ publishes
   a stream starts sending, never per sample; false when the stream goes
   stale (nothing for ``stale_timeout_s``) or is lost.
 
-``gaze_correction`` (6 doubles, row-major 2 x 3 affine on screen px;
+``gaze_correction`` (6 doubles, row-major 2 x 3 affine on screen px, or
+12: those, then second-order terms; :func:`eye_bci_ros2.validation.as_matrix`;
 :data:`eye_bci_ros2.validation.IDENTITY` = none) is applied to every sample
 after the screen scaling and before the off-screen check
 (:func:`eye_bci_ros2.validation.apply_correction`); ``gaze_validation``
 fits it and sets it through the parameter service, and saves it as a
 parameter file for ``--params-file``.  An implausible correction (scale,
-rotation or shift beyond :func:`eye_bci_ros2.validation.implausibility`'s
-limits) is refused with the reason.
+rotation or shift anywhere on the screen beyond
+:func:`eye_bci_ros2.validation.implausibility`'s limits) is refused with the reason.
 
 Nothing here blocks the executor for long: the stream is found by a
 ``pylsl.ContinuousResolver`` that a timer polls, chunks are pulled with a
@@ -85,8 +86,8 @@ from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import (GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC, GAZE_QOS,
                                        GAZE_SAMPLES_TOPIC, LATCHED_QOS, VIEW_QOS)
-from eye_bci_ros2.validation import (as_matrix, IDENTITY, implausibility, is_identity,
-                                     PARAMETER as CORRECTION_PARAMETER)
+from eye_bci_ros2.validation import (as_matrix, correction_values, IDENTITY, implausibility,
+                                     is_identity, PARAMETER as CORRECTION_PARAMETER)
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
 
 #: Longest wait for a stream's full description when connecting, s.
@@ -122,17 +123,16 @@ def _one_of_or_empty(allowed):
 
 
 def _correction_shape(value):
-    """Reject a gaze_correction that is not 6 finite numbers."""
+    """Reject a gaze_correction that is not 6 or 12 finite numbers (as_matrix says why)."""
     try:
         as_matrix(value)
-    except ValueError:
-        return (f'must be 6 finite numbers (row-major 2x3 affine; {list(IDENTITY)} = none), '
-                f'got {list(value)}')
+    except ValueError as error:
+        return str(error).replace(f'{CORRECTION_PARAMETER} must', 'must', 1)
     return None
 
 
 def _correction(values: Dict[str, Any]) -> Optional[np.ndarray]:
-    """Return the (2, 3) correction of the parameters, or None for the identity (skipped)."""
+    """Return the (2, 6) correction of the parameters, or None for the identity (skipped)."""
     value = values.get(CORRECTION_PARAMETER) or IDENTITY
     return None if is_identity(value) else as_matrix(value)
 
@@ -205,9 +205,11 @@ PARAMETERS = (
               'period of refreshing the LSL clock offset to the sender, s',
               value_range=(0.1, 600.0)),
     ParamSpec(CORRECTION_PARAMETER, list(IDENTITY),
-              'gaze correction from gaze_validation: 6 numbers, row-major 2x3 affine on '
-              f'screen px (corrected = A @ [x, y, 1]), applied after the screen scaling; '
-              f'{list(IDENTITY)} = none; settable at run time; an implausible one is refused',
+              'gaze correction from gaze_validation: 6 numbers, row-major 2x3 affine A on '
+              'screen px, or 12: those, then row-major 2x3 second-order terms Q '
+              '(corrected = A @ [x, y, 1] + Q @ [x^2, x*y, y^2]); applied after the screen '
+              f'scaling; {list(IDENTITY)} = none; settable at run time; one that is '
+              'implausible anywhere on the screen is refused',
               check=_correction_shape, array_type='double_array'),
     ParamSpec('stats_period_s', 10.0,
               'period of logging sample counters when they change, s (0 = never)',
@@ -327,7 +329,7 @@ class LslGazeBridge(Node):
 
     @property
     def correction(self) -> Optional[np.ndarray]:
-        """Return the gaze correction in use, (2, 3) screen px affine; None = none."""
+        """Return the gaze correction in use, (2, 6) screen px (``as_matrix``); None = none."""
         return None if self._correction is None else self._correction.copy()
 
     @property
@@ -356,7 +358,7 @@ class LslGazeBridge(Node):
             self._correction = _correction(self._params)
             self.get_logger().info(
                 f'{CORRECTION_PARAMETER}: '
-                f'{"none" if self._correction is None else self._correction.ravel().tolist()}')
+                f'{"none" if self._correction is None else correction_values(self._correction)}')
             if len(changed) == 1:
                 return
         old, self._config = self._config, build_config(self._params)

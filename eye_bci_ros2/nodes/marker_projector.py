@@ -8,13 +8,10 @@ latched): the complete current set, one closed LINE_STRIP per visible marker,
 points in screen px, same ns/id/text as the marker (see
 :mod:`eye_bci_ros2.nodes.conversions`).
 
-Markers are kept by (ns, id) with RViz2's semantics (``MarkerCommon``,
-ros2/rviz jazzy, rviz_default_plugins/src/rviz_default_plugins/displays/marker/
-marker_common.cpp): the markers of an array are applied in order; ADD/MODIFY
-adds or replaces; DELETE removes one; DELETEALL with an empty ``ns`` removes
-every marker received before it, with a non-empty ``ns`` only that namespace's
-(markers after it in the same array survive); a marker with a NaN or infinite
-pose, scale, colour or point is ignored whatever its action; a marker with a
+Markers are kept by (ns, id) with RViz2's semantics
+(:class:`eye_bci_ros2.nodes.marker_store.MarkerStore`: ADD/MODIFY adds or
+replaces, DELETE removes one, DELETEALL with an ns that namespace's, without
+one all; a marker with a NaN or infinite value is ignored); a marker with a
 ``lifetime`` (> 0.1 ms) expires that long after it was received, on the node's
 clock.  A CUBE's region is the silhouette of its corners; any other type is
 treated as the box its scale spans around its pose.  Only markers in
@@ -30,7 +27,7 @@ around the panel centre); ``projection`` and the panel size can come from an
 ``rviz_config`` file (see :func:`camera_from_parameters`).
 """
 
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Dict, List, Optional
 
 from geometry_msgs.msg import PoseStamped
 import numpy as np
@@ -44,10 +41,12 @@ from eye_bci_ros2.camera_model import (DEFAULT_PANEL_OFFSET, OrthographicCamera,
 from eye_bci_ros2.geometry import external_from_pose
 from eye_bci_ros2.nodes.conversions import pose_to_arrays, regions_to_marker_array
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
+from eye_bci_ros2.nodes.marker_store import Box, Key, MarkerStore
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
-from eye_bci_ros2.nodes.topics import CHOICES_QOS, LATCHED_QOS
+from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, CHOICES_QOS, CHOICES_TOPIC, LATCHED_QOS,
+                                       REGIONS_TOPIC)
 
 #: Largest render panel side accepted, px.
 MAX_IMAGE_SIDE = 16384
@@ -70,8 +69,6 @@ EXPIRY_CHECK_S = 0.05
 
 #: Default ``ortho_scale``: TopDownOrtho's default Scale, px per m.
 DEFAULT_ORTHO_SCALE = 10.0
-
-Key = Tuple[str, int]
 
 
 class MarkerTable:
@@ -159,48 +156,6 @@ class MarkerTable:
     def keys(self) -> List[Key]:
         """Return the keys of every marker held."""
         return list(self._rows)
-
-
-def marker_box(marker: Marker) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Optional[str]]:
-    """
-    Box of a marker message: position (3,), unit quaternion x, y, z, w (4,), scale (3,).
-
-    :returns: the arrays and a note for the log (or None): an all-zero
-        quaternion is read as the identity, as RViz draws it.
-    :raises ValueError: NaN/infinite pose or scale, or a scale <= 0.
-    """
-    position, quaternion = pose_to_arrays(marker.pose)
-    scale = np.array([marker.scale.x, marker.scale.y, marker.scale.z])
-    if not (np.all(np.isfinite(position)) and np.all(np.isfinite(quaternion))):
-        raise ValueError('pose contains NaN or infinite values')
-    if not np.all(np.isfinite(scale)) or np.any(scale <= 0):
-        raise ValueError(f'scale must be positive on every axis, got {scale.tolist()}')
-    note = None
-    norm = np.linalg.norm(quaternion)
-    if norm == 0.0:
-        quaternion, norm = np.array([0.0, 0.0, 0.0, 1.0]), 1.0
-        note = 'orientation is all zero: using the identity, as RViz does'
-    elif norm < 1e-9:
-        raise ValueError('orientation quaternion has (almost) zero length')
-    return position, quaternion / norm, scale, note
-
-
-def non_finite_fields(marker: Marker) -> List[str]:
-    """
-    Name the parts of a marker holding NaN or infinite values.
-
-    What RViz2 checks before any action (``validateFloats`` in
-    marker_common.cpp): pose, scale, colour and points.
-    """
-    position, quaternion = pose_to_arrays(marker.pose)
-    parts = {
-        'pose': np.concatenate([position, quaternion]),
-        'scale': [marker.scale.x, marker.scale.y, marker.scale.z],
-        'color': [marker.color.r, marker.color.g, marker.color.b, marker.color.a],
-        'points': [value for p in marker.points for value in (p.x, p.y, p.z)],
-    }
-    return [name for name, values in parts.items()
-            if len(values) and not np.all(np.isfinite(np.asarray(values, dtype=float)))]
 
 
 def _intrinsic_values(value: Any) -> Optional[str]:
@@ -313,14 +268,16 @@ class MarkerProjector(Node):
         self._camera = camera_from_parameters(self._params)
         self._camera_frame: Optional[str] = None  # None until a camera pose arrives
         self._table = MarkerTable()
+        # The markers as RViz shows them; the table follows them for the projection.
+        self._store = MarkerStore(on_add=self._added, on_remove=self._delete)
         self._expiry: Dict[Key, Time] = {}  # markers with a lifetime: when they go
         self._expiry_timer = self.create_timer(EXPIRY_CHECK_S, self._expire)
         self._expiry_timer.cancel()
         self._warnings = KeyedWarnings(self.get_logger())
         self._last_stamp: Optional[Time] = None
-        self._publisher = self.create_publisher(MarkerArray, 'choices/regions', LATCHED_QOS)
-        self.create_subscription(MarkerArray, 'choices', self._on_markers, CHOICES_QOS)
-        self.create_subscription(PoseStamped, 'camera/pose', self._on_camera, LATCHED_QOS)
+        self._publisher = self.create_publisher(MarkerArray, REGIONS_TOPIC, LATCHED_QOS)
+        self.create_subscription(MarkerArray, CHOICES_TOPIC, self._on_markers, CHOICES_QOS)
+        self.create_subscription(PoseStamped, CAMERA_POSE_TOPIC, self._on_camera, LATCHED_QOS)
         self.get_logger().info(f'projecting markers in \'{self._params["world_frame"]}\' with '
                                f'{self._camera!r}; waiting for camera/pose')
 
@@ -369,48 +326,30 @@ class MarkerProjector(Node):
         self._publish(stamp if stamp.nanoseconds > 0 else None)
 
     def _on_markers(self, message: MarkerArray) -> None:
-        received = self.get_clock().now()
-        problems = [problem for problem in (self._apply(marker, received)
-                                            for marker in message.markers) if problem]
+        problems = self._store.apply(message, self.get_clock().now())
         if problems:
             shown = '; '.join(problems[:MAX_LISTED])
             more = len(problems) - MAX_LISTED
             self._warn(f'choices: {shown}' + (f'; and {more} more' if more > 0 else ''))
         self._publish()
 
-    def _apply(self, marker: Marker, received: Time) -> Optional[str]:
-        """Apply one marker command to the table; return a problem to report, if any."""
-        key = (marker.ns, marker.id)
+    def _added(self, key: Key, marker: Marker, box: Box, received: Time) -> Optional[str]:
+        """Put a marker the store added or replaced into the table; return a note, if any."""
+        position, quaternion, scale, note = box
         label = f'{marker.ns}/{marker.id}'
-        if marker.action == Marker.ADD:
-            try:
-                position, quaternion, scale, note = marker_box(marker)
-            except ValueError as error:
-                return f'skipped marker {label}: {error}'
-        broken = non_finite_fields(marker)
-        if broken:  # RViz ignores such a message whatever its action
-            return f"skipped marker {label}: NaN or infinite {', '.join(broken)}"
-        if marker.action == Marker.DELETEALL:
-            for old in (self._table.keys_in(marker.ns) if marker.ns else self._table.keys()):
-                self._delete(old)
-        elif marker.action == Marker.DELETE:
-            self._delete(key)
-        elif marker.action == Marker.ADD:
-            frame = marker.header.frame_id or self._params['world_frame']
-            self._table.upsert(key, frame, position, quaternion, scale, marker)
-            self._expiry.pop(key, None)
-            lifetime = Duration.from_msg(marker.lifetime)
-            if lifetime.nanoseconds > MIN_LIFETIME_NS:
-                self._expiry[key] = received + lifetime
-                if self._expiry_timer.is_canceled():
-                    self._expiry_timer.reset()
-            if frame != self._params['world_frame']:
-                return (f"marker {label} is in frame '{frame}', not "
-                        f"'{self._params['world_frame']}': not projected (no tf2 here)")
-            if note:
-                return f'marker {label}: {note}'
-        else:
-            return f'skipped marker {label}: unknown action {marker.action}'
+        frame = marker.header.frame_id or self._params['world_frame']
+        self._table.upsert(key, frame, position, quaternion, scale, marker)
+        self._expiry.pop(key, None)
+        lifetime = Duration.from_msg(marker.lifetime)
+        if lifetime.nanoseconds > MIN_LIFETIME_NS:
+            self._expiry[key] = received + lifetime
+            if self._expiry_timer.is_canceled():
+                self._expiry_timer.reset()
+        if frame != self._params['world_frame']:
+            return (f"marker {label} is in frame '{frame}', not "
+                    f"'{self._params['world_frame']}': not projected (no tf2 here)")
+        if note:
+            return f'marker {label}: {note}'
         return None
 
     def _delete(self, key: Key) -> None:
@@ -421,8 +360,7 @@ class MarkerProjector(Node):
         """Remove markers whose lifetime is over (RViz's removeExpiredMarkers)."""
         now = self.get_clock().now()
         expired = [key for key, until in self._expiry.items() if now >= until]
-        for key in expired:
-            self._delete(key)
+        self._store.remove_all(expired)
         if not self._expiry:
             self._expiry_timer.cancel()
         if expired:

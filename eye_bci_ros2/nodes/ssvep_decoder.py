@@ -48,8 +48,9 @@ from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.ssvep_messages import (msg_to_stimulus_map, scores_to_msg,
                                                time_to_seconds)
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, LATCHED_QOS, SCORES_QOS, SSVEP_CHOICE_TOPIC,
-                                       SSVEP_SCORES_TOPIC, SSVEP_STIMULI_TOPIC)
+from eye_bci_ros2.nodes.topics import (EVENT_QOS, LATCHED_QOS, REGIONS_TOPIC, REQUEST_TOPIC,
+                                       SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC,
+                                       SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.ssvep.decision import RULES
 from eye_bci_ros2.ssvep.decoders import DECODERS, TrcaModel
 from eye_bci_ros2.ssvep.layouts import (ANY, LAYOUT_NAMES, LAYOUTS, parse_channels,
@@ -180,9 +181,9 @@ class SsvepDecoder(Node):
         self._warnings = KeyedWarnings(self.get_logger())
         self._choice_pub = self.create_publisher(String, SSVEP_CHOICE_TOPIC, EVENT_QOS)
         self._scores_pub = self.create_publisher(JointState, SSVEP_SCORES_TOPIC, SCORES_QOS)
-        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self.create_subscription(JointState, SSVEP_STIMULI_TOPIC, self._on_stimuli, LATCHED_QOS)
-        self.create_subscription(Empty, 'choice/request', self._on_request, EVENT_QOS)
+        self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
         self._options: tuple = ()
         self._stimuli: Optional[StimulusMap] = None
         self._round_start = 0.0

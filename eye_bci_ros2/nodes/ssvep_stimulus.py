@@ -34,7 +34,7 @@ from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node, StartError
 from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
-from eye_bci_ros2.nodes.topics import LATCHED_QOS, SSVEP_STIMULI_TOPIC
+from eye_bci_ros2.nodes.topics import LATCHED_QOS, REGIONS_TOPIC, SSVEP_STIMULI_TOPIC
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
 
 
@@ -93,7 +93,7 @@ class SsvepStimulus(Node):
         self._pending: Dict[str, Any] = {}
         self._warnings = KeyedWarnings(self.get_logger())
         self._reported_drops = 0
-        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self.create_subscription(JointState, SSVEP_STIMULI_TOPIC, self._on_stimuli, LATCHED_QOS)
         width, height = self.window.size
         self.get_logger().info(f'ssvep_stimulus: {width}x{height} px at '

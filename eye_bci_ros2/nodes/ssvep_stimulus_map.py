@@ -22,7 +22,7 @@ from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.ssvep_messages import stimulus_map_to_msg
-from eye_bci_ros2.nodes.topics import LATCHED_QOS, SSVEP_STIMULI_TOPIC
+from eye_bci_ros2.nodes.topics import LATCHED_QOS, REGIONS_TOPIC, SSVEP_STIMULI_TOPIC
 from eye_bci_ros2.ssvep.stimuli import (assign_stimuli, DEFAULT_FREQUENCIES,
                                         DEFAULT_PHASE_STEP, MAX_FREQUENCY_HZ)
 
@@ -54,7 +54,7 @@ class SsvepStimulusMap(Node):
         super().__init__('ssvep_stimulus_map', **kwargs)
         self._params = declare_parameters(self, PARAMETERS, self._params_changed)
         self._publisher = self.create_publisher(JointState, SSVEP_STIMULI_TOPIC, LATCHED_QOS)
-        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
+        self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self._labels = None
 
     def _params_changed(self, changed) -> None:

@@ -14,6 +14,26 @@ GAZE_SAMPLES_TOPIC = 'gaze/samples'
 #: geometry_msgs/PointStamped, the newest sample, at most ``point_rate_hz``.
 GAZE_POINT_TOPIC = 'gaze/point'
 
+#: The options to choose among (visualization_msgs/MarkerArray, RViz semantics; task or menu ->
+#: projector, RViz; CHOICES_QOS) and their regions on the screen (the projector's
+#: MarkerArray of closed LINE_STRIPs, screen px; LATCHED_QOS).
+CHOICES_TOPIC = 'choices'
+REGIONS_TOPIC = 'choices/regions'
+
+#: The RViz camera: the pose an RViz view controller publishes (geometry_msgs/Pose, Ogre
+#: convention; camera_tracker's default ``pose_topic``; RVIZ_POSE_QOS), the tracked camera
+#: (geometry_msgs/PoseStamped, optical convention, LATCHED_QOS) and the view a task wants
+#: (geometry_msgs/PoseStamped, LATCHED_QOS).
+RVIZ_CAMERA_POSE_TOPIC = 'rviz/current_camera_pose'
+CAMERA_POSE_TOPIC = 'camera/pose'
+CAMERA_GOAL_TOPIC = 'camera/goal'
+
+#: The original experiment's menu (std_msgs/String): outcomes (EVENT_QOS), what it waits
+#: for (LATCHED_QOS) and every choice it acted on (EVENT_QOS).
+MENU_RESULT_TOPIC = 'choice_menu/result'
+MENU_STATE_TOPIC = 'choice_menu/state'
+MENU_ANSWER_TOPIC = 'choice_menu/answer'
+
 #: The arbiter's choice (std_msgs/String, the label) and a round that ended without one
 #: (std_msgs/String, the reason; input mode gaze), both EVENT_QOS; ``choice/request``
 #: (std_msgs/Empty) asks for a round.

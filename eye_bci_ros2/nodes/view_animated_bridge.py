@@ -32,7 +32,7 @@ from eye_bci_ros2.nodes.conversions import pose_to_arrays
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
+from eye_bci_ros2.nodes.topics import CAMERA_GOAL_TOPIC, LATCHED_QOS
 from eye_bci_ros2.view_animation import view_from_optical_pose
 
 #: The port's speed profiles (ViewMovement.msg constants), by name.
@@ -89,7 +89,7 @@ class ViewAnimatedBridge(Node):
         self._params = declare_parameters(self, PARAMETERS, self._params_changed)
         self._publisher = self.create_publisher(
             self._trajectory_type, self._params['trajectory_topic'], TRAJECTORY_QOS)
-        self.create_subscription(PoseStamped, 'camera/goal', self._on_goal, LATCHED_QOS)
+        self.create_subscription(PoseStamped, CAMERA_GOAL_TOPIC, self._on_goal, LATCHED_QOS)
         self.get_logger().info(f"moving the RViz camera on {self._params['trajectory_topic']} "
                                f"for each camera/goal in '{self._params['world_frame']}'")
 

@@ -26,6 +26,8 @@ lists a folder):
   default its onset).  The screen comes from ``# screen_px: 1920x1080``,
   ``# screen_mm: 531.3x298.9`` and ``# distance_mm: 650`` comment lines at the
   top of the gaze file (defaults: :data:`~eye_bci_ros2.visual_angle.DEFAULT_VIEWING`).
+* ``*.xdf`` from LabRecorder: its gaze stream, in the layout of the tracker
+  application that sent it (:mod:`eye_bci_ros2.recordings.xdf`; no targets).
 
 Both eyes: the mean of the eyes that are valid at a sample (a binocular
 tracker's combined gaze); one eye where the other is lost.
@@ -358,11 +360,18 @@ def _recording(name: str, stamps: np.ndarray, points: np.ndarray, screen: Screen
     return GazeRecording(name, stamps - origin, points, screen, shifted, tracker)
 
 
+def _load_xdf(path: Path) -> GazeRecording:
+    """Load the gaze stream of a LabRecorder XDF file (:mod:`eye_bci_ros2.recordings.xdf`)."""
+    from eye_bci_ros2.recordings.xdf import load_xdf_gaze   # it builds on this module
+    return load_xdf_gaze(path)
+
+
 #: File name patterns of the formats, and their loaders (module doc).
 _FORMATS = (
     (re.compile(r'^human_samples_.*\.txt(\.gz)?$'), load_x260),
     (re.compile(r'^etdq_.*\.tsv(\.gz)?$'), load_etdq),
     (re.compile(r'^.*\.gaze\.csv(\.gz)?$'), load_csv),
+    (re.compile(r'^.*\.xdfz?$'), _load_xdf),
 )
 
 
@@ -377,7 +386,7 @@ def load_gaze(path: PathLike) -> GazeRecording:
         if pattern.match(path.name):
             return loader(path)
     raise RecordingError(f'{path}: not a known gaze recording (human_samples_*.txt[.gz], '
-                         'etdq_*.tsv[.gz] or *.gaze.csv)')
+                         'etdq_*.tsv[.gz], *.gaze.csv or *.xdf)')
 
 
 def find_recordings(folder: PathLike) -> List[Path]:

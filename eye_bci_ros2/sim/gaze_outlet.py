@@ -16,6 +16,12 @@ Pure pylsl + numpy: runs without ROS, e.g. on the tracker machine::
     sim_gaze --target 960,540 --offset-deg 0.5 --duration 10
     sim_gaze --script targets.yaml --seed 3
     sim_gaze --preset original_tobii_4c --follow validation/target   # gaze_validation
+    sim_gaze --replay recording.xdf --profile tobii_pro   # a recorded person instead
+
+``--replay FILE`` sends a recording (any format :func:`~eye_bci_ros2.
+recordings.gaze.load_gaze` reads, LabRecorder's XDF included) at its own
+rate in the layout of ``--profile`` (:mod:`eye_bci_ros2.sim.replay`); the
+person options do not apply then.
 
 ``--follow TOPIC`` makes the person look wherever a ROS topic
 (geometry_msgs/PointStamped, screen px, e.g. ``gaze_validation``'s
@@ -42,9 +48,10 @@ import numpy as np
 import pylsl
 import yaml
 
+from eye_bci_ros2.gaze_profiles import DEFAULT_PROFILE, PROFILES
 from eye_bci_ros2.sim.lsl_outlet import OutletThread, stream_info
 from eye_bci_ros2.sim.person import (
-    CONSUMER_TRACKER, GazeParams, GazeSimulator, GazeTrace, PRESETS, Target)
+    CONSUMER_TRACKER, GazeParams, GazeSimulator, GazeTrace, IDEAL_EYE, PRESETS, Target)
 
 #: The original sender's screen (the Windows machine), px.
 SOURCE_SIZE = (1366, 768)
@@ -284,6 +291,14 @@ def build_parser() -> argparse.ArgumentParser:
                         help='direction of the error (0 right, 90 down); default from seed')
     parser.add_argument('--jitter-deg', type=float, help='precision: noise SD per axis, deg')
     parser.add_argument('--drift-deg', type=float, help='slow drift RMS per axis, deg')
+    parser.add_argument('--ideal-eye', action='store_true',
+                        help='an eye that lands on the target at once, with only the offset, '
+                             'jitter and drift as error (no landing errors, error varying '
+                             'over the screen, wander, spikes or pursuit)')
+    parser.add_argument('--field-deg', type=float,
+                        help='error varying over the screen, RMS per axis, deg')
+    parser.add_argument('--spike-prob', type=float,
+                        help='probability that a sample is a 2-6 deg spike')
     parser.add_argument('--loss-prob', type=float, help='probability of losing a sample')
     parser.add_argument('--blink-rate', type=float, help='blinks per minute')
     parser.add_argument('--latency-ms', type=float, help='mean saccade latency, ms')
@@ -297,8 +312,20 @@ def build_parser() -> argparse.ArgumentParser:
                             'validation/target')
     parser.add_argument('--duration', type=float, default=0.0,
                         help='seconds to stream; 0 = until Ctrl-C')
-    parser.add_argument('--name', default=STREAM_NAME, help='LSL stream name')
-    parser.add_argument('--type', default=STREAM_TYPE, help='LSL stream type')
+    where.add_argument('--replay', metavar='FILE',
+                       help='send this recording at its own rate instead of a simulated '
+                            'person (see module doc)')
+    parser.add_argument('--profile', choices=sorted(PROFILES), default=DEFAULT_PROFILE,
+                        help='--replay: the tracker application whose stream layout to send')
+    parser.add_argument('--xdf-stream', metavar='NAME',
+                        help='--replay of an XDF file with several gaze streams: which one')
+    parser.add_argument('--wait-s', type=float, default=10.0,
+                        help='--replay: wait this long for a consumer before the first '
+                             'sample is due')
+    parser.add_argument('--name', help=f"LSL stream name (default '{STREAM_NAME}'; "
+                                       "--replay: the application's)")
+    parser.add_argument('--type', help=f"LSL stream type (default '{STREAM_TYPE}'; "
+                                       "--replay: the application's)")
     parser.add_argument('--source-id', default=DEFAULT_SOURCE_ID, help='LSL source id')
     parser.add_argument('--source-size', type=lambda s: _pair(s, int), metavar='WxH',
                         default=SOURCE_SIZE, help="sender's screen, px")
@@ -320,8 +347,11 @@ def params_from_args(args: argparse.Namespace) -> GazeParams:
         ('rate_hz', args.rate), ('offset_deg', args.offset_deg),
         ('offset_direction_deg', args.offset_direction_deg), ('jitter_deg', args.jitter_deg),
         ('drift_deg', args.drift_deg), ('loss_prob', args.loss_prob),
+        ('field_deg', args.field_deg), ('spike_prob', args.spike_prob),
         ('blink_rate_per_min', args.blink_rate), ('latency_ms', args.latency_ms),
         ('delay_ms', args.delay_ms), ('distance_mm', args.distance_mm)) if value is not None}
+    if args.ideal_eye:
+        changes = {**IDEAL_EYE, **changes}
     if args.screen_size is not None:
         changes.update(width_px=args.screen_size[0], height_px=args.screen_size[1])
     if args.screen_mm is not None:
@@ -333,13 +363,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run ``sim_gaze``: stream until --duration or Ctrl-C; returns the exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.replay:
+        return replay(args, parser)
     try:
         params = params_from_args(args)
         script, repeat = load_script(args.script) if args.script else (None, None)
         if args.duration < 0 or args.status_s < 0:
             raise ValueError('--duration and --status-s must be >= 0')
         streamer = GazeStreamer(
-            params=params, seed=args.seed, name=args.name, stream_type=args.type,
+            params=params, seed=args.seed, name=args.name or STREAM_NAME,
+            stream_type=args.type or STREAM_TYPE,
             source_id=args.source_id, source_size=args.source_size,
             send_lost=not args.omit_lost)
     except ValueError as exc:
@@ -388,6 +421,51 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     print(_status(streamer, pylsl.local_clock() - start) + ' (stopped)', flush=True)
     if streamer.error is not None:
         print(f'error: {streamer.error}', file=sys.stderr)
+        return 1
+    return 0
+
+
+def replay(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """Run ``sim_gaze --replay``: send the recording once, then stop; returns the exit code."""
+    from eye_bci_ros2.recordings.gaze import load_gaze, RecordingError
+    from eye_bci_ros2.recordings.xdf import load_xdf_gaze
+    from eye_bci_ros2.sim.replay import GazeReplayer
+
+    try:
+        if args.xdf_stream:
+            recording = load_xdf_gaze(args.replay, stream_name=args.xdf_stream)
+        else:
+            recording = load_gaze(args.replay)
+        if args.source_id == DEFAULT_SOURCE_ID:
+            args.source_id = 'replay_gaze'
+        replayer = GazeReplayer(recording, args.profile, name=args.name,
+                                stream_type=args.type, source_id=args.source_id,
+                                send_lost=False if args.omit_lost else None,
+                                wait_s=max(args.wait_s, 0.0))
+    except (RecordingError, ValueError) as error:
+        parser.error(str(error))
+    print(replayer.describe(), flush=True)
+    replayer.start()
+    start = pylsl.local_clock()
+    end = start + args.duration if args.duration > 0 else math.inf
+    next_status = start + args.status_s if args.status_s > 0 else math.inf
+    try:
+        while replayer.running and not replayer.wait_finished(0.1):
+            now = pylsl.local_clock()
+            if now >= end:
+                break
+            if now >= next_status and replayer.t0 is not None:
+                print(f'{now - replayer.t0:8.2f} s  {replayer.samples_pushed} samples',
+                      flush=True)
+                next_status += args.status_s
+    except KeyboardInterrupt:
+        pass
+    finally:
+        replayer.stop()
+    print(f'{replayer.samples_pushed} of {len(replayer.indices)} samples sent (stopped)',
+          flush=True)
+    if replayer.error is not None:
+        print(f'error: {replayer.error}', file=sys.stderr)
         return 1
     return 0
 

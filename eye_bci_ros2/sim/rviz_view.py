@@ -33,7 +33,7 @@ from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
+from eye_bci_ros2.nodes.topics import CAMERA_GOAL_TOPIC, LATCHED_QOS, RVIZ_CAMERA_POSE_TOPIC
 from eye_bci_ros2.view_animation import (
     as_view, ogre_pose, view_from_optical_pose, ViewAnimation, ViewTuple)
 
@@ -94,10 +94,10 @@ class SimRvizView(Node):
         self._rate_hz = values['publish_rate_hz']
         self._view: ViewTuple = as_view(values['eye'], values['focus'], values['up'])
         self._animation: Optional[ViewAnimation] = None
-        self._publisher = self.create_publisher(Pose, 'rviz/current_camera_pose', LATCHED_QOS)
+        self._publisher = self.create_publisher(Pose, RVIZ_CAMERA_POSE_TOPIC, LATCHED_QOS)
         self._timer = self.create_timer(1.0 / self._rate_hz, self._on_timer)
         self._timer.cancel()
-        self.create_subscription(PoseStamped, 'camera/goal', self._on_goal, LATCHED_QOS)
+        self.create_subscription(PoseStamped, CAMERA_GOAL_TOPIC, self._on_goal, LATCHED_QOS)
         self._publish(self._view)
         eye, focus, _ = self._view
         self.get_logger().info(

@@ -16,18 +16,16 @@ import argparse
 import importlib
 import os
 import sys
-from typing import Any, Dict, List, NamedTuple, Optional
+from typing import Any, Dict, List, NamedTuple, Optional, Tuple
 
 import rclpy
 from rclpy.context import Context
 from rclpy.parameter import Parameter
 
-from eye_bci_ros2.nodes.eye_bci import MENU, PIPELINE
+from eye_bci_ros2.nodes.registry import Executable, parameter_nodes
 
-#: (node name, module, class) of every node with parameters, in pipeline order.
-NODES = PIPELINE + (MENU, ('gaze_validation', 'eye_bci_ros2.nodes.gaze_validation',
-                           'GazeValidation'),
-                    ('sim_rviz_view', 'eye_bci_ros2.sim.rviz_view', 'SimRvizView'))
+#: Every executable that runs a node with parameters, in table order (the registry's).
+NODES: Tuple[Executable, ...] = parameter_nodes()
 
 #: Declared by rclpy itself on every node: not ours to document.
 _BUILTIN = {'use_sim_time', 'start_type_description_service'}
@@ -54,17 +52,30 @@ def describe_nodes(domain: int = 0) -> Dict[str, List[ParamInfo]]:
     rclpy.init(context=context, domain_id=domain)
     described = {}
     try:
-        for node_name, module, class_name in NODES:
-            node_class = getattr(importlib.import_module(module), class_name)
-            node = node_class(context=context)
+        for entry in NODES:
+            module = importlib.import_module(entry.module)
+            if entry.requires:
+                # Creating it needs a window or a package built apart: describe what its
+                # module declares, the same here as on a machine that has them.
+                described[entry.name] = [_spec_info(spec) for spec in module.PARAMETERS]
+                continue
+            node = getattr(module, entry.node_class)(context=context)
             try:
-                described[node_name] = [_info(node, name) for name in node._parameters
-                                        if name not in _BUILTIN]
+                described[entry.name] = [_info(node, name) for name in node._parameters
+                                         if name not in _BUILTIN]
             finally:
                 node.destroy_node()
     finally:
         context.try_shutdown()
     return described
+
+
+def _spec_info(spec) -> ParamInfo:
+    """Describe a parameter from its ParamSpec (as the node would declare it)."""
+    descriptor = spec.descriptor()
+    default = list(spec.default) if isinstance(spec.default, (list, tuple)) else spec.default
+    return ParamInfo(spec.name, default if default != [] else None,
+                     _range_text(descriptor), descriptor.description)
 
 
 def _info(node, name: str) -> ParamInfo:
@@ -73,11 +84,15 @@ def _info(node, name: str) -> ParamInfo:
     value = None if parameter.type_ == Parameter.Type.NOT_SET else parameter.value
     if value is not None and not isinstance(value, (str, bool, int, float)):
         value = list(value)
-    value_range = None
+    return ParamInfo(name, value, _range_text(descriptor), descriptor.description)
+
+
+def _range_text(descriptor) -> Optional[str]:
+    """Return a descriptor's range as 'low .. high' (None without one)."""
     for ranges in (descriptor.integer_range, descriptor.floating_point_range):
         if ranges:
-            value_range = f'{_format(ranges[0].from_value)} .. {_format(ranges[0].to_value)}'
-    return ParamInfo(name, value, value_range, descriptor.description)
+            return f'{_format(ranges[0].from_value)} .. {_format(ranges[0].to_value)}'
+    return None
 
 
 def _format(value: Any) -> str:

@@ -50,7 +50,8 @@ from visualization_msgs.msg import MarkerArray
 from eye_bci_ros2.geometry import points_in_convex_polygons
 from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
 from eye_bci_ros2.nodes.runner import make_executor
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS, LISTENER_QOS
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                       LISTENER_QOS, REGIONS_TOPIC)
 
 #: Rates are counted over the last this many seconds of arrivals.
 RATE_WINDOW_S = 2.0
@@ -153,8 +154,8 @@ class Monitor(Node):
         self.problem = ''
         self._on_choice = on_choice
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, LISTENER_QOS)
-        self.create_subscription(MarkerArray, 'choices/regions', self._on_regions, LATCHED_QOS)
-        self.create_subscription(String, 'choice', self._on_decision, EVENT_QOS)
+        self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
+        self.create_subscription(String, CHOICE_TOPIC, self._on_decision, EVENT_QOS)
 
     def _on_gaze(self, message: PointCloud2) -> None:
         try:

@@ -1,7 +1,12 @@
 """
-Every parameter of every node, set to a wrong type, out of range and inconsistent values.
+Every parameter of every executable, set to a wrong type, out of range and inconsistent values.
 
-The parameters are enumerated from the running node (``node._parameters`` and
+The nodes are those of the registry (:func:`eye_bci_ros2.nodes.registry.parameter_nodes`:
+every executable that runs a node with parameters), so a node added there is
+covered here, and must say here which good change it accepts afterwards
+(``GOOD_CHANGE``).  A node whose creation needs what this machine lacks (a
+display, a message package built apart) is skipped with the reason.  The
+parameters are enumerated from the running node (``node._parameters`` and
 its descriptors), so a parameter added later is covered without editing this
 file: each gets two wrong-type values for its declared type, values just
 outside its declared range, NaN and infinities when it holds doubles, and an
@@ -15,6 +20,7 @@ over the services), and leave the node answering and accepting a good
 change.  Custom rejections must also be logged by the node.
 """
 
+import importlib
 import math
 import re
 from typing import Any, Dict, List, Tuple
@@ -26,11 +32,7 @@ import pytest
 from rcl_interfaces.msg import ParameterType
 from rclpy.parameter import Parameter
 
-from eye_bci_ros2.nodes.camera_tracker import CameraTracker
-from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.choice_menu import ChoiceMenu
-from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
-from eye_bci_ros2.nodes.marker_projector import MarkerProjector
+from eye_bci_ros2.nodes.registry import missing, parameter_nodes
 
 pytestmark = pytest.mark.ros
 
@@ -112,25 +114,67 @@ SPECIFIC = {
                        (lambda _, tmp_path: _bad_scene(tmp_path), 'malformed YAML')],
         'world_frame': [('', 'empty frame'), ('odom', "inconsistent with the scene's frame")],
     },
+    'gaze_validation': {
+        'targets': [(7, 'neither 5 nor 9')],
+        'settle_s': [(lambda node, _: node.get_parameter('target_s').value,
+                      'inconsistent: settle_s == target_s')],
+        'bridge_node': [('', 'empty node name')],
+        'world_frame': [('', 'empty frame'), ('/map', 'leading slash')],
+        'intrinsic_matrix': [([800.0] * 11, '11 numbers'), (_matrix(fx=0.0), 'zero fx')],
+    },
+    'ssvep_decoder': {
+        'band': [([6.0], '1 number'), ([90.0, 6.0], 'low above high')],
+        'channels': [('O1,,O2', 'empty entry')],
+        'decoder': [('trca', 'inconsistent: trca without model_file')],
+        'min_window_s': [(lambda node, _: node.get_parameter('window_s').value + 1.0,
+                          'inconsistent: longer than window_s')],
+    },
+    'ssvep_stimulus_map': {
+        'frequencies': [([8.0, 8.0], 'a frequency twice'), ([0.0, 9.0], 'zero Hz')],
+    },
+    'view_animated_bridge': {
+        'world_frame': [('', 'empty frame'), ('/map', 'leading slash')],
+    },
+    'sim_rviz_view': {
+        'world_frame': [('', 'empty frame'), ('/map', 'leading slash')],
+        'eye': [([1.0, 2.0], '2 numbers'),
+                (lambda node, _: list(node.get_parameter('focus').value),
+                 'inconsistent: eye == focus')],
+        'up': [([0.0, 0.0, 0.0], 'zero vector')],
+    },
 }
 
-#: One good change per node, to show it still accepts one after all the bad ones.
+#: One good change per node, to show it still accepts one after all the bad ones (None: every
+#: parameter is read-only).
 GOOD_CHANGE = {
     'camera_tracker': ('eye', [1.0, -9.0, 11.0]),
     'marker_projector': ('screen_offset_x', 64),
     'choice_arbiter': ('window_s', 1.5),
     'lsl_gaze_bridge': ('screen_width', 2560),
     'choice_menu': ('repeat', False),
+    'gaze_validation': ('target_s', 2.0),
+    'ssvep_decoder': ('threshold', 0.9),
+    'ssvep_stimulus_map': ('lead_s', 0.2),
+    'ssvep_stimulus': None,
+    'view_animated_bridge': ('transition_time_s', 3.0),
+    'sim_rviz_view': ('transition_time_s', 2.0),
 }
 
-NODES = {
-    'camera_tracker': (CameraTracker, {}),
-    'marker_projector': (MarkerProjector, {}),
-    'choice_arbiter': (ChoiceArbiter, {}),
-    # Looks for a stream nobody publishes.
-    'lsl_gaze_bridge': (LslGazeBridge, {'source_id': unique_id('no-such-tracker')}),
-    'choice_menu': (ChoiceMenu, {}),
+#: Parameters a node is started with here: the LSL readers look for streams nobody
+#: publishes; gaze_validation waits for a request instead of running at once.
+OVERRIDES = {
+    'lsl_gaze_bridge': {'source_id': unique_id('no-such-tracker')},
+    'ssvep_decoder': {'source_id': unique_id('no-such-eeg')},
+    'gaze_validation': {'on_request': True},
 }
+
+#: Every executable's node with parameters, from the registry.
+NODES = {entry.name: entry for entry in parameter_nodes()}
+
+
+def test_every_registered_node_is_covered_here():
+    assert set(GOOD_CHANGE) == set(NODES), 'each node of the registry needs a GOOD_CHANGE'
+    assert set(SPECIFIC) | set(OVERRIDES) <= set(NODES), 'entries for unregistered nodes'
 
 
 def generated_values(name: str, descriptor, as_text: bool = False) -> List[Tuple[Any, str]]:
@@ -168,14 +212,17 @@ def same(first, second) -> bool:
 @pytest.mark.parametrize('node_name', sorted(NODES))
 def test_every_parameter_rejects_bad_values_and_keeps_the_old_one(graph, capfd, fault,
                                                                   tmp_path, node_name):
-    node_class, overrides = NODES[node_name]
+    entry = NODES[node_name]
+    if missing(entry):
+        pytest.skip(f'{node_name}: {missing(entry)}')
+    node_class = getattr(importlib.import_module(entry.module), entry.node_class)
     node = graph.add(node_class, parameter_overrides=[
-        Parameter(key, value=value) for key, value in overrides.items()])
+        Parameter(key, value=value) for key, value in OVERRIDES.get(node_name, {}).items()])
     log = LogTap(capfd)
     service = f'/{node_name}'
     names = sorted(node._parameters)
     descriptors = dict(zip(names, node.describe_parameters(names)))
-    specific = SPECIFIC[node_name]
+    specific = SPECIFIC.get(node_name, {})
     assert set(specific) <= set(names), f'stale SPECIFIC entries: {set(specific) - set(names)}'
     tried: Dict[str, int] = {}
     for name in names:
@@ -199,8 +246,9 @@ def test_every_parameter_rejects_bad_values_and_keeps_the_old_one(graph, capfd, 
                     assert log.wait_for(graph, f'{node_name}.*rejected parameter', mark, 5.0), \
                         f'{name} = {value!r} rejected ({result.reason}) but nothing logged'
     # Still alive, still listening to good changes.
-    name, value = GOOD_CHANGE[node_name]
-    result, = graph.set_parameters(service, {name: value})
-    assert result.successful, result.reason
-    assert same(graph.get_parameters(service, [name]), [value])
+    if GOOD_CHANGE[node_name] is not None:
+        name, value = GOOD_CHANGE[node_name]
+        result, = graph.set_parameters(service, {name: value})
+        assert result.successful, result.reason
+        assert same(graph.get_parameters(service, [name]), [value])
     assert graph.get_parameters(service, ['use_sim_time']) == [False]

@@ -9,7 +9,7 @@ from std_msgs.msg import Bool
 
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.topics import GAZE_ON_SCREEN_TOPIC, LATCHED_QOS
-from eye_bci_ros2.validation import IDENTITY, save_correction
+from eye_bci_ros2.validation import correction_values, IDENTITY, save_correction
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 
@@ -17,6 +17,8 @@ NAN = float('nan')
 WAIT_S = 10.0
 #: A plausible correction: 1 % scale, a shift of (-20, 12) px.
 SHIFT = [1.01, 0.0, -20.0, 0.0, 1.01, 12.0]
+#: A plausible second-order one: x + 1e-5 x^2, y - 1e-5 y^2 (at most 37 px, at the right edge).
+BEND = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1e-5, 0.0, 0.0, 0.0, 0.0, -1e-5]
 
 
 def start(graph, outlet_profile='custom', cli_args=None, **params):
@@ -57,12 +59,29 @@ def test_a_correction_set_through_the_parameter_service_applies_to_the_next_samp
     np.testing.assert_allclose(push_and_wait(graph, outlet, gaze, [[100, 200]]), [[100, 200]])
 
 
+def test_a_second_order_correction_is_set_applied_and_read_back_as_12_numbers(
+        graph, tmp_path):
+    outlet, bridge, gaze = start(graph)
+    result, = graph.set_parameters('/lsl_gaze_bridge', {'gaze_correction': BEND})
+    assert result.successful, result.reason
+    np.testing.assert_allclose(push_and_wait(graph, outlet, gaze, [[100, 200], [960, 540]]),
+                               [[100.1, 199.6], [969.216, 537.084]], atol=1e-3)
+    # What `ros2 param get` / `ros2 param dump` read, and a saved file read by --params-file.
+    assert graph.get_parameters('/lsl_gaze_bridge', ['gaze_correction']) == [BEND]
+    path = save_correction(str(tmp_path / 'bend.yaml'), BEND)
+    outlet, bridge, gaze = start(graph, cli_args=['--ros-args', '--params-file', path])
+    assert correction_values(bridge.correction) == BEND
+
+
 @pytest.mark.parametrize('value, reason', [
     ([2.0, 0.0, 0.0, 0.0, 2.0, 0.0], 'scales the gaze'),
     ([1.0, 0.0, 600.0, 0.0, 1.0, 0.0], 'moves the gaze'),
     ([-1.0, 0.0, 1920.0, 0.0, 1.0, 0.0], 'mirrors'),
     ([1.0, 0.0, 0.0], '6 finite numbers'),
     ([1.0, 0.0, NAN, 0.0, 1.0, 0.0], '6 finite numbers'),
+    (SHIFT + [0.0, 0.0], 'or 12'),
+    # Turns back at x = 833 px: folds the right of the screen onto the middle.
+    (SHIFT + [-6e-4, 0.0, 0.0, 0.0, 0.0, 0.0], 'mirrors'),
 ])
 def test_an_implausible_or_malformed_correction_is_refused_and_the_old_one_kept(
         graph, value, reason):
@@ -71,7 +90,7 @@ def test_an_implausible_or_malformed_correction_is_refused_and_the_old_one_kept(
     assert not result.successful
     assert reason in result.reason and 'gaze_correction' in result.reason
     assert '\n' not in result.reason
-    np.testing.assert_allclose(bridge.correction.ravel(), SHIFT)
+    np.testing.assert_allclose(correction_values(bridge.correction), SHIFT)
     np.testing.assert_allclose(push_and_wait(graph, outlet, gaze, [[100, 200]]), [[81, 214]],
                                atol=1e-3)
 
@@ -80,7 +99,7 @@ def test_a_saved_correction_file_is_read_by_params_file(graph, tmp_path):
     path = save_correction(str(tmp_path / 'correction.yaml'), SHIFT)
     # The rcl path of `--ros-args --params-file correction.yaml`.
     outlet, bridge, gaze = start(graph, cli_args=['--ros-args', '--params-file', path])
-    np.testing.assert_allclose(bridge.correction.ravel(), SHIFT)
+    np.testing.assert_allclose(correction_values(bridge.correction), SHIFT)
     np.testing.assert_allclose(push_and_wait(graph, outlet, gaze, [[100, 200]]), [[81, 214]],
                                atol=1e-3)
 

@@ -11,7 +11,7 @@ from visualization_msgs.msg import Marker
 
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import regions_to_marker_array
-from eye_bci_ros2.rounds import ArbiterSettings
+from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE
 
 pytestmark = pytest.mark.ros
 
@@ -238,10 +238,10 @@ def test_bad_parameters_are_rejected_with_a_reason(graph):
 
 
 def test_early_decision_alone_does_not_choose_the_option_under_a_resting_gaze(graph):
-    # Defaults apart from early_decision: the benchmarked configuration.
+    # The count rule's defaults apart from early_decision: the benchmarked configuration.
     rig = Rig(graph, early_decision=True)
     names = ['confidence', 'min_samples', 'dwell_s', 'min_reaction_s', 'hit_rate']
-    defaults = ArbiterSettings()
+    defaults = ArbiterSettings(**COUNT_RULE)
     assert graph.get_parameters('/choice_arbiter', names) == \
         [getattr(defaults, name) for name in names]
     # The tables appear with the gaze still where the room was, on table1;

@@ -11,6 +11,7 @@ from std_msgs.msg import Empty, String
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import gaze_batch
 from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC
+from eye_bci_ros2.rounds import COUNT_RULE
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl, pytest.mark.slow]
@@ -23,7 +24,8 @@ class Modes:
 
     def __init__(self, graph, capfd, mode, decoder=True, **arbiter):
         self.graph = graph
-        values = {'input_mode': mode, 'window_s': 1.0, 'max_future_s': 5.0, **arbiter}
+        values = {**COUNT_RULE, 'input_mode': mode, 'window_s': 1.0, 'max_future_s': 5.0,
+                  **arbiter}
         self.arbiter = graph.add(ChoiceArbiter, parameter_overrides=[
             Parameter(k, value=v) for k, v in values.items()])
         self.rig = Rig(graph, capfd, simulator=EegSimulator(SUBJECTS[6], seed=7))

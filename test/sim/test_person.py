@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from eye_bci_ros2.sim.person import (
-    CONSUMER_TRACKER, GazeParams, GazeSimulator, ORIGINAL_TOBII_4C, PersonParams, TrackerParams)
+    CONSUMER_TRACKER, GazeParams, GazeSimulator, IDEAL_EYE, ORIGINAL_TOBII_4C, PersonParams,
+    TrackerParams)
 from eye_bci_ros2.visual_angle import (DEFAULT_SCREEN, px_per_degree, ScreenGeometry,
                                        visual_angle_px)
 
@@ -15,9 +16,15 @@ SCREEN = DEFAULT_SCREEN
 LEFT, RIGHT = (300.0, 300.0), (1600.0, 800.0)
 
 
+def ideal(params: GazeParams = CONSUMER_TRACKER, **changes) -> GazeParams:
+    """Return params with an ideal eye (IDEAL_EYE) unless asked, to test one mechanism."""
+    return params.with_changes(**{**IDEAL_EYE, **changes})
+
+
 def quiet(params: GazeParams = CONSUMER_TRACKER, **changes) -> GazeParams:
-    """Return params without blinks, losses or noise unless asked."""
-    base = {'blink_rate_per_min': 0.0, 'loss_prob': 0.0, 'jitter_deg': 0.0, 'offset_deg': 0.0}
+    """Return params of an ideal eye without blinks, losses or noise unless asked."""
+    base = {'blink_rate_per_min': 0.0, 'loss_prob': 0.0, 'jitter_deg': 0.0, 'offset_deg': 0.0,
+            **IDEAL_EYE}
     base.update(changes)
     return params.with_changes(**base)
 
@@ -61,8 +68,8 @@ def test_rotating_the_gaze_ray_is_exact_in_degrees_and_invertible():
     (0.5, 30.0, 0.3), (1.2, 250.0, 0.1)])
 def test_fixation_error_has_the_requested_offset_and_jitter(offset_deg, direction_deg,
                                                             jitter_deg):
-    params = CONSUMER_TRACKER.with_changes(
-        offset_deg=offset_deg, offset_direction_deg=direction_deg, jitter_deg=jitter_deg)
+    params = ideal(offset_deg=offset_deg, offset_direction_deg=direction_deg,
+                   jitter_deg=jitter_deg)
     target = (1400.0, 300.0)
     trace = GazeSimulator(params, seed=4).simulate(120.0, [(0.0, target)], initial_xy=target)
     valid = trace.valid
@@ -97,7 +104,7 @@ def test_drift_adds_a_slow_error_of_the_requested_rms():
 
 
 def test_blinks_and_losses_remove_the_requested_fraction_of_samples():
-    params = CONSUMER_TRACKER.with_changes(blink_rate_per_min=15.0, loss_prob=0.02)
+    params = ideal(blink_rate_per_min=15.0, loss_prob=0.02)
     trace = GazeSimulator(params, seed=7).simulate(1800.0, [(0.0, (960, 540))])
     lost = ~trace.valid
     np.testing.assert_array_equal(np.isnan(trace.xy).any(axis=1), lost)
@@ -152,7 +159,7 @@ def test_saccade_latency_and_duration_follow_the_parameters():
 
 
 def test_measured_gaze_reaches_a_new_target_only_after_the_latency():
-    params = CONSUMER_TRACKER.with_changes(blink_rate_per_min=0.0)
+    params = ideal(blink_rate_per_min=0.0)
     trace, schedule = jump_trials(params, trials=60)
     near_deg = 3.0
     delays = []
@@ -186,7 +193,8 @@ def test_a_slowly_moving_target_is_followed_by_catch_up_saccades():
 
 
 def test_a_callable_schedule_of_jumps_equals_the_list_schedule():
-    t = GazeSimulator(CONSUMER_TRACKER, seed=1).sample_times(6.0)
+    params = ideal()
+    t = GazeSimulator(params, seed=1).sample_times(6.0)
     switch = t[np.argmax(t >= 2.0)]
 
     def target(times):
@@ -194,9 +202,9 @@ def test_a_callable_schedule_of_jumps_equals_the_list_schedule():
         out[(times >= 4.0)] = np.nan
         return out
 
-    by_list = GazeSimulator(CONSUMER_TRACKER, seed=1).trace(
+    by_list = GazeSimulator(params, seed=1).trace(
         t, [(t[0], LEFT), (switch, RIGHT), (t[np.argmax(t >= 4.0)], None)])
-    by_callable = GazeSimulator(CONSUMER_TRACKER, seed=1).trace(t, target)
+    by_callable = GazeSimulator(params, seed=1).trace(t, target)
     np.testing.assert_array_equal(by_callable.xy, by_list.xy)
     # No target from 4 s on: the eye stays where it was.
     assert np.all(by_list.eye_xy[t > 4.0] == RIGHT)
@@ -208,6 +216,119 @@ def test_a_target_that_moves_again_first_ends_on_the_newest_place():
     trace = GazeSimulator(params, seed=0).simulate(2.0, schedule, initial_xy=LEFT)
     np.testing.assert_allclose(trace.eye_xy[-1], (960.0, 100.0))
     assert np.all(trace.eye_xy[trace.t < 1.0 + params.person.latency_min_ms / 1e3] == LEFT)
+
+
+def test_primary_saccades_undershoot_and_far_landings_are_corrected():
+    params = quiet(rate_hz=1000.0, saccade_gain=0.9, landing_sd=0.05, correction_min_deg=0.75)
+    trace, schedule = jump_trials(params, trials=120)
+    person = params.person
+    amplitude = SCREEN.angle_between_deg(LEFT, RIGHT)
+    covered, corrected = [], 0
+    for t_jump, new in schedule:
+        old = LEFT if new == RIGHT else RIGHT
+        window = (trace.t >= t_jump) & (trace.t < t_jump + 1.0)
+        eye = trace.eye_xy[window]
+        moving = np.flatnonzero(np.hypot(*np.diff(eye, axis=0).T) > 1e-6)
+        # The first landing: where the eye rests for the first time after moving.
+        rest = moving[np.flatnonzero(np.diff(moving) > 30)]
+        first = eye[rest[0] + 20] if len(rest) else eye[-1]
+        covered.append(SCREEN.angle_between_deg(old, first) / amplitude)
+        far = SCREEN.angle_between_deg(first, new) > person.correction_min_deg
+        corrected += far
+        # Wherever it first landed, the eye ends near the target.
+        assert SCREEN.angle_between_deg(eye[-1], new) < person.correction_min_deg + 0.5
+        if far:
+            assert SCREEN.angle_between_deg(eye[-1], new) < SCREEN.angle_between_deg(first, new)
+    assert np.median(covered) == pytest.approx(0.9, abs=0.02)
+    # A 10 % undershoot of a ~35 deg saccade is far off: nearly every step is corrected.
+    assert corrected / len(schedule) > 0.8
+
+
+def test_anticipatory_saccades_start_before_the_target_can_be_seen():
+    params = quiet(rate_hz=1000.0, anticipation_prob=0.25)
+    trace, schedule = jump_trials(params, trials=200)
+    early = 0
+    for t_jump, new in schedule:
+        old = LEFT if new == RIGHT else RIGHT
+        window = (trace.t >= t_jump) & (trace.t < t_jump + 1.0)
+        t, eye = trace.t[window], trace.eye_xy[window]
+        moved = np.argmax(np.hypot(*(eye - old).T) > 1e-6)
+        early += t[moved] - t_jump < 0.08
+    assert early / len(schedule) == pytest.approx(0.25, abs=0.08)
+
+
+def test_the_error_varies_over_the_screen_by_the_field_and_is_the_persons_own():
+    places = [(x, y) for x in (200.0, 960.0, 1720.0) for y in (150.0, 540.0, 930.0)]
+    errors = []
+    for seed in (1, 2):
+        sim = GazeSimulator(quiet(field_deg=0.6), seed=seed)
+        errors.append(np.array([SCREEN.angular_error_deg(
+            sim.simulate(0.1, [(0.0, xy)], initial_xy=xy).xy[-1:], xy)[0] for xy in places]))
+    for error in errors:
+        # Not one offset: the error differs between places by about the field's size.
+        assert 0.3 < np.sqrt(np.mean(np.sum((error - error.mean(axis=0)) ** 2, axis=1))) < 1.5
+    assert np.abs(errors[0] - errors[1]).max() > 0.2
+
+
+def test_the_wander_is_slow_and_of_the_requested_rms():
+    params = quiet(wander_deg=0.3, wander_tau_s=0.5)
+    trace = GazeSimulator(params, seed=3).simulate(300.0, [(0.0, (960, 540))],
+                                                   initial_xy=(960, 540))
+    error = SCREEN.angular_error_deg(trace.xy, (960, 540))
+    np.testing.assert_allclose(np.sqrt(np.mean(error ** 2, axis=0)), 0.3, rtol=0.15)
+    lag = int(0.05 * params.tracker.rate_hz)
+    near = np.corrcoef(error[:-lag, 0], error[lag:, 0])[0, 1]
+    far = np.corrcoef(error[:-10 * lag * 5, 0], error[10 * lag * 5:, 0])[0, 1]
+    assert near > 0.85 and abs(far) < 0.2
+
+
+def test_spikes_are_single_samples_far_from_the_eye():
+    params = quiet(spike_prob=0.01, jitter_deg=0.1)
+    trace = GazeSimulator(params, seed=4).simulate(200.0, [(0.0, (960, 540))],
+                                                   initial_xy=(960, 540))
+    error = SCREEN.angle_between_deg(trace.xy, trace.eye_xy)
+    assert trace.spike.mean() == pytest.approx(0.01, rel=0.2)
+    assert np.all(error[trace.spike] >= 2.0 - 0.5) and np.all(error[~trace.spike] < 1.0)
+
+
+def test_a_saccade_rings_after_it_lands():
+    params = quiet(rate_hz=1000.0, pso_fraction=0.05)
+    trace, schedule = jump_trials(params, trials=4)
+    t_jump, new = schedule[0]
+    window = (trace.t >= t_jump) & (trace.t < t_jump + 1.0)
+    beyond = SCREEN.angle_between_deg(trace.eye_xy[window], LEFT) \
+        - SCREEN.angle_between_deg(LEFT, new)
+    amplitude = SCREEN.angle_between_deg(LEFT, new)
+    # The eye passes the target by about 5 % of the amplitude, then comes back onto it.
+    assert beyond.max() == pytest.approx(0.05 * amplitude, rel=0.25)
+    np.testing.assert_allclose(trace.eye_xy[window][-1], new, atol=1e-6)
+
+
+def test_a_moving_target_is_pursued_smoothly_with_a_few_catch_up_saccades():
+    params = quiet(pursuit_gain=0.9, pursuit_latency_ms=100.0)
+    speed_deg = 10.0
+    speed_px = speed_deg * px_per_degree()
+
+    def target(t):
+        return np.stack([300 + speed_px * t, np.full_like(t, 540.0)], axis=1)
+
+    rate = params.tracker.rate_hz
+    trace = GazeSimulator(params, seed=3).trace(np.arange(0, 6, 1 / rate), target,
+                                                initial_xy=(300, 540))
+    later = trace.t[1:] > 1.0
+    eye_speed = SCREEN.angle_between_deg(trace.eye_xy[:-1], trace.eye_xy[1:]) * rate
+    smooth = eye_speed[later] < 30.0
+    # Mostly smooth, at about the pursuit gain times the target's angular speed ...
+    goal = target(trace.t)
+    goal_speed = SCREEN.angle_between_deg(goal[:-1], goal[1:]) * rate
+    assert smooth.mean() > 0.9
+    gain = eye_speed[later][smooth] / goal_speed[later][smooth]
+    assert np.median(gain) == pytest.approx(0.9, abs=0.03)
+    # ... with catch-up saccades that keep the eye within a few degrees of the target.
+    catch_up = np.count_nonzero(np.diff((eye_speed[later] >= 30.0).astype(int)) == 1)
+    assert 1 <= catch_up <= 10
+    lag = SCREEN.angle_between_deg(trace.eye_xy, target(trace.t))[trace.t > 1.0]
+    assert np.median(lag) < 2.0
 
 
 # Seeds, timing, streaming ----------------------------------------------------

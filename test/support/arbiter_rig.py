@@ -12,6 +12,7 @@ from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import ns_to_stamp
 from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
                                        LATCHED_QOS, REQUEST_TOPIC)
+from eye_bci_ros2.rounds import COUNT_RULE
 
 #: The tests publish a round's gaze at once, stamped up to ~1 s ahead of the clock.
 MAX_FUTURE_S = 5.0
@@ -32,13 +33,14 @@ class ArbiterRig:
     :param driver: the driver node's name.
     :param seed: seeds :attr:`rng`.
     :param parameters: the arbiter's parameter overrides (``max_future_s`` defaults to
-        :data:`MAX_FUTURE_S`).
+        :data:`MAX_FUTURE_S`; the rule to the count rule, :data:`COUNT_RULE`, whose
+        mechanics these tests check with gaze on an option from the round start).
     """
 
     def __init__(self, graph, driver: str = 'test_driver', seed: int = 3, **parameters):
         """Start the arbiter and the driver and wait until their topics connect."""
         self.graph = graph
-        parameters = {'max_future_s': MAX_FUTURE_S, **parameters}
+        parameters = {'max_future_s': MAX_FUTURE_S, **COUNT_RULE, **parameters}
         self.arbiter = graph.add(ChoiceArbiter, parameter_overrides=[
             Parameter(name, value=value) for name, value in parameters.items()])
         self.driver = graph.node(driver)

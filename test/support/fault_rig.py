@@ -34,6 +34,7 @@ from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
                                        RVIZ_POSE_QOS)
+from eye_bci_ros2.rounds import COUNT_RULE
 
 #: Generous wait for anything to arrive, s (2 shared cores; never a timing assertion).
 WAIT_S = 10.0
@@ -45,7 +46,7 @@ RATE_HZ = 1200.0
 #: :meth:`Pipeline.gaze` publishes recorded gaze at once, stamped up to ``count / rate``
 #: ahead of the clock (8.3 s for a burst of 10 000), so the arbiter must take stamps that
 #: far ahead (its default ``max_future_s`` is 1 s).
-FAST_ARBITER = {'window_s': 0.4, 'stall_timeout_s': 0.2, 'reorder_s': 0.05,
+FAST_ARBITER = {**COUNT_RULE, 'window_s': 0.4, 'stall_timeout_s': 0.2, 'reorder_s': 0.05,
                 'max_future_s': 10.0}
 
 #: Arbiter settings for tests that end every round themselves (:meth:`Pipeline.close_window`,

@@ -8,9 +8,9 @@ lib/eye_bci_ros2/<exe>, an executable file) in the environment of
 `source install/setup.sh`, and one of them must start.
 """
 
-import ast
 import json
 from pathlib import Path
+import runpy
 import sys
 
 from colcon_workspace import build_workspace, PACKAGE, sourced
@@ -54,29 +54,10 @@ print(json.dumps(failures))
 """
 
 
-def console_scripts(setup_py: Path) -> list:
-    """
-    Read the ``console_scripts`` entries of setup.py without running it.
-
-    Follows ``entry_points={'console_scripts': <list or name of a list>}`` in
-    the ``setup()`` call, so the test stays in step with setup.py.
-    """
-    tree = ast.parse(setup_py.read_text(), str(setup_py))
-    assignments = {target.id: node.value for node in tree.body if isinstance(node, ast.Assign)
-                   for target in node.targets if isinstance(target, ast.Name)}
-
-    def resolve(node):
-        return resolve(assignments[node.id]) if isinstance(node, ast.Name) else node
-
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Call) and getattr(node.func, 'id', None) == 'setup':
-            for keyword in node.keywords:
-                if keyword.arg == 'entry_points':
-                    entry_points = resolve(keyword.value)
-                    for key, value in zip(entry_points.keys, entry_points.values):
-                        if ast.literal_eval(key) == 'console_scripts':
-                            return list(ast.literal_eval(resolve(value)))
-    raise AssertionError(f'no console_scripts in the setup() call of {setup_py}')
+def console_scripts() -> list:
+    """Return the ``console_scripts`` setup.py installs: the node registry's (it reads them)."""
+    registry = runpy.run_path(str(REPO / PACKAGE / 'nodes' / 'registry.py'))
+    return list(registry['console_scripts']())
 
 
 @pytest.fixture(scope='module')
@@ -100,7 +81,7 @@ def test_every_console_script_is_an_installed_executable(workspace, installed):
     assert Path(installed['prefix']) == prefix
     # The installed copy is used, not the source tree the venv has in editable mode.
     assert Path(installed['module']).is_relative_to(prefix)
-    scripts = console_scripts(REPO / 'setup.py')
+    scripts = console_scripts()
     assert scripts, 'setup.py lists no console scripts'
     expected = sorted(entry.split('=', 1)[0].strip() for entry in scripts)
     assert installed['executables'] == expected
@@ -134,7 +115,7 @@ def test_installed_executable_starts(workspace, installed):
 @pytest.mark.slow
 def test_every_console_script_target_imports(workspace, installed):
     # `ros2 run` would find the file but die on start if its module is missing.
-    scripts = console_scripts(REPO / 'setup.py')
+    scripts = console_scripts()
     result = sourced(workspace, [sys.executable, '-c', RESOLVE_ENTRY_POINTS,
                                  json.dumps(scripts)], timeout=RUN_TIMEOUT_S)
     assert result.returncode == 0, result.stdout + result.stderr

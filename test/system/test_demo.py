@@ -50,6 +50,31 @@ def test_samples_are_classified_against_the_regions_shown_at_their_time():
     assert inside.tolist() == [True, False, False, True]
 
 
+@pytest.mark.ros
+def test_the_driver_sees_the_options_as_rviz_does_deleteall_clears_its_namespace(graph):
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    from eye_bci_ros2.nodes.topics import CHOICES_QOS, CHOICES_TOPIC
+
+    driver = graph.add(demo.ExperimentDriver, SCENE, [], None, None, demo.DemoOptions())
+    publisher = graph.node('task').create_publisher(MarkerArray, CHOICES_TOPIC, CHOICES_QOS)
+
+    def cube(ns, marker_id, text):
+        marker = Marker(ns=ns, id=marker_id, type=Marker.CUBE, action=Marker.ADD, text=text)
+        marker.header.frame_id = 'map'
+        marker.pose.orientation.w = 1.0
+        marker.scale.x = marker.scale.y = marker.scale.z = 1.0
+        return marker
+
+    publisher.publish(MarkerArray(markers=[cube('rooms', 0, 'kitchen'), cube('rooms', 1, 'hall'),
+                                           cube('back', 0, 'back')]))
+    assert graph.spin_until(lambda: len(driver.markers) == 3)
+    # A DELETEALL in one namespace clears that namespace only (RViz2's MarkerArray semantics).
+    publisher.publish(MarkerArray(markers=[Marker(ns='rooms', action=Marker.DELETEALL),
+                                           cube('rooms', 2, 'office')]))
+    assert graph.spin_until(lambda: set(driver.markers) == {'back', 'office'}), driver.markers
+
+
 @pytest.fixture(scope='module')
 def quick_run(tmp_path_factory):
     """Run ``demo --quick`` once; the tests below check what it printed and wrote."""

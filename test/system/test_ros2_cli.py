@@ -138,8 +138,7 @@ def started_pids(output: str) -> List[int]:
 def executables() -> List[str]:
     """Return the console scripts of setup.py (what ``ros2 run`` offers)."""
     from test_colcon_build import console_scripts
-    from paths import REPO
-    return sorted(entry.split('=', 1)[0].strip() for entry in console_scripts(REPO / 'setup.py'))
+    return sorted(entry.split('=', 1)[0].strip() for entry in console_scripts())
 
 
 def test_ros2_run_every_executable_help(ros2, env, tmp_path):

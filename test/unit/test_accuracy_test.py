@@ -78,8 +78,10 @@ def test_trials_are_deterministic_and_size_matters():
     again = run_trials(scenario, 5, 24, seed=3, settings=settings, methods=('mean', 'vote'))
     large = run_trials(scenario, 120, 24, seed=3, settings=settings, methods=('mean', 'vote'))
     assert np.array_equal(small.correct, again.correct)
-    assert large.accuracy('mean') == 1.0 and large.accuracy('vote') == 1.0
-    assert small.accuracy('mean') < 0.9
+    # Not always right even when large: like real people, the simulated person's gaze has
+    # transient landings and spikes that the original rule can take.
+    assert large.accuracy('mean') >= 0.9 and large.accuracy('vote') >= 0.9
+    assert small.accuracy('mean') < 0.9 and small.accuracy('mean') < large.accuracy('mean')
     # A miss at a tiny marker is "no choice": the gaze never touched a marker.
     assert np.all(small.no_choice[~small.correct[:, 0], 0])
 
@@ -99,7 +101,8 @@ def test_curve_run_writes_csv_png_and_summary(tmp_path, capsys):
         ('80', 'mean'), ('80', 'vote'), ('80', 'early')]
     by_key = {(r['size_px'], r['method']): r for r in rows}
     for method in ('mean', 'vote', 'early'):
-        assert float(by_key[('80', method)]['accuracy']) == 1.0
+        # Mostly right at 80 px (the realistic person's gaze misleads a rule at times).
+        assert float(by_key[('80', method)]['accuracy']) >= 0.75
         assert int(by_key[('6', method)]['trials']) == 12
     # The early decision ends rounds before the window does when the gaze is clear.
     assert float(by_key[('80', 'early')]['mean_decision_s']) < \

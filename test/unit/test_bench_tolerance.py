@@ -30,7 +30,7 @@ def test_share_test_refuses_a_choice_on_a_few_samples():
     stamps = np.arange(90) / 90.0
     points = np.repeat([(centres[0] + centres[1]) / 2], 90, axis=0)
     points[::10] = centres[0]                  # 10 % of the samples on option 0
-    config = decision.NODE_DEFAULT
+    config = decision.COUNT_EARLY
     assert tolerance._decide('mean', points, stamps, _regions(), config, PERSON) == '0'
     assert tolerance._decide('mean/s', points, stamps, _regions(), config, PERSON) is None
     assert tolerance._decide('early/s', points, stamps, _regions(), config, PERSON) is None
@@ -41,7 +41,7 @@ def test_share_test_keeps_the_early_decision_early_on_a_real_look():
     stamps = np.arange(90) / 90.0
     points = np.repeat([centres[1]], 90, axis=0)
     points[:20] = [200.0, 200.0]               # the saccade's first 0.22 s: off the menu
-    config = decision.NODE_DEFAULT
+    config = decision.COUNT_EARLY
     made = tolerance._early(points, stamps, _regions(), config, share_test=True)
     # The last 0.1 s must be on the option: 9 samples after it was reached at 0.222 s.
     assert made is not None and made.label == '1'

@@ -326,7 +326,8 @@ def test_live_tracker_decides_the_same_whatever_order_the_samples_arrive(regions
                                            expected.mean_point) > 1e-6)
     order = np.array(data.draw(st.permutations(range(len(points)))))
     for sequence in (np.arange(len(points)), order):
-        tracker = RoundScheduler(ArbiterSettings(method=method, window_s=1.0, **ORIGINAL_RULE))
+        tracker = RoundScheduler(ArbiterSettings(method=method, window_s=1.0, early_decision=False,
+                                                 **ORIGINAL_RULE))
         tracker.add_regions(RegionSet(labels, polygons, 0.0), now=0.0)
         for k in sequence.tolist():
             assert tracker.add_sample(stamps[k], points[k, 0], points[k, 1], now=0.5) is None

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE, RoundScheduler
+from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE, ORIGINAL_RULE, RoundScheduler
 
 RATE_HZ = 100.0
 LEFT, RIGHT = (300.0, 500.0), (1500.0, 500.0)
@@ -23,7 +23,7 @@ class Recorder:
     def __init__(self, **settings):
         self.decisions = []
         self.logs = []
-        self.tracker = RoundScheduler(ArbiterSettings(**settings), self.decisions.append,
+        self.tracker = RoundScheduler(ArbiterSettings(**{**COUNT_RULE, **settings}), self.decisions.append,
                                       lambda level, key, text: self.logs.append((level, key)))
 
     @property

@@ -8,7 +8,7 @@ import pytest
 from bench import decision, tolerance
 from eye_bci_ros2.evidence import decide_mean, EARLY_SHARE_S, RoundEvidence
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE, RoundScheduler
+from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE, ORIGINAL_RULE, RoundScheduler
 from eye_bci_ros2.sim.person import ORIGINAL_TOBII_4C
 from eye_bci_ros2.tolerance import TolerantRegions
 
@@ -40,7 +40,7 @@ def near(point, count, rng, spread=3.0):
 def run_round(points, layout, start=10.0, **settings):
     """One round of a scheduler opened by ``layout``; return its decision."""
     decisions = []
-    scheduler = RoundScheduler(ArbiterSettings(**settings), decisions.append)
+    scheduler = RoundScheduler(ArbiterSettings(**{**COUNT_RULE, **settings}), decisions.append)
     scheduler.add_regions(squares(layout, start), now=start)
     stamps = start + (np.arange(len(points)) + 0.5) / RATE_HZ
     scheduler.add_samples(stamps, points, now=stamps[-1])
@@ -169,7 +169,8 @@ def test_the_original_rule_decides_as_the_batch_rule():
         points = points[rng.permutation(len(points))]
         expected = decide_mean(points, big)
         decisions = []
-        scheduler = RoundScheduler(ArbiterSettings(**ORIGINAL_RULE), decisions.append)
+        scheduler = RoundScheduler(ArbiterSettings(**COUNT_RULE, **ORIGINAL_RULE),
+                                   decisions.append)
         scheduler.add_regions(big, now=10.0)
         stamps = 10.0 + (np.arange(100) + 0.5) / RATE_HZ
         scheduler.add_samples(stamps, points, now=11.0)
@@ -181,7 +182,7 @@ def test_the_original_rule_decides_as_the_batch_rule():
 def test_a_rule_change_applies_from_the_next_round_on():
     rng = np.random.default_rng(7)
     decisions = []
-    scheduler = RoundScheduler(ArbiterSettings(window_s=0.5), decisions.append)
+    scheduler = RoundScheduler(ArbiterSettings(**COUNT_RULE, window_s=0.5), decisions.append)
     scheduler.add_regions(squares({'small': SMALL, 'other': OTHER}, 10.0), now=10.0)
     stamps = 10.0 + (np.arange(30) + 0.5) / RATE_HZ
     scheduler.add_samples(stamps, near(JUST_OUTSIDE, 30, rng), now=10.3)
@@ -198,7 +199,7 @@ def test_a_rule_change_applies_from_the_next_round_on():
 
 def test_feedback_state_label_at_and_progress():
     rng = np.random.default_rng(8)
-    scheduler = RoundScheduler(ArbiterSettings(window_s=1.0))
+    scheduler = RoundScheduler(ArbiterSettings(**dict(COUNT_RULE, window_s=1.0)))
     assert scheduler.label_at(*JUST_OUTSIDE) is None and scheduler.progress() == {}
     scheduler.add_regions(squares({'small': SMALL, 'other': OTHER}, 10.0), now=10.0)
     assert scheduler.label_at(*JUST_OUTSIDE) == 'small'
@@ -231,10 +232,10 @@ def test_bad_rule_settings_raise_with_a_reason(changed, name):
         ArbiterSettings(**changed)
 
 
-def test_the_default_rule_is_the_benchmarks_size_mean_share_rule():
-    bench_rule = tolerance.settings_for('size_mean/s', decision.NODE_DEFAULT, ORIGINAL_TOBII_4C)
-    default = ArbiterSettings()
+def test_the_count_rule_is_the_benchmarks_size_mean_share_rule():
+    bench_rule = tolerance.settings_for('size_mean/s', decision.COUNT_EARLY, ORIGINAL_TOBII_4C)
+    default = ArbiterSettings(**COUNT_RULE)
     for name in ('classification', 'ratio', 'size_aware', 'min_share', 'k_sigma', 'method'):
         assert getattr(bench_rule, name) == getattr(default, name), name
-    original = tolerance.settings_for('mean', decision.NODE_DEFAULT, ORIGINAL_TOBII_4C)
+    original = tolerance.settings_for('mean', decision.COUNT_EARLY, ORIGINAL_TOBII_4C)
     assert {name: getattr(original, name) for name in ORIGINAL_RULE} == ORIGINAL_RULE

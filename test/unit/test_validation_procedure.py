@@ -12,8 +12,8 @@ from eye_bci_ros2.menu import (Log, MenuProtocol, Offer, ProtocolSettings, Reque
                                VALIDATING, WAITING_FOR_CAMERA)
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.scene import load_scene
-from eye_bci_ros2.validation import (apply_correction, compose_corrections, IDENTITY,
-                                     is_identity, ValidationOutcome)
+from eye_bci_ros2.validation import (apply_correction, compose_corrections, correction_values,
+                                     IDENTITY, is_identity, ValidationOutcome)
 
 PIXELS = np.array([[0.0, 0.0], [640.0, 360.0], [1279.0, 719.0], [100.5, 650.25]])
 DEPTHS = np.array([0.5, 2.0, 7.5, 30.0])
@@ -59,7 +59,7 @@ def test_composed_correction_applies_inner_then_outer():
     np.testing.assert_allclose(
         apply_correction(points, compose_corrections(outer, inner)),
         apply_correction(apply_correction(points, inner), outer), atol=1e-9)
-    np.testing.assert_allclose(compose_corrections(outer, IDENTITY).ravel(), outer)
+    np.testing.assert_allclose(correction_values(compose_corrections(outer, IDENTITY)), outer)
     assert is_identity(IDENTITY) and is_identity(np.reshape(IDENTITY, (2, 3)))
     assert not is_identity(inner)
 

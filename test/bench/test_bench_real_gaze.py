@@ -1,0 +1,67 @@
+"""bench/real_gaze.py: the node's rule on real recorded gaze, and the command a lab runs."""
+
+import numpy as np
+import pytest
+
+from bench import real_gaze
+from eye_bci_ros2.recordings import find_data
+
+REAL = find_data('real_gaze')
+needs_data = pytest.mark.skipif(
+    REAL is None, reason='no real gaze recordings (../shared/data/real_gaze)')
+
+
+@pytest.fixture(scope='module')
+def recordings():
+    return real_gaze.load_folder(REAL)
+
+
+@needs_data
+def test_the_default_rule_on_real_gaze_meets_the_selection_goals(recordings):
+    rule = real_gaze.RULES['default']
+    hundred = real_gaze.intent(recordings, rule, 9, 100)
+    assert hundred['rounds'] > 100
+    assert hundred['wrong %'] <= 1.0 and hundred['right %'] >= 85.0, hundred
+    assert hundred['median ms'] <= 600.0, hundred
+    two_hundred = real_gaze.intent(recordings, rule, 9, 200)
+    assert two_hundred['wrong %'] <= 0.5 and two_hundred['right %'] >= 97.0, two_hundred
+
+
+@needs_data
+def test_the_default_rule_does_not_choose_for_a_resting_gaze(recordings):
+    midas = real_gaze.midas(recordings, real_gaze.RULES['default'])
+    assert midas['resting near']['rounds'] > 100 and midas['resting away']['rounds'] > 100
+    assert midas['resting near']['chosen %'] <= 5.0, midas
+    assert midas['resting away']['chosen %'] <= 0.5, midas
+
+
+@needs_data
+def test_the_previous_default_chose_wrong_where_the_new_one_abstains(recordings):
+    # What the bench exists to show: counting samples fires on transient landings.
+    previous = real_gaze.intent(recordings, real_gaze.RULES['previous default'], 9, 100)
+    default = real_gaze.intent(recordings, real_gaze.RULES['default'], 9, 100)
+    assert previous['wrong %'] > 3 * max(default['wrong %'], 1.0)
+
+
+def test_a_labs_own_csv_recording_runs_through_the_command(tmp_path, capsys):
+    rng = np.random.default_rng(0)
+    places = rng.uniform([300, 300], [1620, 780], size=(12, 2))
+    stamps = np.arange(0, 12 * 1.5, 1 / 60)
+    target = np.minimum((stamps / 1.5).astype(int), 11)
+    lag = np.minimum(((stamps - 0.25) / 1.5).astype(int).clip(0), 11)
+    points = places[np.where(stamps % 1.5 > 0.25, target, lag)] + rng.normal(0, 8, (len(stamps),
+                                                                                     2))
+    rows = '\n'.join(f'{t:.4f},{x:.1f},{y:.1f}' for t, (x, y) in zip(stamps, points))
+    (tmp_path / 'lab.gaze.csv').write_text('time_s,x_px,y_px\n' + rows + '\n')
+    (tmp_path / 'lab.targets.csv').write_text(
+        'onset_s,x_px,y_px\n' + '\n'.join(f'{1.5 * k},{x},{y}' for k, (x, y) in
+                                          enumerate(places)) + '\n')
+    assert real_gaze.main(['--data', str(tmp_path), '--sizes', '200', '--options', '3']) == 0
+    out = capsys.readouterr().out
+    assert '| default | 3 x 200 px |' in out and 'lab (csv' in out
+
+
+def test_a_folder_that_does_not_exist_is_one_line_and_status_1(tmp_path, capsys):
+    assert real_gaze.main(['--data', str(tmp_path / 'missing')]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith('real_gaze:') and 'no such folder' in err and '\n' not in err

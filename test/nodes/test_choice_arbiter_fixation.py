@@ -1,0 +1,76 @@
+"""The choice_arbiter with its default rule (the fixation rule), through its topics."""
+
+from dataclasses import fields
+
+from arbiter_rig import ArbiterRig
+import numpy as np
+import pytest
+from ros_harness import Collector
+from std_msgs.msg import String
+from test_choice_arbiter import LEFT, OFF, RIGHT, Rig
+
+from eye_bci_ros2.nodes.topics import EVENT_QOS, NO_CHOICE_TOPIC
+from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE
+
+pytestmark = pytest.mark.ros
+
+#: The node's own defaults for every setting the rig would set to the count rule.
+DEFAULT_RULE = {name: getattr(ArbiterSettings(), name) for name in COUNT_RULE}
+
+
+def glance(rig, start, first, then, rate=100.0):
+    """Gaze resting on ``first`` for 0.3 s, then a saccade to ``then`` for 0.6 s; published."""
+    points = np.vstack([rig.looks(first, int(0.3 * rate), 8.0),
+                        rig.looks(then, int(0.6 * rate), 8.0)])
+    rig.send(points, start)
+
+
+def test_the_node_default_is_the_fixation_rule():
+    assert {field.name for field in fields(ArbiterSettings)} >= set(COUNT_RULE)
+    assert DEFAULT_RULE['method'] == 'fixation' and DEFAULT_RULE['early_decision']
+
+
+def test_a_look_after_the_question_chooses_early(graph):
+    rig = Rig(graph, **DEFAULT_RULE)
+    start = rig.offer({'kitchen': LEFT, 'bedroom': RIGHT})
+    glance(rig, start, OFF, RIGHT)
+    assert graph.spin_until(lambda: rig.labels, 10.0)
+    assert rig.labels == ['bedroom']
+    decision = rig.arbiter.last_decision
+    assert decision.method == 'early'
+    # The fixation began at 0.3 s and had to last dwell_s: not before 0.45 s.
+    assert 0.44 <= decision.time_to_decision < 0.7
+
+
+def test_a_gaze_resting_on_an_option_from_the_question_on_is_no_choice_with_the_reason(graph):
+    class NoneRig(Rig):
+        def setup(self):
+            self.none = Collector(self.driver, String, NO_CHOICE_TOPIC, EVENT_QOS)
+            self.awaited.append(NO_CHOICE_TOPIC)
+
+    rig = NoneRig(graph, **DEFAULT_RULE, window_s=0.5, stall_timeout_s=0.1)
+    start = rig.offer({'kitchen': LEFT, 'bedroom': RIGHT})
+    rig.send(rig.looks(LEFT, 60, 8.0), start)
+    assert graph.spin_until(lambda: rig.none.messages, 10.0)
+    assert 'rested on' in rig.none.messages[0].data and "'kitchen'" in rig.none.messages[0].data
+    assert rig.labels == []
+
+
+def test_garbage_between_the_looks_is_never_evidence(graph):
+    rig = Rig(graph, **DEFAULT_RULE)
+    start = rig.offer({'kitchen': LEFT, 'bedroom': RIGHT})
+    points = np.vstack([rig.looks(OFF, 30, 8.0), rig.looks(LEFT, 60, 8.0)])
+    points[35:37] = np.nan                      # a blink
+    points[40] = RIGHT                          # a spike on the other option
+    points[45] = (1e9, -1e9)                    # tracker garbage
+    rig.send(points, start)
+    assert graph.spin_until(lambda: rig.labels, 10.0)
+    assert rig.labels == ['kitchen']
+
+
+def test_the_rule_is_a_parameter_and_the_count_rule_is_one_set_away(graph):
+    rig = ArbiterRig(graph, **DEFAULT_RULE)
+    assert rig.arbiter.get_parameter('method').value == 'fixation'
+    result, = graph.set_parameters(rig.arbiter.get_name(), {'method': 'vote'})
+    assert result.successful, result.reason
+    assert rig.arbiter.get_parameter('method').value == 'vote'
