@@ -238,26 +238,37 @@ def test_topic_echo_choice_while_the_tracker_looks_at_an_option(ros2, env, tmp_p
     import rclpy
     from rclpy.context import Context
     from test_whole_graph import aim, menu, ROOMS
-    from eye_bci_ros2.nodes.topics import LATCHED_QOS
+    from std_msgs.msg import Empty
     from visualization_msgs.msg import MarkerArray
+
+    from eye_bci_ros2.nodes.topics import CHOICES_TOPIC, EVENT_QOS, LATCHED_QOS, REQUEST_TOPIC
 
     outlet, info = make_outlet('xy_pixels', rate=100.0)
     rules = [f'{name}:={value}' for name, value in bridge_parameters('xy_pixels', info).items()]
     with domain_id() as domain:
         pipeline = Process([str(ros2), 'run', PACKAGE, 'eye_bci', '--ros-args',
                             *[arg for rule in rules for arg in ('-p', rule)],
-                            '-p', 'window_s:=0.5'], env, domain, tmp_path / 'eye_bci.log')
+                            # The original rule: the test is about the command line, not the
+                            # rule, and gaze that rests on an option before a round never makes
+                            # the fixation rule choose (not a reaction).
+                            '-p', 'window_s:=0.5', '-p', 'method:=mean'], env, domain,
+                           tmp_path / 'eye_bci.log')
         echo = Process([str(ros2), 'topic', 'echo', '--no-daemon', '--once', '/choice',
                         'std_msgs/msg/String'], env, domain, tmp_path / 'echo.log')
         context = Context()
         rclpy.init(context=context, domain_id=domain)
         try:
             node = rclpy.create_node('task', context=context)
-            node.create_publisher(MarkerArray, 'choices', LATCHED_QOS).publish(menu())
+            node.create_publisher(MarkerArray, CHOICES_TOPIC, LATCHED_QOS).publish(menu())
+            request = node.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
             assert pipeline.wait_for('connected to LSL stream'), pipeline.output()
             end = time.monotonic() + WAIT_S
+            pushed = 0
             while echo.process.poll() is None and time.monotonic() < end:
                 outlet.push_sample(sample_for('xy_pixels', aim(ROOMS['bathroom'])).tolist())
+                pushed += 1
+                if pushed % 100 == 0:       # a round that opens while the gaze is there
+                    request.publish(Empty())
                 time.sleep(0.01)
             assert echo.finish() == 0, echo.output()
             assert 'data: bathroom' in echo.output(), echo.output() + pipeline.output()[-3000:]
