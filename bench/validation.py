@@ -89,7 +89,7 @@ def run_once(seed: int, targets: int = 9, drift: bool = True,
                 raise RuntimeError('no gaze through the bridge')
             started = time.monotonic()
             validation = add(
-                GazeValidation, targets=targets, output='',
+                GazeValidation, targets=targets, output='', projector_node='',
                 screen_width_mm=float(screen.width_mm), screen_height_mm=float(screen.height_mm),
                 viewing_distance_mm=float(screen.distance_mm))
             if not spin_until(executor, lambda: validation.exit_status is not None, 120.0):

@@ -1,1 +1,59 @@
 """Choose among RViz markers by looking at them: gaze over LSL, projection, arbitration."""
+
+import os
+import sys
+import tempfile
+
+
+def _quiet_interrupt(kind, value, traceback, _previous=sys.excepthook):
+    """
+    End an executable quietly on a Ctrl-C that arrives before it handles signals.
+
+    ``ros2 launch`` sends SIGINT to every node on Ctrl-C, also to those still
+    importing rclpy and numpy (the first seconds): Python would print a
+    KeyboardInterrupt traceback for each.  Nothing was started yet, so there
+    is nothing to report: the process ends with status 0, as a node stopped
+    by Ctrl-C does (:mod:`eye_bci_ros2.nodes.runner`).  Other errors, and an
+    interactive session, keep Python's report.
+    """
+    if issubclass(kind, KeyboardInterrupt) and not hasattr(sys, 'ps1'):
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (AttributeError, OSError, ValueError):
+                pass
+        os._exit(0)
+    _previous(kind, value, traceback)
+
+
+#: liblsl's own configuration files, in the order it looks for them (when $LSLAPICFG is unset).
+LSL_CONFIG_FILES = ('lsl_api.cfg', '~/lsl_api/lsl_api.cfg', '/etc/lsl_api/lsl_api.cfg')
+#: Our liblsl configuration: warnings and errors only (its INFO lines are build details).
+LSL_QUIET_CONFIG = '[log]\nlevel = -1\n'
+
+
+def _quiet_liblsl() -> None:
+    """
+    Keep liblsl's two INFO lines (config loaded, build id) out of every process's output.
+
+    Only when the user has no liblsl configuration of their own ($LSLAPICFG or
+    one of :data:`LSL_CONFIG_FILES`): theirs may hold a lab's network settings
+    and is left alone.  Must run before pylsl loads liblsl.
+    """
+    if 'LSLAPICFG' in os.environ or any(os.path.exists(os.path.expanduser(path))
+                                        for path in LSL_CONFIG_FILES):
+        return
+    path = os.path.join(tempfile.gettempdir(), f'eye_bci_ros2_lsl_api_{os.getuid()}.cfg')
+    try:
+        if not os.path.exists(path):
+            with open(path, 'w') as stream:
+                stream.write(LSL_QUIET_CONFIG)
+    except OSError:
+        return      # liblsl then prints its lines: harmless
+    os.environ['LSLAPICFG'] = path
+
+
+# Both on import: the package is the first thing every console script imports.
+if sys.excepthook is sys.__excepthook__:
+    sys.excepthook = _quiet_interrupt
+_quiet_liblsl()

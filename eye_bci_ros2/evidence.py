@@ -181,6 +181,8 @@ class Decision:
         """One line for a log: the choice and how it was reached."""
         head = f"choice '{self.label}'" if self.label is not None \
             else f'no choice ({self.reason})'
+        if self.samples_used == 0:
+            return f'{head} by {self.method}: no gaze sample in the window'
         fresh = f' ({self.fresh_samples} fresh)' \
             if 0 <= self.fresh_samples < self.in_region_samples else ''
         return (f'{head} by {self.method}: {self.samples_used} samples, '

@@ -11,11 +11,16 @@ and moves the camera) and ``rviz2 -d rviz_config`` (default: the installed
 config/eye_bci.rviz, whose view and panel size the pipeline reads too, so
 what RViz shows and what the projector computes agree).  ``rviz:=false``
 starts no RViz2 (one already running with the same file).
+
+Nothing starts when RViz2 is asked for but not installed, or ``params_file``
+does not exist (one line says which).  Every node is required: when one
+ends, or RViz2 is closed, the launch shuts the others down.
 """
 
+from ament_index_python.packages import get_package_prefix, PackageNotFoundError
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, IncludeLaunchDescription
-from launch.conditions import IfCondition
+from launch.actions import (DeclareLaunchArgument, IncludeLaunchDescription, OpaqueFunction,
+                            Shutdown)
 from launch.launch_description_sources import PythonLaunchDescriptionSource
 from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
@@ -24,8 +29,34 @@ from launch_ros.substitutions import FindPackageShare
 PACKAGE = 'eye_bci_ros2'
 
 
+def _check_rviz(context):
+    """Refuse to start anything when RViz2 is asked for but not installed."""
+    if LaunchConfiguration('rviz').perform(context).lower() not in ('true', '1', 'yes'):
+        return []
+    try:
+        get_package_prefix('rviz2')
+    except PackageNotFoundError:
+        raise RuntimeError('rviz2 is not installed (apt install ros-jazzy-rviz2, then source '
+                           '/opt/ros/jazzy/setup.bash), or start without it: rviz:=false; '
+                           'nothing started') from None
+    return []
+
+
+def _menu_and_rviz(context):
+    """Add the menu and (with rviz:=true) RViz2, both required."""
+    params_file = LaunchConfiguration('params_file').perform(context)
+    actions = [Node(package=PACKAGE, executable='choice_menu', name='choice_menu',
+                    parameters=[params_file], output='screen',
+                    on_exit=Shutdown(reason='choice_menu ended'))]
+    if LaunchConfiguration('rviz').perform(context).lower() in ('true', '1', 'yes'):
+        actions.append(Node(package='rviz2', executable='rviz2', name='rviz2',
+                            arguments=['-d', LaunchConfiguration('rviz_config')],
+                            output='screen', on_exit=Shutdown(reason='RViz2 closed')))
+    return actions
+
+
 def generate_launch_description():
-    """Declare the arguments, include the pipeline, add the menu and RViz2."""
+    """Declare the arguments, check RViz2, include the pipeline, add the menu and RViz2."""
     params_file = LaunchConfiguration('params_file')
     rviz_config = LaunchConfiguration('rviz_config')
     return LaunchDescription([
@@ -46,15 +77,13 @@ def generate_launch_description():
             description='.rviz file RViz2 opens and the pipeline reads (view, panel size)'),
         DeclareLaunchArgument(
             'rviz', default_value='true', description='start RViz2 (true/false)'),
+        # Checked before anything starts (actions run in this order).
+        OpaqueFunction(function=_check_rviz),
         IncludeLaunchDescription(
             PythonLaunchDescriptionSource(PathJoinSubstitution(
                 [FindPackageShare(PACKAGE), 'launch', 'pipeline.launch.py'])),
             launch_arguments={'params_file': params_file,
                               'profile': LaunchConfiguration('profile'),
                               'rviz_config': rviz_config}.items()),
-        Node(package=PACKAGE, executable='choice_menu', name='choice_menu',
-             parameters=[params_file], output='screen'),
-        Node(package='rviz2', executable='rviz2', name='rviz2',
-             arguments=['-d', rviz_config], condition=IfCondition(LaunchConfiguration('rviz')),
-             output='screen'),
+        OpaqueFunction(function=_menu_and_rviz),
     ])

@@ -12,10 +12,16 @@ xy_pixels, custom) and ``rviz_config`` (an .rviz file, read by camera_tracker
 and marker_projector for the view and the panel size) are applied over the
 file when not empty.  The options to choose from are published on
 ``choices`` by your own node (or ``experiment.launch.py``'s menu).
+
+Nothing starts when ``params_file`` does not exist (one line says so).  Every
+node is required: when one ends (a bad parameter at start-up, a crash), the
+launch shuts the others down, so no half pipeline keeps running.
 """
 
+import os
+
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, OpaqueFunction
+from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
 from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
@@ -23,22 +29,32 @@ from launch_ros.substitutions import FindPackageShare
 PACKAGE = 'eye_bci_ros2'
 
 
+def _required(executable):
+    """Return the action that ends the launch when ``executable`` ends (its ``on_exit``)."""
+    return Shutdown(reason=f'{executable} ended; a pipeline without it cannot choose')
+
+
 def _nodes(context):
-    """Build the four nodes, with the overrides that were given."""
-    params_file = LaunchConfiguration('params_file')
+    """Check the params file, then build the four nodes with the overrides given."""
+    params_file = LaunchConfiguration('params_file').perform(context)
+    if not os.path.isfile(params_file):
+        raise RuntimeError(f"params_file '{params_file}' does not exist: nothing started")
     profile = LaunchConfiguration('profile').perform(context)
     rviz_config = LaunchConfiguration('rviz_config').perform(context)
     bridge = [{'profile': profile}] if profile else []
     view = [{'rviz_config': rviz_config}] if rviz_config else []
     return [
         Node(package=PACKAGE, executable='lsl_gaze_bridge', name='lsl_gaze_bridge',
-             parameters=[params_file] + bridge, output='screen'),
+             parameters=[params_file] + bridge, output='screen',
+             on_exit=_required('lsl_gaze_bridge')),
         Node(package=PACKAGE, executable='camera_tracker', name='camera_tracker',
-             parameters=[params_file] + view, output='screen'),
+             parameters=[params_file] + view, output='screen',
+             on_exit=_required('camera_tracker')),
         Node(package=PACKAGE, executable='marker_projector', name='marker_projector',
-             parameters=[params_file] + view, output='screen'),
+             parameters=[params_file] + view, output='screen',
+             on_exit=_required('marker_projector')),
         Node(package=PACKAGE, executable='choice_arbiter', name='choice_arbiter',
-             parameters=[params_file], output='screen'),
+             parameters=[params_file], output='screen', on_exit=_required('choice_arbiter')),
     ]
 
 

@@ -47,6 +47,7 @@ picture of the screen per selection, ``summary.json`` and ``selections.csv``.
 """
 
 import argparse
+from contextlib import contextmanager
 import csv
 from dataclasses import asdict, dataclass, field, replace
 import json
@@ -54,7 +55,7 @@ import math
 import os
 import sys
 import time
-from typing import Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, Iterator, List, Optional, Sequence, Tuple
 import uuid
 
 from domain_coordinator import domain_id
@@ -234,6 +235,23 @@ class DemoResult:
     mean_time_s: float
     itr_bits_per_min: float
     files: List[str]
+
+
+@contextmanager
+def demo_domain() -> Iterator[int]:
+    """
+    Yield the ROS domain of the demo's graph: ``$ROS_DOMAIN_ID`` when set, else a free one.
+
+    A user who set ROS_DOMAIN_ID (to watch the demo with ``ros2 topic echo``,
+    or to keep off a shared network's graph) gets that domain; otherwise one
+    that no other test or demo on this machine uses (domain_coordinator).
+    """
+    named = os.environ.get('ROS_DOMAIN_ID', '').strip()
+    if named:
+        yield int(named)
+        return
+    with domain_id() as domain:
+        yield domain
 
 
 def itr_bits_per_minute(offered_counts: Sequence[int], accuracy: float,
@@ -711,7 +729,7 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
     levels = {name: rclpy.logging.get_logger_level(name) for name in quiet}
     for name in quiet:
         rclpy.logging.set_logger_level(name, rclpy.logging.LoggingSeverity.WARN)
-    with domain_id() as domain:
+    with demo_domain() as domain:
         context = Context()
         rclpy.init(context=context, domain_id=domain)
         executor = make_executor(context=context)

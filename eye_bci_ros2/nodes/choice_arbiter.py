@@ -60,9 +60,11 @@ from eye_bci_ros2.feedback import build_feedback, Feedback, FeedbackThrottle
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
 from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
 from eye_bci_ros2.nodes.feedback_markers import FeedbackMarkers, option_label, OptionMarkers
-from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
+from eye_bci_ros2.nodes.graph_watch import GraphWatch
+from eye_bci_ros2.nodes.log_throttle import KeyedWarnings, QuietRepeats
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.screen_parameters import person_screen_parameters
 from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, CHOICES_TOPIC, EVENT_QOS,
                                        FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC,
                                        LATCHED_QOS, NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC,
@@ -180,19 +182,8 @@ PARAMETERS = (
               "Share test: a choice at the window end needs this fraction of the window's "
               'valid gaze samples on it, an early choice 0.8 of the samples of the last 0.1 s; '
               '0 = off (the original rule)', value_range=(0.0, 1.0)),
-    ParamSpec('screen_width_mm', DEFAULTS.screen_width_mm,
-              "The person's screen: visible width, mm (degrees -> px for the tolerance)",
-              value_range=(1.0, 10000.0)),
-    ParamSpec('screen_height_mm', DEFAULTS.screen_height_mm,
-              "The person's screen: visible height, mm", value_range=(1.0, 10000.0)),
-    ParamSpec('viewing_distance_mm', DEFAULTS.viewing_distance_mm,
-              "Distance from the person's eyes to the screen centre, mm",
-              value_range=(1.0, 10000.0)),
-    ParamSpec('screen_width', DEFAULTS.screen_width,
-              'The screen the gaze is in (frame screen): width, px', value_range=(1, 16384)),
-    ParamSpec('screen_height', DEFAULTS.screen_height,
-              'The screen the gaze is in (frame screen): height, px', value_range=(1, 16384)),
-)
+    # The person's screen: one table with gaze_validation's.
+) + person_screen_parameters()
 
 #: A gaze sample older than this (node clock) no longer highlights an option, s.
 GAZED_STALE_S = 0.25
@@ -242,10 +233,14 @@ class ChoiceArbiter(Node):
         self._config = declare_parameters(self, PARAMETERS, self._on_parameters,
                                           _settings_problem)
         self._warnings = KeyedWarnings(self.get_logger())
+        # Rounds that end without a choice, again and again, are not logged each (log_throttle).
+        self._quiet = QuietRepeats(self.get_logger())
         self._tracker = RoundScheduler(ArbiterSettings(**self._config), self._publish, self._log)
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
         self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
+        # Says so when a second pipeline shares this graph (two eye_bci on one domain).
+        self.graph_watch = GraphWatch(self, outputs=[CHOICE_TOPIC], inputs=[GAZE_SAMPLES_TOPIC])
         self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
         self._timer = self.create_timer(TICK_S, self._on_tick)
@@ -379,7 +374,9 @@ class ChoiceArbiter(Node):
     def _log(self, level: str, key: str, text: str) -> None:
         """Log ``text``; warnings of one ``key`` at most once per WARN_PERIOD_S."""
         if level != 'warning':
-            self.get_logger().info(text)
+            if text.startswith('choice '):
+                self._quiet.reset()      # a choice is news: the rounds after it are shown again
+            self._quiet.info(text)
             return
         self._warnings.warn(key, text)
 

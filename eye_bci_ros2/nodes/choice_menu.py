@@ -70,7 +70,7 @@ from eye_bci_ros2.menu import (Action, Answer, Log, MenuProtocol, Offer, Protoco
                                Request, Result, ROOMS_NS, TABLES_NS, Validate)
 from eye_bci_ros2.nodes.conversions import (arrays_to_pose, cube_marker,
                                             marker_array_to_regions, pose_to_arrays)
-from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
+from eye_bci_ros2.nodes.log_throttle import QuietRepeats, WARN_PERIOD_S
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
@@ -129,6 +129,8 @@ class ChoiceMenu(Node):
     def __init__(self, **kwargs):
         """Create the node; ``kwargs`` go to :class:`rclpy.node.Node`."""
         super().__init__('choice_menu', **kwargs)
+        # "no choice: asking again" while the person does not choose: not a line each time.
+        self._quiet = QuietRepeats(self.get_logger())
         # A scene_file is loaded once while it is validated and used on apply.
         self._candidate: Optional[tuple] = None
         defaults = ProtocolSettings()
@@ -282,12 +284,13 @@ class ChoiceMenu(Node):
             elif isinstance(action, Result):
                 self._result_pub.publish(String(data=action.label))
             elif isinstance(action, Answer):
+                self._quiet.reset()     # a choice: what follows is news again
                 self._answer_pub.publish(String(data=action.label))
             elif isinstance(action, Log):
                 if action.level == 'warning':
                     self.get_logger().warning(action.text, throttle_duration_sec=1.0)
                 else:
-                    self.get_logger().info(action.text)
+                    self._quiet.info(action.text)
         state = self._protocol.state
         if state != self._state:
             self._state = state

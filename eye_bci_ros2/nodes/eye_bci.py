@@ -82,11 +82,10 @@ def main(args=None):
     """Run the pipeline nodes (and the menu with --with-menu) until Ctrl-C or shutdown."""
     argv = list(sys.argv if args is None else args)
     with_menu = WITH_MENU in non_ros_args(argv)[1:]
-    composed = PIPELINE + ((MENU,) if with_menu else ())
-    spin_nodes(lambda: make_pipeline_nodes(with_menu=with_menu),
-               [arg for arg in argv if arg != WITH_MENU],
-               help_modules=[__name__] + [module for _, module, _ in composed],
-               usage=f'ros2 run eye_bci_ros2 eye_bci [{WITH_MENU}]')
+    spin_nodes(lambda: make_pipeline_nodes(with_menu=with_menu), argv,
+               help_modules=[__name__] + [module for _, module, _ in PIPELINE + (MENU,)],
+               usage=f'ros2 run eye_bci_ros2 eye_bci [{WITH_MENU}]',
+               options=[(WITH_MENU, 'compose choice_menu too (the original experiment)')])
 
 
 if __name__ == '__main__':

@@ -10,11 +10,12 @@ The procedure (:mod:`eye_bci_ros2.validation` holds the arithmetic):
    edges): each as a white disc with a black centre on
    ``validation/targets`` (visualization_msgs/MarkerArray, frame
    ``world_frame``, ``target_depth_m`` in front of the camera, unprojected
-   from its screen point with the camera model of ``marker_projector``'s
-   parameters, ``target_size_deg`` across; re-placed when the camera moves)
-   and as its screen point on ``validation/target`` (geometry_msgs/
-   PointStamped, frame ``screen``, px; NaN when none; the simulated person
-   follows it);
+   from its screen point with the camera model of the running
+   ``marker_projector``'s parameters, read at each start (``projector_node``;
+   this node's own parameters of the same names when it does not answer),
+   ``target_size_deg`` across; re-placed when the camera moves) and as its
+   screen point on ``validation/target`` (geometry_msgs/PointStamped, frame
+   ``screen``, px; NaN when none; the simulated person follows it);
 3. collects ``gaze/samples`` from ``settle_s`` after each onset to its end,
    and logs accuracy and precision per target and overall, in degrees (for
    ``screen_width_mm`` x ``screen_height_mm`` seen from
@@ -63,6 +64,7 @@ from eye_bci_ros2.nodes.marker_projector import (camera_from_parameters,
                                                  PARAMETERS as PROJECTOR_PARAMETERS)
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.nodes.screen_parameters import person_screen, person_screen_parameters
 from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
                                        LATCHED_QOS, VALIDATION_RESULT_TOPIC,
                                        VALIDATION_START_TOPIC, VALIDATION_TARGET_TOPIC,
@@ -72,7 +74,7 @@ from eye_bci_ros2.validation import (
     fit_correction, IDENTITY, implausibility, KINDS, measure, MIN_SAMPLES, MIN_TARGETS, NODE,
     PARAMETER, samples_per_target, save_correction, SETTLE_S, target_layout,
     ValidationOutcome)
-from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, degrees_to_px, ScreenGeometry
+from eye_bci_ros2.visual_angle import degrees_to_px, ScreenGeometry
 
 #: Step of the procedure's timer, s.
 TICK_S = 0.02
@@ -95,6 +97,12 @@ def _check_count(value: Any) -> Optional[str]:
 def _check_node_name(value: Any) -> Optional[str]:
     return None if str(value).strip() else 'must name the bridge node, e.g. /lsl_gaze_bridge'
 
+
+#: The projector whose panel geometry the targets use (parameter ``projector_node``).
+PROJECTOR_NODE = '/marker_projector'
+#: Longest wait for the projector's parameter service at a validation's start, s (its
+#: discovery runs from the node's start, in parallel with the wait for camera/pose).
+PROJECTOR_WAIT_S = 2.0
 
 #: Longest wait for the arbiter's parameter service after a validation, s.
 ARBITER_WAIT_S = 1.0
@@ -136,17 +144,12 @@ PARAMETERS: List[ParamSpec] = [
               'm', value_range=(1e-3, 1e4)),
     ParamSpec('target_size_deg', 1.0, 'Diameter of a target disc, degrees of visual angle',
               value_range=(0.1, 10.0)),
-    ParamSpec('screen_width', DEFAULT_VIEWING.width_px, 'Width of the screen RViz is shown '
-              "on, px (as the bridge's)", value_range=(1, 16384)),
-    ParamSpec('screen_height', DEFAULT_VIEWING.height_px, 'Height of that screen, px',
-              value_range=(1, 16384)),
-    ParamSpec('screen_width_mm', DEFAULT_VIEWING.width_mm, 'Visible width of that screen, mm '
-              '(for degrees)', value_range=(1.0, 10000.0)),
-    ParamSpec('screen_height_mm', DEFAULT_VIEWING.height_mm, 'Visible height of that screen, mm',
-              value_range=(1.0, 10000.0)),
-    ParamSpec('viewing_distance_mm', DEFAULT_VIEWING.distance_mm, 'Eye to screen centre, mm',
-              value_range=(10.0, 100000.0)),
-] + [
+    ParamSpec('projector_node', PROJECTOR_NODE,
+              'The marker_projector whose panel geometry (image size, screen offset, field of '
+              'view, projection, rviz_config) the targets are laid out in, read over its '
+              "parameter service at each validation; '' or not answering = this node's own "
+              'parameters of the same names'),
+] + list(person_screen_parameters()) + [
     replace(spec, description='RViz fixed frame: the targets are placed in it; camera/pose '
             'must be in it.') if spec.name == 'world_frame' else spec
     for spec in PROJECTOR_PARAMETERS if spec.name in _CAMERA_NAMES]
@@ -167,9 +170,7 @@ def _check_all(values: Dict[str, Any]) -> Optional[str]:
 
 def screen_geometry(values: Dict[str, Any]) -> ScreenGeometry:
     """Return the person's screen of the parameters."""
-    return ScreenGeometry(values['screen_width'], values['screen_height'],
-                          values['screen_width_mm'], values['screen_height_mm'],
-                          values['viewing_distance_mm'])
+    return person_screen(values)
 
 
 class GazeValidation(Node):
@@ -194,6 +195,10 @@ class GazeValidation(Node):
         self.create_subscription(Empty, VALIDATION_START_TOPIC, self._on_start, EVENT_QOS)
         self._bridge = AsyncParameterClient(self, self._params['bridge_node'])
         self._arbiter = self._arbiter_client()
+        self._projector = self._projector_client()
+        # The projector's panel geometry read at the last validation's start ({} = own).
+        self._geometry: Dict[str, Any] = {}
+        self._pose: Optional[tuple] = None          # the last camera/pose (eye, rotation)
         # The gaze received while a pass collects: lists of (stamps (N,), xy (N, 2)).
         self._gaze: Optional[List[tuple]] = None
         self._newest_stamp = -math.inf
@@ -219,6 +224,22 @@ class GazeValidation(Node):
             self._bridge = AsyncParameterClient(self, self._params['bridge_node'])
         if 'arbiter_node' in changed:
             self._arbiter = self._arbiter_client()
+        if 'projector_node' in changed:
+            self._projector = self._projector_client()
+
+    def _projector_client(self) -> Optional[AsyncParameterClient]:
+        """Return the parameter client of ``projector_node`` (None when it is '')."""
+        name = self._params['projector_node']
+        return AsyncParameterClient(self, name) if name else None
+
+    def _panel_values(self) -> Dict[str, Any]:
+        """Return the parameters with the projector's panel geometry over this node's own."""
+        return dict(self._params, **self._geometry)
+
+    def _make_camera(self):
+        """Return the camera of the panel geometry in force, at the last camera/pose."""
+        camera = camera_from_parameters(self._panel_values())
+        return camera.with_pose(*self._pose) if self._pose is not None else camera
 
     def _arbiter_client(self) -> Optional[AsyncParameterClient]:
         """Return the parameter client of ``arbiter_node`` (None when it is '')."""
@@ -251,8 +272,8 @@ class GazeValidation(Node):
                                       f"'{frame}': ignored", throttle_duration_sec=WARN_PERIOD_S)
             return
         try:
-            camera = camera_from_parameters(self._params)
-            self._camera = camera.with_pose(*pose_to_arrays(message.pose))
+            self._pose = pose_to_arrays(message.pose)
+            self._camera = self._make_camera()
             if self._target is not None:
                 self._publish_markers(self._target)   # keep the target where it is on screen
         except ValueError as error:
@@ -293,8 +314,12 @@ class GazeValidation(Node):
         if self._camera is None:
             self.get_logger().warning('no camera/pose: the targets are not shown in RViz, only '
                                       f'on {VALIDATION_TARGET_TOPIC}')
+        yield from self._read_panel()
+        params.update(self._geometry)
         current = yield from self._read_correction(params['bridge_timeout_s'])
-        camera = self._camera or camera_from_parameters(params)
+        camera = self._make_camera()
+        if self._pose is not None:
+            self._camera = camera
         offset = np.asarray(camera.screen_offset, dtype=float)
         targets = target_layout(params['targets'], *camera.image_size, params['margin']) + offset
 
@@ -381,6 +406,52 @@ class GazeValidation(Node):
         else:
             stamps, xy = np.zeros(0), np.zeros((0, 2))
         return samples_per_target(stamps, xy, self._onsets, self._ends, params['settle_s'])
+
+    def _read_panel(self) -> Iterator[None]:
+        """
+        Take the panel geometry from the projector (``projector_node``).
+
+        The targets are then where the projector puts the options: a screen offset set on the
+        projector
+        (``find_panel``'s panel.yaml, ``ros2 param set``) but not here would otherwise be
+        "corrected" into the gaze.  Keeps this node's own values when it cannot be read.
+        """
+        self._geometry = {}
+        name = self._params['projector_node']
+        if self._projector is None:
+            return
+        yield from self._wait(self._projector.services_are_ready, PROJECTOR_WAIT_S)
+        names = list(_CAMERA_NAMES)
+        problem = f'{name} does not answer (not running?)'
+        if self._projector.services_are_ready():
+            future = self._projector.get_parameters(names)
+            yield from self._wait(future.done, PROJECTOR_WAIT_S)
+            result = future.result() if future.done() else None
+            values = list(result.values) if result is not None else []
+            if len(values) == len(names):
+                geometry = {key: parameter_value_to_python(value)
+                            for key, value in zip(names, values)}
+                geometry = {key: list(value) if isinstance(value, (list, tuple)) else value
+                            for key, value in geometry.items()}
+                try:
+                    camera = camera_from_parameters(dict(self._params, **geometry))
+                except ValueError as error:
+                    problem = f'its geometry is unusable: {error}'
+                else:
+                    self._geometry = geometry
+                    width, height = camera.image_size
+                    x, y = camera.screen_offset
+                    self.get_logger().info(
+                        f'panel geometry from {name}: {width:g}x{height:g} px at screen '
+                        f'offset ({x:g}, {y:g}) px')
+                    return
+            else:
+                problem = f'{name} did not return its panel parameters'
+        values = self._params
+        self.get_logger().warning(
+            f"cannot read the panel geometry of {name}: {problem}; using this node's own "
+            f"({values['image_width']}x{values['image_height']} px at screen offset "
+            f"({values['screen_offset_x']:g}, {values['screen_offset_y']:g}) px)")
 
     def _read_correction(self, timeout_s: float) -> Iterator[None]:
         """Return the bridge's gaze_correction as (2, 6) (identity when it cannot be read)."""

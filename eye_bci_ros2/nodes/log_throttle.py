@@ -7,6 +7,7 @@ per call site), and :class:`KeyedWarnings` throttles per kind of problem, so
 one bad message stream cannot hide another's warning.
 """
 
+import re
 import time
 from typing import Callable, Dict
 
@@ -46,3 +47,66 @@ class KeyedWarnings:
         self._last[key] = now
         self._logger.warning(text)
         return True
+
+
+#: A run of the same INFO line (numbers aside) is summed up once per this many seconds.
+REPEAT_PERIOD_S = 30.0
+
+
+class QuietRepeats:
+    """
+    Log an INFO line, but not the same line again and again.
+
+    While the person does not choose, the arbiter and the menu go round and
+    round ("round 7 (request) ...", "no choice ...: asking again"): several
+    lines a second that bury everything else.  A line whose text differs from
+    the previous one only in its numbers is a repeat: the first is logged,
+    the repeats go to DEBUG, and once per ``period_s`` one line says how many
+    were held back.  A different line ends the run.
+
+    :param logger: an rclpy logger (``node.get_logger()``).
+    :param period_s: at most one summary line per run and period, s.
+    :param clock: monotonic clock, s (for tests).
+    """
+
+    def __init__(self, logger, period_s: float = REPEAT_PERIOD_S,
+                 clock: Callable[[], float] = time.monotonic):
+        """Start with no run."""
+        self._logger = logger
+        self.period_s = float(period_s)
+        self._clock = clock
+        self._shapes: Dict[str, int] = {}     # shape of a line in the run -> repeats held
+        self._since = 0.0
+
+    def info(self, text: str) -> bool:
+        """Log ``text`` at INFO unless it repeats a line of the current run; return whether."""
+        shape = _DIGITS.sub('#', text)
+        now = self._clock()
+        if shape not in self._shapes:
+            if len(self._shapes) >= RUN_SHAPES:
+                self._shapes = {}
+            self._shapes[shape] = 0
+            if len(self._shapes) == 1:
+                self._since = now
+            self._logger.info(text)
+            return True
+        self._shapes[shape] += 1
+        self._logger.debug(text)
+        if now - self._since >= self.period_s:
+            held = sum(self._shapes.values())
+            self._logger.info(f'(the last {len(self._shapes)} kind(s) of line repeated {held} '
+                              f'time(s) in {now - self._since:.0f} s; ros2 run ... --ros-args '
+                              '--log-level debug shows each)')
+            self._shapes = dict.fromkeys(self._shapes, 0)
+            self._since = now
+        return False
+
+    def reset(self) -> None:
+        """End the run (something happened: the next lines are news again)."""
+        self._shapes = {}
+
+
+#: Digits and decimal numbers, replaced to compare lines by their shape.
+_DIGITS = re.compile(r'-?\d+(\.\d+)?|nan|inf')
+#: A run is a cycle of at most this many kinds of line (round, no choice, asking again, ...).
+RUN_SHAPES = 6

@@ -289,6 +289,14 @@ class MarkerProjector(Node):
     def _on_parameters(self, changed: Dict[str, Any]) -> None:
         self._params.update(changed)
         self._camera = camera_from_parameters(self._params, self._camera.external)
+        # A person who set the panel wants to see it taken (and what it now is).
+        width, height = self._camera.image_size
+        x, y = self._camera.screen_offset
+        source = f" (from {self._params['rviz_config']})" if 'rviz_config' in changed and \
+            self._params['rviz_config'] else ''
+        self.get_logger().info(
+            f"{', '.join(sorted(changed))} set: render panel {width:g}x{height:g} px at screen "
+            f'offset ({x:g}, {y:g}) px{source}')
         if 'world_frame' in changed and self._camera_frame is not None and \
                 self._camera_frame != self._params['world_frame']:
             self.get_logger().warning(

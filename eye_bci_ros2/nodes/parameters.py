@@ -27,6 +27,7 @@ such values in the command line first (the executables' ``main`` use it).
 """
 
 from dataclasses import dataclass
+import difflib
 import math
 import sys
 from typing import Any, Callable, Dict, Iterable, List, Optional, Tuple
@@ -161,8 +162,18 @@ def declare_parameters(
     for spec in specs.values():
         default = spec.default
         if spec.array_type and not default:
-            # An empty list has no type of its own: declare by type (value not set).
+            # An empty list has no type of its own (rclpy would guess a byte array):
+            # declare by type, then give it an empty list of that type.  A parameter left
+            # "not set" makes every GetParameters request that names it return no values at
+            # all: `ros2 param dump` would print an empty node.
             default = _EMPTY_ARRAY_TYPES[spec.array_type]
+            node.declare_parameter(spec.name, default, spec.descriptor())
+            unset = Parameter(spec.name, Parameter.Type.NOT_SET)
+            if node.get_parameter_or(spec.name, unset).type_ == Parameter.Type.NOT_SET:
+                if spec.read_only:
+                    raise TypeError(f'{spec.name}: a read-only array needs a non-empty default')
+                node.set_parameters([Parameter(spec.name, default, [])])
+            continue
         node.declare_parameter(spec.name, default, spec.descriptor())
     values = {name: _value_of(node, name, spec) for name, spec in specs.items()}
     for name, spec in specs.items():
@@ -217,6 +228,11 @@ def _coerce_on_set(node: Node, specs: Dict[str, ParamSpec]) -> None:
         table = _COERCED[node] = {}
 
         def pre_set(parameters):
+            for parameter in parameters:
+                if not node.has_parameter(parameter.name):
+                    # rclpy refuses it ("not declared"); say which name was meant.
+                    node.get_logger().warning(
+                        unknown_name_text(parameter.name, node.list_parameters([], 0).names))
             return [coerce_parameter(table[p.name], p) if p.name in table else p
                     for p in parameters]
 
@@ -286,6 +302,60 @@ def _coerce_overrides(node: Node, specs: Dict[str, ParamSpec]) -> None:
             if reason:
                 raise ValueError(f'invalid parameter override: {reason}')
             overrides[name] = coerce_parameter(spec, overrides[name])
+
+
+#: Parameters that rclpy and ROS tools may give any node; never a user's typo.
+_ROS_PARAMETERS = ('use_sim_time', 'start_type_description_service')
+#: Prefix of the QoS override parameters (``qos_overrides./topic...``).
+_QOS_PREFIX = 'qos_overrides.'
+
+
+def unknown_name_text(name: str, known: Iterable[str]) -> str:
+    """
+    Say that ``name`` is no parameter, with the closest known name when there is one.
+
+    :param name: the name given (``-p``, a params file, ``ros2 param set``).
+    :param known: the parameter names that exist.
+    :returns: one line, e.g. ``unknown parameter 'image_widht' ignored: did you
+        mean 'image_width'?``.
+    """
+    close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
+    hint = f"did you mean '{close[0]}'?" if close else 'ros2 param list shows the names'
+    return f"unknown parameter '{name}' ignored: {hint}"
+
+
+def unknown_overrides(nodes: Iterable[Node]) -> Dict[str, str]:
+    """
+    Find start-up overrides (``-p``, ``--params-file``) that no node declared.
+
+    rclpy keeps an override of an undeclared name silently, so a typo such as
+    ``-p screen_ofset_x:=64`` would leave the node on its default.  Nodes that
+    share a process (``eye_bci``) share the command line: a name counts as
+    known when any of them declares it.
+
+    :param nodes: the nodes of one process, after their ``__init__``.
+    :returns: ``{unknown name: one line for the user}``.
+    """
+    nodes = list(nodes)
+    declared = set()
+    for node in nodes:
+        declared.update(node.list_parameters([], 0).names)
+    unknown: Dict[str, str] = {}
+    for node in nodes:
+        for name in getattr(node, '_parameter_overrides', {}) or {}:
+            if name in declared or name in _ROS_PARAMETERS or name.startswith(_QOS_PREFIX):
+                continue
+            unknown.setdefault(name, unknown_name_text(name, declared))
+    return unknown
+
+
+def warn_unknown_overrides(nodes: Iterable[Node]) -> List[str]:
+    """Log :func:`unknown_overrides` once each, on the first node's logger; return the lines."""
+    nodes = list(nodes)
+    lines = list(unknown_overrides(nodes).values())
+    for line in lines:
+        nodes[0].get_logger().warning(line)
+    return lines
 
 
 def quote_param_rules(args: Optional[List[str]] = None) -> List[str]:

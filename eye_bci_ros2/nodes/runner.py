@@ -23,16 +23,25 @@ hangs (rclpy's ``destroy_node`` has been seen spinning) ends after
 :data:`CLEANUP_LIMIT_S` with one line and status 1.  A normal stop exits 0.
 A node that does one job and ends (``gaze_validation``) sets its attribute
 ``exit_status`` (an int, None while it runs): the loop stops and the process
-exits with it.
+exits with it.  A window that must draw in the main thread
+(``ssvep_stimulus``) passes a ``foreground`` loop: the executor then spins in
+a second thread.
+
+Mistakes on the command line are one line each: an unknown option (``eye_bci
+--with-menus``) or a ROS argument before ``--ros-args`` (``-p x:=1``) refuse
+to start; a parameter name that no node declares (``-p screen_ofset_x:=64``,
+a params-file key ``image_widht``) is warned with the closest known name.
 """
 
+import difflib
 import importlib
 import os
+import re
 import signal
 import sys
 import threading
 import time
-from typing import Callable, List, Optional, Sequence
+from typing import Callable, List, Optional, Sequence, Tuple
 
 import rclpy
 from rclpy.context import Context
@@ -44,7 +53,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
-from eye_bci_ros2.nodes.parameters import quote_param_rules
+from eye_bci_ros2.nodes.parameters import quote_param_rules, warn_unknown_overrides
 
 #: rcl's error type (a bad params file, a malformed --ros-args rule).
 RCLError = _rclpy.RCLError
@@ -59,6 +68,13 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 STOP_POLL_S = 0.1
 #: Longest the clean-up after a stop may take before the process gives up, s.
 CLEANUP_LIMIT_S = 5.0
+#: ROS arguments that only work after ``--ros-args`` (rcl ignores them before it).
+ROS_ONLY_ARGS = ('-p', '--param', '--params-file', '-r', '--remap', '--log-level', '-e',
+                 '--enclave')
+
+
+class StartError(RuntimeError):
+    """A node cannot start for a reason the user can fix (no display, no consent, ...)."""
 
 
 def executor_kind() -> str:
@@ -145,51 +161,122 @@ def _first_line(error: BaseException) -> str:
     return text[0] if text else type(error).__name__
 
 
-def help_text(modules: Sequence[str], usage: str) -> str:
+def plain_text(text: str) -> str:
+    """Strip reST markup (````code````, ``:class:`x```) from a docstring for a terminal."""
+    text = re.sub(r':[a-z]+:`~?([^`]+)`', lambda m: m.group(1).split('.')[-1], text)
+    return text.replace('``', '')
+
+
+def summary(module_doc: str) -> str:
+    """Return the first paragraph of a module's docstring, plain (:func:`plain_text`)."""
+    paragraph = (module_doc or '').strip().split('\n\n')[0]
+    return plain_text(' '.join(line.strip() for line in paragraph.splitlines()))
+
+
+def help_text(modules: Sequence[str], usage: str, options: Sequence[str] = ()) -> str:
     """
-    Say what an executable does: its nodes' docs and their main parameters.
+    Say what an executable does, in plain text: its nodes' summaries and parameters.
+
+    One node: its docstring (plain) and one line per parameter.  Several nodes
+    (``eye_bci``): one line per node and where to find each one's parameters.
 
     :param modules: names of the node modules (their docstring and ``PARAMETERS``).
     :param usage: the first line, e.g. ``ros2 run eye_bci_ros2 choice_arbiter``.
+    :param options: the executable's own options, ``(option, what it does)``
+        pairs (``--help`` is always there).
     """
     parts = [f'usage: {usage} [--ros-args -p NAME:=VALUE ... --params-file FILE]', '']
-    for module in map(importlib.import_module, modules):
-        parts.append((module.__doc__ or '').strip())
-        specs = getattr(module, 'PARAMETERS', ())
-        if specs:
-            parts += ['', 'parameters (ros2 param describe for ranges):']
+    loaded = [importlib.import_module(name) for name in modules]
+    if len(loaded) > 1:
+        parts.append(summary(loaded[0].__doc__ or ''))
+        parts += ['', 'nodes (ros2 run eye_bci_ros2 NODE --help: its parameters):']
+        for module in loaded[1:]:
+            name = module.__name__.rsplit('.', 1)[-1]
+            # Their docstrings start "Node NAME: ..." or "NAME: ...": said once here.
+            text = re.sub(rf'^(Node )?`*{name}`*: ', '', summary(module.__doc__))
+            parts.append(f'  {name}: {text}')
+    else:
+        parts.append(plain_text((loaded[0].__doc__ or '').strip()))
+        specs = [spec for table in ('PARAMETERS', 'FEEDBACK_PARAMETERS')
+                 for spec in getattr(loaded[0], table, ())]
+        if not specs:
+            parts += ['', 'parameters: ros2 param describe on the running node, or '
+                      'docs/parameters.md']
+        else:
+            parts += ['', 'parameters (ros2 param describe NODE NAME for ranges; '
+                      'docs/parameters.md):']
             for spec in specs:
-                parts.append(f'  {spec.name} (default {spec.default!r}): '
-                             f'{spec.description.splitlines()[0]}')
-        elif module.__name__ != __name__:
-            parts += ['', 'parameters: the README tables, or ros2 param describe on the node']
-        parts.append('')
-    parts.append(f'executor: {EXECUTOR_ENV}=events (default) or single.  Ctrl-C or SIGTERM '
-                 'stop it cleanly.')
+                line = plain_text(spec.description.splitlines()[0])
+                parts.append(f'  {spec.name} = {spec.default!r}: {_shorten(line)}')
+    parts += ['', 'options:', '  -h, --help: this text']
+    parts += [f'  {option}: {text}' for option, text in options]
+    parts += ['', f'Ctrl-C or SIGTERM stop it cleanly.  {EXECUTOR_ENV}=single selects the '
+              'Python executor.']
     return '\n'.join(parts)
 
 
+def _shorten(text: str, limit: int = 100) -> str:
+    return text if len(text) <= limit else text[:limit - 3].rstrip() + '...'
+
+
+def command_line_problem(argv: Sequence[str], options: Sequence[str] = ()) -> Optional[str]:
+    """
+    Return why a command line cannot be right (one line), or None.
+
+    :param argv: the whole command line (program first).
+    :param options: the executable's own options besides ``-h``/``--help``.
+    """
+    for arg in non_ros_args(list(argv))[1:]:
+        if arg in ('-h', '--help') or arg in options:
+            continue
+        if arg in ROS_ONLY_ARGS or ':=' in arg:
+            return (f"'{arg}' is a ROS argument and must follow --ros-args, e.g. "
+                    '--ros-args -p NAME:=VALUE (without it ROS ignores it)')
+        close = difflib.get_close_matches(arg, list(options) + ['--help', '--ros-args'], n=1)
+        hint = f': did you mean {close[0]}?' if close else ' (--help lists the options)'
+        return f"unknown option '{arg}'{hint}"
+    return None
+
+
 def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] = None,
-               help_modules: Sequence[str] = (), usage: str = '') -> None:
+               help_modules: Sequence[str] = (), usage: str = '',
+               options: Sequence[Tuple[str, str]] = (),
+               foreground: Optional[Callable[[List[Node], threading.Event], None]] = None,
+               ) -> None:
     """
     Run nodes on one executor until Ctrl-C, SIGTERM or shutdown, then clean up; exit.
 
     ``-h`` / ``--help`` (before ``--ros-args``) prints :func:`help_text` and
     exits 0.  A node that refuses to start (a bad parameter override, a
-    missing or malformed params file, a malformed ``--ros-args`` rule) exits
-    with status 1 and a one-line reason, not a traceback.
+    missing or malformed params file, a malformed ``--ros-args`` rule, an
+    unknown option, a :class:`StartError`) exits with status 1 and a one-line
+    reason, not a traceback.
 
     :param make_nodes: builds the nodes (after ``rclpy.init``).
     :param args: command-line arguments (``--ros-args ...``), default sys.argv.
     :param help_modules: names of the node modules that ``--help`` describes.
     :param usage: the command, for ``--help`` (default: ``ros2 run eye_bci_ros2``
         and the program's name).
+    :param options: the executable's own options, ``(option, what it does)``;
+        the caller reads them from the command line, any other is refused.
+    :param foreground: a loop to run in the main thread (a window) while the
+        executor spins in a second one; called with the nodes and the stop
+        event, it returns when the event is set or it is done.
     """
     argv = list(sys.argv if args is None else args)
+    program = os.path.splitext(os.path.basename(argv[0]))[0] if argv else 'NODE'
     if {'-h', '--help'} & set(non_ros_args(argv)[1:]):
-        program = os.path.splitext(os.path.basename(argv[0]))[0] if argv else 'NODE'
-        print(help_text(help_modules, usage or f'ros2 run eye_bci_ros2 {program}'))
+        try:
+            print(help_text(help_modules, usage or f'ros2 run eye_bci_ros2 {program}', options))
+            sys.stdout.flush()
+        except BrokenPipeError:     # `--help | head`: the reader has what it wanted
+            os._exit(0)
         sys.exit(0)
+    problem = command_line_problem(argv, [option for option, _ in options])
+    if problem:
+        print(f'cannot start: {problem}', file=sys.stderr)
+        sys.exit(1)
+    argv = [arg for arg in argv if arg not in [option for option, _ in options]]
     stop = threading.Event()
     _stop_on_signals(stop)
     try:
@@ -203,25 +290,17 @@ def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] =
     try:
         executor = make_executor()
         nodes = make_nodes()
+        warn_unknown_overrides(nodes)
         for node in nodes:
             executor.add_node(node)
-        # rclpy.ok() takes a lock: asked every STOP_POLL_S, not once per event.
-        checked = time.monotonic()
-        while not stop.is_set():
-            executor.spin_once(timeout_sec=STOP_POLL_S)
-            if time.monotonic() - checked >= STOP_POLL_S:
-                checked = time.monotonic()
-                if not rclpy.ok():
-                    break
-                finished = [node.exit_status for node in nodes
-                            if getattr(node, 'exit_status', None) is not None]
-                if finished:
-                    status = max(finished)
-                    break
+        if foreground is None:
+            status = _spin(executor, nodes, stop)
+        else:
+            status = _spin_behind(executor, nodes, stop, foreground)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except (ValueError, InvalidParameterValueException, InvalidParameterTypeException,
-            RCLError) as error:
+            RCLError, StartError) as error:
         print(f'cannot start: {_first_line(error)}', file=sys.stderr)
         status = 1
     finally:
@@ -238,6 +317,51 @@ def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] =
     sys.exit(status)
 
 
+def _spin(executor: Executor, nodes: List[Node], stop: threading.Event) -> int:
+    """Spin until ``stop``, shutdown or a node's ``exit_status``; return the exit status."""
+    # rclpy.ok() takes a lock: asked every STOP_POLL_S, not once per event.
+    checked = time.monotonic()
+    while not stop.is_set():
+        executor.spin_once(timeout_sec=STOP_POLL_S)
+        if time.monotonic() - checked >= STOP_POLL_S:
+            checked = time.monotonic()
+            if not rclpy.ok():
+                break
+            finished = [node.exit_status for node in nodes
+                        if getattr(node, 'exit_status', None) is not None]
+            if finished:
+                return max(finished)
+    return 0
+
+
+def _spin_behind(executor: Executor, nodes: List[Node], stop: threading.Event,
+                 foreground: Callable[[List[Node], threading.Event], None]) -> int:
+    """Spin in a second thread while ``foreground`` runs in this one; return the status."""
+    result: List[int] = []
+    errors: List[BaseException] = []
+
+    def spin():
+        try:
+            result.append(_spin(executor, nodes, stop))
+        except ExternalShutdownException:
+            pass
+        except BaseException as error:  # noqa: B902 - handed to the main thread
+            errors.append(error)
+        finally:
+            stop.set()
+
+    thread = threading.Thread(target=spin, name='executor', daemon=True)
+    thread.start()
+    try:
+        foreground(nodes, stop)
+    finally:
+        stop.set()
+        thread.join(CLEANUP_LIMIT_S)
+    if errors:
+        raise errors[0]
+    return result[0] if result else 0
+
+
 def _give_up() -> None:
     """End a clean-up that hangs (a node stuck in rclpy's destroy): one line, status 1."""
     print(f'clean-up did not finish within {CLEANUP_LIMIT_S:g} s: exiting', file=sys.stderr,
@@ -246,6 +370,6 @@ def _give_up() -> None:
 
 
 def spin_node(make_node: Callable[[], Node], args: Optional[List[str]] = None,
-              help_modules: Sequence[str] = (), usage: str = '') -> None:
-    """Run one node as :func:`spin_nodes` does."""
-    spin_nodes(lambda: [make_node()], args, help_modules, usage)
+              help_modules: Sequence[str] = (), usage: str = '', **kwargs) -> None:
+    """Run one node as :func:`spin_nodes` does (same keyword arguments)."""
+    spin_nodes(lambda: [make_node()], args, help_modules, usage, **kwargs)

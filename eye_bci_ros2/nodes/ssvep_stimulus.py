@@ -14,8 +14,14 @@ a second thread and hands the latest regions and stimuli over under a lock.
 Dropped frames (a flip later than 1.5 refresh periods after the previous)
 are logged with their count; only a real monitor with vsync shows whether
 flips land on retraces.
+
+Photosensitivity: flicker at these frequencies can trigger seizures in
+people with photosensitive epilepsy.  The node draws nothing unless started
+with ``-p accept_flicker:=true`` (after the person and the experimenter have
+read :data:`PHOTOSENSITIVITY_WARNING`), and logs the warning at every start.
 """
 
+import os
 import threading
 from typing import Any, Dict, Optional
 
@@ -26,12 +32,23 @@ from visualization_msgs.msg import MarkerArray
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.nodes.runner import spin_node, StartError
 from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
 from eye_bci_ros2.nodes.topics import LATCHED_QOS, REGIONS_TOPIC, SSVEP_STIMULI_TOPIC
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
 
 
+#: Said before any flicker, and when the opt-in is missing.
+PHOTOSENSITIVITY_WARNING = (
+    'ssvep_stimulus flickers screen regions at several Hz, which can trigger seizures in '
+    'people with photosensitive epilepsy; use it only with their informed consent and '
+    'stop it (Ctrl-C, or close the window) at any discomfort')
+#: The parameter that opts in to the flicker.
+ACCEPT_FLICKER = 'accept_flicker'
+
 PARAMETERS = (
+    ParamSpec(ACCEPT_FLICKER, False, 'Opt in to the flicker after reading the photosensitivity '
+              'warning (--help); false = refuse to start', read_only=True),
     ParamSpec('refresh_hz', 60.0, "the display's refresh rate, Hz (frame k = epoch + k / "
               'refresh)', value_range=(1.0, 1000.0), read_only=True),
     ParamSpec('width', 0, 'window width, px (0 = fullscreen)', value_range=(0, 16384),
@@ -55,12 +72,23 @@ class SsvepStimulus(Node):
         """Declare parameters, open the window (this thread), subscribe the topics."""
         super().__init__('ssvep_stimulus', **kwargs)
         self._params = declare_parameters(self, PARAMETERS, lambda changed: None)
-        from eye_bci_ros2.nodes.stimulus_window import StimulusWindow
+        if not self._params[ACCEPT_FLICKER]:
+            raise StartError(f'{PHOTOSENSITIVITY_WARNING}. To start it: --ros-args -p '
+                             f'{ACCEPT_FLICKER}:=true')
+        self.get_logger().warning(PHOTOSENSITIVITY_WARNING)
         fullscreen = not (self._params['width'] and self._params['height'])
-        self.window = StimulusWindow(
-            self._params['width'] or 1, self._params['height'] or 1,
-            self._params['refresh_hz'], (self._params['origin_x'], self._params['origin_y']),
-            self._params['gamma'], self._params['vsync'], visible, fullscreen)
+        try:
+            # Imported here: pyglet opens the display on import of its window module.
+            from eye_bci_ros2.nodes.stimulus_window import StimulusWindow
+            self.window = StimulusWindow(
+                self._params['width'] or 1, self._params['height'] or 1,
+                self._params['refresh_hz'],
+                (self._params['origin_x'], self._params['origin_y']),
+                self._params['gamma'], self._params['vsync'], visible, fullscreen)
+        except Exception as error:  # noqa: B902 - pyglet's display errors have no common base
+            raise StartError(f'no display to draw the stimuli on (DISPLAY='
+                             f"{os.environ.get('DISPLAY', 'unset')}): "
+                             f'{type(error).__name__}: {error}') from None
         self._lock = threading.Lock()
         self._pending: Dict[str, Any] = {}
         self._warnings = KeyedWarnings(self.get_logger())
@@ -118,32 +146,21 @@ class SsvepStimulus(Node):
 
     def destroy_node(self):
         """Close the window, then destroy the node."""
-        self.window.close()
+        if getattr(self, 'window', None) is not None:
+            self.window.close()
         return super().destroy_node()
 
 
+def _render_until(nodes, stop: threading.Event) -> None:
+    """Draw frames in the main thread (pyglet's) until ``stop`` or the window closes."""
+    node = nodes[0]
+    while not stop.is_set() and not node.window.window.has_exit:
+        node.render()
+
+
 def main(args=None):
-    """Spin the node in a thread and render in this one until Ctrl-C or the window closes."""
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = SsvepStimulus()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        thread = threading.Thread(target=executor.spin, daemon=True)
-        thread.start()
-        while rclpy.ok() and not node.window.window.has_exit:
-            node.render()
-    except KeyboardInterrupt:
-        pass
-    except ValueError as error:
-        print(f'cannot start: {error}')
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    """Spin the node behind the window, which draws in this thread, until Ctrl-C or closed."""
+    spin_node(SsvepStimulus, args, help_modules=[__name__], foreground=_render_until)
 
 
 if __name__ == '__main__':

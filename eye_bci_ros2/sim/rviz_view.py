@@ -99,6 +99,12 @@ class SimRvizView(Node):
         self._timer.cancel()
         self.create_subscription(PoseStamped, CAMERA_GOAL_TOPIC, self._on_goal, LATCHED_QOS)
         self._publish(self._view)
+        eye, focus, _ = self._view
+        self.get_logger().info(
+            'simulated RViz view: rviz/current_camera_pose from eye '
+            f'{[round(float(v), 3) for v in eye]} looking at '
+            f"{[round(float(v), 3) for v in focus]} in '{self._world_frame}'; moves to each "
+            f'camera/goal in {self._transition_time_s:g} s')
 
     def current_view(self) -> ViewTuple:
         """

@@ -23,6 +23,7 @@ from geometry_msgs.msg import PointStamped
 import pylsl
 import rclpy
 from rclpy.context import Context
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 
 from eye_bci_ros2.nodes.conversions import SCREEN_FRAME, stamp_to_ns
@@ -47,7 +48,20 @@ class TargetFollower(Node):
         self.streamer = streamer
         #: Targets taken (for tests and the status line).
         self.targets = 0
-        self.create_subscription(PointStamped, topic, self._on_target, LATCHED_QOS)
+        self._topic = topic
+        # Latched, as gaze_validation publishes it (the current target at once); a publisher
+        # that is not (a plain `ros2 topic pub`) never connects: say how to make it.
+        self.create_subscription(
+            PointStamped, topic, self._on_target, LATCHED_QOS,
+            event_callbacks=SubscriptionEventCallbacks(incompatible_qos=self._on_incompatible))
+
+    def _on_incompatible(self, _event) -> None:
+        self.get_logger().warning(
+            f'a publisher of {self._topic} is not latched (durability volatile), so its '
+            'targets never arrive here: publish with transient_local durability, e.g. ros2 '
+            f'topic pub --qos-durability transient_local --qos-reliability reliable '
+            f"{self._topic} geometry_msgs/msg/PointStamped '{{point: {{x: 960, y: 540}}}}'",
+            throttle_duration_sec=WARN_PERIOD_S)
 
     def _on_target(self, message: PointStamped) -> None:
         if message.header.frame_id not in ('', SCREEN_FRAME):

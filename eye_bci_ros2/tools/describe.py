@@ -2,7 +2,7 @@
 Describe every node's parameters from the nodes themselves.
 
 Creates each node on a private context, reads what it declared (value,
-description, range) and prints either the README's parameter tables
+description, range) and prints either the parameter tables of docs/parameters.md
 (``--markdown``) or the defaults file ``config/eye_bci.yaml`` (``--yaml``), so
 neither can drift from the code.  ``test/system/test_describe.py`` checks both.
 
@@ -120,7 +120,7 @@ def to_yaml(described: Dict[str, List[ParamInfo]]) -> str:
         lines += [f'/{node_name}:', '  ros__parameters:']
         for info in infos:
             if info.default is None:
-                # rcl's YAML parser cannot type an empty array: leave it unset.
+                # Not set (no default): leave it out of the file.
                 lines.append(f'    # {info.name}: []  (empty: {info.description})')
             else:
                 lines.append(f'    {info.name}: {_format(info.default)}')
@@ -146,7 +146,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0].strip())
     group = parser.add_mutually_exclusive_group(required=True)
     group.add_argument('--yaml', action='store_true', help='print config/eye_bci.yaml')
-    group.add_argument('--markdown', action='store_true', help='print the README tables')
+    group.add_argument('--markdown', action='store_true', help='print docs/parameters.md tables')
     args = parser.parse_args(argv)
     # The nodes log their start-up; keep stdout for the document.
     os.environ.setdefault('RCUTILS_LOGGING_USE_STDOUT', '0')

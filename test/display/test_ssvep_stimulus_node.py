@@ -17,6 +17,7 @@ pytestmark = pytest.mark.ros
 def test_the_node_flickers_the_offered_regions(graph, xvfb):
     from eye_bci_ros2.nodes.ssvep_stimulus import SsvepStimulus
     node = graph.add(SsvepStimulus, visible=False, parameter_overrides=[
+        Parameter('accept_flicker', value=True),
         Parameter('width', value=800), Parameter('height', value=600),
         Parameter('vsync', value=False)])
     driver = graph.node('task')

@@ -48,7 +48,7 @@ class Rig:
         values: Dict[str, Any] = {
             'screen_width_mm': float(screen.width_mm), 'screen_height_mm': float(screen.height_mm),
             'viewing_distance_mm': float(screen.distance_mm), 'camera_wait_s': 5.0,
-            'target_s': 1.2, 'settle_s': 0.5}
+            'target_s': 1.2, 'settle_s': 0.5, 'projector_node': ''}
         values.update(params)
         return graph.add(GazeValidation, parameter_overrides=[
             Parameter(name, value=value) for name, value in values.items()])

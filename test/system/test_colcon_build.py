@@ -9,26 +9,17 @@ lib/eye_bci_ros2/<exe>, an executable file) in the environment of
 """
 
 import json
-import os
 from pathlib import Path
 import runpy
-import shutil
-import subprocess
 import sys
 
+from colcon_workspace import build_workspace, PACKAGE, sourced
 from paths import REPO
 import pytest
-
-PACKAGE = 'eye_bci_ros2'
-
-#: What an ament_python package needs to build; the rest (tests, bench, docs) is not installed.
-PACKAGE_FILES = ['setup.py', 'setup.cfg', 'package.xml', 'resource', 'config', 'launch',
-                 PACKAGE]
 
 #: The executable the test starts; `--help` must work without a ROS graph.
 STARTED_EXECUTABLE = 'calibrate'
 
-BUILD_TIMEOUT_S = 600
 RUN_TIMEOUT_S = 120
 
 # Runs in the sourced workspace: what `ros2 run` resolves (ros2run.api.get_executable_paths).
@@ -69,41 +60,10 @@ def console_scripts() -> list:
     return list(registry['console_scripts']())
 
 
-def sourced(workspace: Path, command: list, **kwargs) -> subprocess.CompletedProcess:
-    """Run ``command`` after `. install/setup.sh`, as a user of the workspace would."""
-    env = {key: value for key, value in os.environ.items()
-           if key not in ('AMENT_PREFIX_PATH', 'PYTHONPATH', 'COLCON_PREFIX_PATH')}
-    return subprocess.run(
-        ['sh', '-c', '. "$0/install/setup.sh" && exec "$@"', str(workspace), *command],
-        cwd=workspace, env=env, capture_output=True, text=True, **kwargs)
-
-
 @pytest.fixture(scope='module')
 def workspace(tmp_path_factory):
     """Build a copy of the package with the venv's colcon; yield the workspace."""
-    workspace = tmp_path_factory.mktemp('ws')
-    source = workspace / 'src' / PACKAGE
-    source.mkdir(parents=True)
-    ignore = shutil.ignore_patterns('__pycache__', '*.pyc', '*.egg-info')
-    for name in PACKAGE_FILES:
-        if (REPO / name).is_dir():
-            shutil.copytree(REPO / name, source / name, ignore=ignore)
-        else:
-            shutil.copy2(REPO / name, source / name)
-
-    colcon = Path(sys.prefix) / 'bin' / 'colcon'
-    assert colcon.is_file(), f'colcon is not installed in the venv {sys.prefix}'
-    # Keep colcon's log and user defaults out of the repository and home directory.
-    env = dict(os.environ, COLCON_HOME=str(workspace / 'colcon_home'),
-               PYTHONDONTWRITEBYTECODE='1')
-    build = subprocess.run(
-        [str(colcon), '--log-base', str(workspace / 'log'), 'build',
-         '--base-paths', 'src', '--build-base', 'build', '--install-base', 'install',
-         '--event-handlers', 'console_direct+'],
-        cwd=workspace, env=env, capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
-    assert build.returncode == 0, \
-        f'colcon build failed ({build.returncode}):\n{build.stdout}\n{build.stderr}'
-    yield workspace
+    yield build_workspace(tmp_path_factory.mktemp('ws'))
 
 
 @pytest.fixture(scope='module')
@@ -162,3 +122,10 @@ def test_every_console_script_target_imports(workspace, installed):
     failures = json.loads(result.stdout.strip().splitlines()[-1])
     assert not failures, 'console scripts that cannot start:\n' + '\n'.join(
         f'{name}: {reason}' for name, reason in sorted(failures.items()))
+
+
+@pytest.mark.slow
+def test_the_build_writes_a_setup_bash(workspace):
+    # A ROS 2 user sources install/setup.bash (colcon-bash); setup.sh is for other shells.
+    for name in ('setup.bash', 'setup.sh'):
+        assert (workspace / 'install' / name).is_file(), name

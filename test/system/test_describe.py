@@ -1,4 +1,4 @@
-"""The defaults file and the README's parameter tables match what the nodes declare."""
+"""The defaults file and docs/parameters.md's tables match what the nodes declare."""
 
 import os
 
@@ -12,6 +12,8 @@ from eye_bci_ros2.tools import describe
 
 REPO = str(paths.REPO)
 CONFIG = os.path.join(REPO, 'config', 'eye_bci.yaml')
+#: Where the generated parameter tables are (the README links to it).
+PARAMETER_TABLES = os.path.join(REPO, 'docs', 'parameters.md')
 
 
 @pytest.fixture(scope='module')
@@ -28,12 +30,12 @@ def test_config_file_is_the_declared_defaults(described):
 
 
 @pytest.mark.ros
-def test_readme_tables_are_the_declared_parameters(described):
-    with open(os.path.join(REPO, 'README.md')) as stream:
-        readme = stream.read()
+def test_parameter_tables_are_the_declared_parameters(described):
+    with open(PARAMETER_TABLES) as stream:
+        document = stream.read()
     for block in describe.to_markdown(described).split('\n\n'):
-        assert block.strip() in readme, \
-            f'README parameter table is stale:\n{block}\n' \
+        assert block.strip() in document, \
+            f'docs/parameters.md parameter table is stale:\n{block}\n' \
             '(python -m eye_bci_ros2.tools.describe --markdown)'
 
 

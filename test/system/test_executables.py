@@ -45,6 +45,19 @@ def test_help_says_what_it_subscribes_publishes_and_its_parameters(module):
     assert 'parameters' in out and 'publish' in out
 
 
+@pytest.mark.parametrize('module, args, reason', [
+    ('eye_bci', ['--with-menus'], "unknown option '--with-menus': did you mean --with-menu?"),
+    ('marker_projector', ['-p', 'screen_offset_x:=64'], "'-p' is a ROS argument and must "
+     'follow --ros-args'),
+])
+def test_a_mistyped_command_line_is_refused_in_one_line(module, args, reason):
+    status, out, err = run(module, *args)
+    assert status == 1 and err.strip().splitlines()[-1] == f'cannot start: {reason}' + (
+        '' if module == 'eye_bci' else ', e.g. --ros-args -p NAME:=VALUE (without it ROS '
+        'ignores it)'), err
+    assert 'Traceback' not in err
+
+
 @pytest.mark.parametrize('args, reason', [
     (['-p', 'method:=median'], 'median'),
     (['-p', 'window_s:=abc'], 'window_s'),
@@ -122,3 +135,23 @@ def test_the_bridge_names_the_streams_it_sees_when_none_matches():
     assert 'looking for an LSL gaze stream' in text
     assert f"type '{info.type()}'" in text and 'select with' in text, text[-3000:]
     del outlet
+
+
+def test_ssvep_stimulus_needs_the_opt_in_and_a_display_and_says_so_in_one_line():
+    status, out, err = run('ssvep_stimulus', '--help')
+    assert status == 0 and 'photosensitive epilepsy' in out and 'accept_flicker' in out, out
+    # No flicker without the explicit opt-in: the warning, and how to opt in.
+    status, out, err = run('ssvep_stimulus')
+    last = err.strip().splitlines()[-1]
+    assert status == 1 and 'photosensitive epilepsy' in last and \
+        last.endswith('--ros-args -p accept_flicker:=true'), err
+    # Opted in, but no display: one line, no traceback.
+    env_display = os.environ.pop('DISPLAY', None)
+    try:
+        status, out, err = run('ssvep_stimulus', '--ros-args', '-p', 'accept_flicker:=true')
+    finally:
+        if env_display is not None:
+            os.environ['DISPLAY'] = env_display
+    assert status == 1 and err.strip().splitlines()[-1].startswith(
+        'cannot start: no display to draw the stimuli on'), err
+    assert 'Traceback' not in err

@@ -1,13 +1,14 @@
 """
 The launch files name only what the package installs, without running ``launch``.
 
-``launch`` is not on PyPI, so ``ros2 launch`` cannot run here.  The files are
-read with ``ast`` instead: every ``Node(package='eye_bci_ros2',
-executable=...)`` must be a console script of setup.py, every file reached
-through ``FindPackageShare('eye_bci_ros2')`` must be installed by setup.py's
+``launch`` is not on PyPI (test/system/test_ros2_cli.py runs ``ros2
+launch`` when the real command line is at hand).  The files are read with
+``ast``: every ``Node(package='eye_bci_ros2', executable=...)`` must be a
+console script of setup.py, every file reached through
+``FindPackageShare('eye_bci_ros2')`` must be installed by setup.py's
 ``data_files`` (evaluated by running setup.py with ``setuptools.setup``
 captured), every ``LaunchConfiguration`` must be declared in its file, and
-the files may import only launch, launch_ros and ament_index_python.
+the files may import only launch, launch_ros, ament_index_python and os.
 """
 
 import ast
@@ -22,7 +23,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = 'eye_bci_ros2'
 LAUNCH_FILES = sorted((REPO / 'launch').glob('*.launch.py'))
-ALLOWED_IMPORTS = ('launch', 'launch_ros', 'ament_index_python')
+ALLOWED_IMPORTS = ('launch', 'launch_ros', 'ament_index_python', 'os')
 #: Executables of other packages a launch file may start: package -> executables.
 EXTERNAL_EXECUTABLES = {'rviz2': {'rviz2'}}
 #: Files another part of issue 12 adds (item 4, config/eye_bci.rviz): checked once they exist.

@@ -1,0 +1,85 @@
+"""
+A colcon workspace with a copy of the package, built as a ROS 2 user builds it.
+
+Used by the system tests that need what ``colcon build`` installs (``ros2
+run``, ``ros2 launch``, the ament index).  The real ``ros2`` command line
+(ros2cli, launch, launch_ros) is not on PyPI: :func:`ros2_command` installs it
+from ``../shared/tools/ros2cli/install.sh`` into ``build/`` when that script
+is there, and returns None otherwise (the tests then skip with the reason).
+"""
+
+import os
+from pathlib import Path
+import shutil
+import subprocess
+import sys
+from typing import Dict, Optional
+
+from paths import REPO, shared_dir
+
+PACKAGE = 'eye_bci_ros2'
+#: What an ament_python package needs to build; the rest (tests, bench, docs) is not installed.
+PACKAGE_FILES = ['setup.py', 'setup.cfg', 'package.xml', 'resource', 'config', 'launch',
+                 PACKAGE]
+BUILD_TIMEOUT_S = 600
+#: Where the ros2 command line is installed (build/ is the colcon build folder, ignored by git).
+ROS2CLI_DIR = REPO / 'build' / 'ros2cli'
+
+
+def build_workspace(workspace: Path) -> Path:
+    """Copy the package into ``workspace/src`` and build it with the venv's colcon."""
+    source = workspace / 'src' / PACKAGE
+    source.mkdir(parents=True)
+    ignore = shutil.ignore_patterns('__pycache__', '*.pyc', '*.egg-info')
+    for name in PACKAGE_FILES:
+        if (REPO / name).is_dir():
+            shutil.copytree(REPO / name, source / name, ignore=ignore)
+        else:
+            shutil.copy2(REPO / name, source / name)
+    colcon = Path(sys.prefix) / 'bin' / 'colcon'
+    assert colcon.is_file(), f'colcon is not installed in the venv {sys.prefix}'
+    # Keep colcon's log and user defaults out of the repository and home directory.
+    env = dict(os.environ, COLCON_HOME=str(workspace / 'colcon_home'),
+               PYTHONDONTWRITEBYTECODE='1')
+    build = subprocess.run(
+        [str(colcon), '--log-base', str(workspace / 'log'), 'build',
+         '--base-paths', 'src', '--build-base', 'build', '--install-base', 'install',
+         '--event-handlers', 'console_direct+'],
+        cwd=workspace, env=env, capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
+    assert build.returncode == 0, \
+        f'colcon build failed ({build.returncode}):\n{build.stdout}\n{build.stderr}'
+    return workspace
+
+
+def clean_environment() -> Dict[str, str]:
+    """Return this process's environment without a sourced ROS workspace."""
+    return {key: value for key, value in os.environ.items()
+            if key not in ('AMENT_PREFIX_PATH', 'PYTHONPATH', 'COLCON_PREFIX_PATH')}
+
+
+def sourced(workspace: Path, command: list, **kwargs) -> subprocess.CompletedProcess:
+    """Run ``command`` after `. install/setup.sh`, as a user of the workspace would."""
+    return subprocess.run(
+        ['sh', '-c', '. "$0/install/setup.sh" && exec "$@"', str(workspace), *command],
+        cwd=workspace, env=clean_environment(), capture_output=True, text=True, **kwargs)
+
+
+def sourced_environment(workspace: Path) -> Dict[str, str]:
+    """Return the environment after `. install/setup.sh` (for Popen)."""
+    result = subprocess.run(
+        ['sh', '-c', '. "$0/install/setup.sh" && env -0', str(workspace)],
+        env=clean_environment(), capture_output=True, text=True, check=True, timeout=60)
+    pairs = (entry.split('=', 1) for entry in result.stdout.split('\0') if '=' in entry)
+    return dict(pairs)
+
+
+def ros2_command() -> Optional[Path]:
+    """Install the real ros2 command line if its installer is at hand; return ``ros2``."""
+    shared = shared_dir()
+    installer = shared / 'tools' / 'ros2cli' / 'install.sh' if shared else None
+    if installer is None or not installer.is_file():
+        return None
+    result = subprocess.run(['bash', str(installer), sys.executable, str(ROS2CLI_DIR)],
+                            capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
+    assert result.returncode == 0, f'{installer} failed:\n{result.stdout}\n{result.stderr}'
+    return Path(result.stdout.strip().splitlines()[-1])

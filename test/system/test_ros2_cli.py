@@ -1,0 +1,365 @@
+"""
+What a ROS 2 user types, with the real ``ros2`` command line, on a colcon-built workspace.
+
+``ros2 run`` of every executable (``--help``), ``ros2 param set/get/dump``
+and the dump given back with ``--params-file``, a mistyped parameter name,
+``ros2 topic echo /choice`` while a simulated tracker looks at an option,
+and ``ros2 launch`` of both launch files stopped by Ctrl-C (once, twice,
+during start-up): exit status, no traceback, no process left behind.
+
+The command line (ros2cli, launch, launch_ros; not on PyPI) is installed
+from ``../shared/tools/ros2cli/install.sh`` into ``build/ros2cli``; without
+that script these tests skip.  Ctrl-C is a SIGINT to the launch's whole
+process group, as a terminal sends it.  The slowest are marked ``slow``;
+the whole module takes about 2 minutes on 2 cores.
+"""
+
+import importlib
+import os
+from pathlib import Path
+import re
+import signal
+import subprocess
+import time
+from typing import List, Optional
+
+from colcon_workspace import build_workspace, PACKAGE, ros2_command, sourced_environment
+from domain_coordinator import domain_id
+from lsl_outlets import bridge_parameters, make_outlet, sample_for
+import pytest
+import yaml
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+#: Longest wait for a process to start, answer or stop, s.
+WAIT_S = 60.0
+#: Without the daemon, a ros2 command discovers the graph itself: give it time (a user's
+#: daemon has been listening all along).
+DISCOVERY = ('--spin-time', '2', '--timeout', '10')
+#: The lines that must never reach a user.
+TRACEBACK = re.compile(r'Traceback \(most recent call last\)|KeyboardInterrupt')
+
+
+@pytest.fixture(scope='module')
+def ros2():
+    """Return the path of the real ``ros2`` wrapper (skip when it cannot be installed)."""
+    command = ros2_command()
+    if command is None:
+        pytest.skip('the real ros2 command line is not at hand (../shared/tools/ros2cli/'
+                    'install.sh beside the clone, or $EYE_BCI_SHARED)')
+    return command
+
+
+@pytest.fixture(scope='module')
+def env(tmp_path_factory, ros2):
+    """Return the environment of a sourced colcon workspace holding the package."""
+    workspace = build_workspace(tmp_path_factory.mktemp('ws'))
+    environment = sourced_environment(workspace)
+    environment.update(PYTHONUNBUFFERED='1', RCUTILS_COLORIZED_OUTPUT='0',
+                       ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    # ros2 param/topic start a daemon by default: keep none running after the tests.
+    environment.pop('ROS_DOMAIN_ID', None)
+    return environment
+
+
+class Process:
+    """A command started as a user starts it, in its own process group, output collected."""
+
+    def __init__(self, command: List[str], env: dict, domain: int, log: Path):
+        self.log = log
+        self._file = open(log, 'w')
+        self.process = subprocess.Popen(
+            command, env=dict(env, ROS_DOMAIN_ID=str(domain)), stdout=self._file,
+            stderr=subprocess.STDOUT, text=True, start_new_session=True,
+            # A shell's background job ignores SIGINT; a terminal's foreground job does not.
+            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+
+    def output(self) -> str:
+        """Return everything the process printed so far."""
+        return self.log.read_text()
+
+    def wait_for(self, pattern: str, timeout: float = WAIT_S, count: int = 1) -> bool:
+        """Wait until ``pattern`` (regex) appeared ``count`` times; False if it ended first."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if len(re.findall(pattern, self.output())) >= count:
+                return True
+            if self.process.poll() is not None:
+                return len(re.findall(pattern, self.output())) >= count
+            time.sleep(0.1)
+        return False
+
+    def interrupt(self, times: int = 1, gap_s: float = 0.3) -> None:
+        """Press Ctrl-C ``times``: SIGINT to the whole process group."""
+        for _ in range(times):
+            try:
+                os.killpg(self.process.pid, signal.SIGINT)
+            except ProcessLookupError:
+                return
+            time.sleep(gap_s)
+
+    def finish(self, timeout: float = WAIT_S) -> int:
+        """Wait for the end; return the exit status (kill the group if it hangs)."""
+        try:
+            return self.process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(self.process.pid, signal.SIGKILL)
+            self.process.wait()
+            raise AssertionError(f'did not end within {timeout:g} s:\n{self.output()[-3000:]}')
+        finally:
+            self._file.close()
+
+
+def run(command: List[str], env: dict, domain: int, timeout: float = WAIT_S):
+    """Run a short command; return (status, output)."""
+    result = subprocess.run(command, env=dict(env, ROS_DOMAIN_ID=str(domain)),
+                            capture_output=True, text=True, timeout=timeout)
+    return result.returncode, result.stdout + result.stderr
+
+
+def alive(pids: List[int]) -> List[int]:
+    """Return the pids of ``pids`` that still run (not zombies)."""
+    running = []
+    for pid in pids:
+        try:
+            state = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()[0]
+        except (FileNotFoundError, IndexError):
+            continue
+        if state != 'Z':
+            running.append(pid)
+    return running
+
+
+def started_pids(output: str) -> List[int]:
+    """Return the pids ``ros2 launch`` reports as started."""
+    return [int(pid) for pid in re.findall(r'process started with pid \[(\d+)\]', output)]
+
+
+def executables() -> List[str]:
+    """Return the console scripts of setup.py (what ``ros2 run`` offers)."""
+    from test_colcon_build import console_scripts
+    return sorted(entry.split('=', 1)[0].strip() for entry in console_scripts())
+
+
+def test_ros2_run_every_executable_help(ros2, env, tmp_path):
+    with domain_id() as domain:
+        processes = {name: Process([str(ros2), 'run', PACKAGE, name, '--help'], env, domain,
+                                   tmp_path / f'{name}.log') for name in executables()}
+        for name, process in processes.items():
+            status = process.finish()
+            output = process.output()
+            assert status == 0, f'{name} --help: status {status}\n{output[-2000:]}'
+            assert 'usage' in output.lower() and not TRACEBACK.search(output), \
+                f'{name} --help:\n{output[-2000:]}'
+            assert len(output.splitlines()) < 120, f'{name} --help is not short'
+
+
+def test_param_set_get_dump_and_the_dump_as_params_file(ros2, env, tmp_path):
+    with domain_id() as domain:
+        node = Process([str(ros2), 'run', PACKAGE, 'marker_projector', '--ros-args', '-p',
+                        'screen_ofset_x:=64'], env, domain, tmp_path / 'projector.log')
+        try:
+            assert node.wait_for('waiting for camera/pose'), node.output()
+            # The typo is named, with the name that was meant.
+            assert re.search(r"unknown parameter 'screen_ofset_x'.*'screen_offset_x'",
+                             node.output()), node.output()
+            daemonless = ['--no-daemon', *DISCOVERY]
+            status, out = run([str(ros2), 'param', 'set', *daemonless, '/marker_projector',
+                               'screen_offset_x', '64.5'], env, domain)
+            assert status == 0 and 'Set parameter successful' in out, out
+            status, out = run([str(ros2), 'param', 'get', *daemonless, '/marker_projector',
+                               'screen_offset_x'], env, domain)
+            assert status == 0 and '64.5' in out, out
+            status, out = run([str(ros2), 'param', 'set', *daemonless, '/marker_projector',
+                               'image_widht', '1920'], env, domain)
+            assert 'Setting parameter failed' in out, out
+            assert node.wait_for(r"unknown parameter 'image_widht'.*'image_width'"), \
+                node.output()
+            status, dumped = run([str(ros2), 'param', 'dump', *daemonless,
+                                  '/marker_projector'], env, domain)
+            assert status == 0, dumped
+        finally:
+            node.interrupt()
+            assert node.finish() == 0, node.output()
+        values = yaml.safe_load(dumped)['/marker_projector']['ros__parameters']
+        assert values['screen_offset_x'] == 64.5
+        assert values['intrinsic_matrix'] == []    # declared and set: the dump is complete
+        saved = tmp_path / 'projector.yaml'
+        saved.write_text(dumped)
+        again = Process([str(ros2), 'run', PACKAGE, 'marker_projector', '--ros-args',
+                         '--params-file', str(saved)], env, domain, tmp_path / 'again.log')
+        try:
+            assert again.wait_for('waiting for camera/pose'), again.output()
+            assert 'screen_offset=[64.5, 180.0]' in again.output(), again.output()
+            status, out = run([str(ros2), 'param', 'dump', '--no-daemon', *DISCOVERY,
+                              '/marker_projector'],
+                              env, domain)
+            assert yaml.safe_load(out) == yaml.safe_load(dumped)
+        finally:
+            again.interrupt()
+            assert again.finish() == 0, again.output()
+        assert not TRACEBACK.search(node.output() + again.output())
+
+
+#: The nodes whose dumps are checked, and their modules (their PARAMETERS tables).
+MODULES = {name: f'eye_bci_ros2.nodes.{name}' for name in (
+    'lsl_gaze_bridge', 'camera_tracker', 'marker_projector', 'choice_arbiter', 'choice_menu',
+    'gaze_validation')}
+
+
+def test_every_node_of_eye_bci_and_gaze_validation_dumps_what_it_declares(ros2, env, tmp_path):
+    nodes = list(MODULES)
+    with domain_id() as domain:
+        pipeline = Process([str(ros2), 'run', PACKAGE, 'eye_bci', '--with-menu'], env, domain,
+                           tmp_path / 'eye_bci.log')
+        validation = Process([str(ros2), 'run', PACKAGE, 'gaze_validation', '--ros-args', '-p',
+                              'on_request:=true'], env, domain, tmp_path / 'validation.log')
+        dumps = {}
+        try:
+            assert validation.wait_for('waiting for validation/start'), validation.output()
+            assert pipeline.wait_for('waiting for camera/pose'), pipeline.output()
+            for name in nodes:
+                status, out = run([str(ros2), 'param', 'dump', '--no-daemon', *DISCOVERY,
+                                   f'/{name}'], env, domain)
+                assert status == 0, out
+                dumps[name] = yaml.safe_load(out)[f'/{name}']['ros__parameters']
+                declared = {spec.name for spec in getattr(importlib.import_module(
+                    MODULES[name]), 'PARAMETERS', ())}
+                assert set(dumps[name]) - {'use_sim_time', 'start_type_description_service'}
+                assert declared <= set(dumps[name]), f'{name}: {declared - set(dumps[name])}'
+        finally:
+            for process in (pipeline, validation):
+                process.interrupt()
+            for process in (pipeline, validation):
+                assert process.finish() == 0, process.output()[-3000:]
+
+
+def test_topic_echo_choice_while_the_tracker_looks_at_an_option(ros2, env, tmp_path):
+    import rclpy
+    from rclpy.context import Context
+    from test_whole_graph import aim, menu, ROOMS
+    from std_msgs.msg import Empty
+    from visualization_msgs.msg import MarkerArray
+
+    from eye_bci_ros2.nodes.topics import CHOICES_TOPIC, EVENT_QOS, LATCHED_QOS, REQUEST_TOPIC
+
+    outlet, info = make_outlet('xy_pixels', rate=100.0)
+    rules = [f'{name}:={value}' for name, value in bridge_parameters('xy_pixels', info).items()]
+    with domain_id() as domain:
+        pipeline = Process([str(ros2), 'run', PACKAGE, 'eye_bci', '--ros-args',
+                            *[arg for rule in rules for arg in ('-p', rule)],
+                            # The original rule: the test is about the command line, not the
+                            # rule, and gaze that rests on an option before a round never makes
+                            # the fixation rule choose (not a reaction).
+                            '-p', 'window_s:=0.5', '-p', 'method:=mean'], env, domain,
+                           tmp_path / 'eye_bci.log')
+        echo = Process([str(ros2), 'topic', 'echo', '--no-daemon', '--once', '/choice',
+                        'std_msgs/msg/String'], env, domain, tmp_path / 'echo.log')
+        context = Context()
+        rclpy.init(context=context, domain_id=domain)
+        try:
+            node = rclpy.create_node('task', context=context)
+            node.create_publisher(MarkerArray, CHOICES_TOPIC, LATCHED_QOS).publish(menu())
+            request = node.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
+            assert pipeline.wait_for('connected to LSL stream'), pipeline.output()
+            end = time.monotonic() + WAIT_S
+            pushed = 0
+            while echo.process.poll() is None and time.monotonic() < end:
+                outlet.push_sample(sample_for('xy_pixels', aim(ROOMS['bathroom'])).tolist())
+                pushed += 1
+                if pushed % 100 == 0:       # a round that opens while the gaze is there
+                    request.publish(Empty())
+                time.sleep(0.01)
+            assert echo.finish() == 0, echo.output()
+            assert 'data: bathroom' in echo.output(), echo.output() + pipeline.output()[-3000:]
+        finally:
+            pipeline.interrupt()
+            status = pipeline.finish()
+            node.destroy_node()
+            context.try_shutdown()
+        assert status == 0 and not TRACEBACK.search(pipeline.output()), pipeline.output()
+
+
+def launch(ros2, env, domain, tmp_path, *arguments, name='launch') -> Process:
+    """Start ``ros2 launch eye_bci_ros2 ARGUMENTS``."""
+    return Process([str(ros2), 'launch', PACKAGE, *arguments], env, domain,
+                   tmp_path / f'{name}.log')
+
+
+def assert_clean_stop(process: Process, status: int, expected_nodes: Optional[int]) -> None:
+    """Status 0, no traceback, every started node gone."""
+    output = process.output()
+    assert status == 0, f'status {status}\n{output[-3000:]}'
+    assert not TRACEBACK.search(output), output[-3000:]
+    pids = started_pids(output)
+    if expected_nodes is not None:
+        assert len(pids) == expected_nodes, output[-3000:]
+    assert not alive(pids), f'left running: {alive(pids)}\n{output[-3000:]}'
+
+
+@pytest.mark.parametrize('file, nodes', [('pipeline.launch.py', 4),
+                                         ('experiment.launch.py', 5)])
+def test_launch_then_ctrl_c_once_stops_every_node(ros2, env, tmp_path, file, nodes):
+    arguments = [file] + (['rviz:=false'] if file.startswith('experiment') else [])
+    with domain_id() as domain:
+        process = launch(ros2, env, domain, tmp_path, *arguments)
+        assert process.wait_for('waiting for camera/pose'), process.output()
+        process.interrupt()
+        assert_clean_stop(process, process.finish(), nodes)
+
+
+def importing_rclpy(pids: List[int]) -> bool:
+    """Tell whether every process has our package's imports under way (rclpy loaded)."""
+    for pid in pids:
+        try:
+            if 'rclpy' not in Path(f'/proc/{pid}/maps').read_text():
+                return False
+        except FileNotFoundError:
+            return False
+    return True
+
+
+def test_launch_ctrl_c_twice_and_during_start_up(ros2, env, tmp_path):
+    with domain_id() as domain:
+        twice = launch(ros2, env, domain, tmp_path, 'experiment.launch.py', 'rviz:=false',
+                       name='twice')
+        assert twice.wait_for('waiting for camera/pose'), twice.output()
+        twice.interrupt(times=2)
+        assert_clean_stop(twice, twice.finish(), 5)
+        # While the nodes still import (rclpy is loaded, no node exists yet).  Earlier, in
+        # Python's own start-up, only Python itself could keep quiet.
+        early = launch(ros2, env, domain, tmp_path, 'pipeline.launch.py', name='early')
+        assert early.wait_for('process started', count=4), early.output()
+        end = time.monotonic() + WAIT_S
+        while not importing_rclpy(started_pids(early.output())) and time.monotonic() < end:
+            time.sleep(0.01)
+        early.interrupt()
+        assert_clean_stop(early, early.finish(), 4)
+
+
+def test_launch_refuses_a_missing_params_file_and_rviz2_before_starting_anything(
+        ros2, env, tmp_path):
+    with domain_id() as domain:
+        missing = launch(ros2, env, domain, tmp_path, 'pipeline.launch.py',
+                         'params_file:=/no/such/params.yaml', name='missing')
+        assert missing.finish() == 1
+        assert "params_file '/no/such/params.yaml' does not exist" in missing.output()
+        assert not started_pids(missing.output())
+        rviz = launch(ros2, env, domain, tmp_path, 'experiment.launch.py', name='rviz')
+        status = rviz.finish()
+        if 'rviz2' in env.get('AMENT_PREFIX_PATH', ''):
+            pytest.skip('rviz2 is installed here')
+        assert status == 1 and 'rviz2 is not installed' in rviz.output(), rviz.output()
+        assert not started_pids(rviz.output())
+
+
+def test_launch_ends_every_node_when_one_dies_at_start_up(ros2, env, tmp_path):
+    with domain_id() as domain:
+        process = launch(ros2, env, domain, tmp_path, 'experiment.launch.py', 'rviz:=false',
+                         'profile:=tobi')
+        status = process.finish()
+        output = process.output()
+        assert "profile: 'tobi' is not one of" in output
+        assert 'lsl_gaze_bridge ended' in output or 'was required' in output, output[-3000:]
+        assert not alive(started_pids(output)), output[-3000:]
+        assert status == 0 and not TRACEBACK.search(output), output[-3000:]
