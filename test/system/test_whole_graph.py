@@ -28,6 +28,7 @@ from eye_bci_ros2.nodes.conversions import arrays_to_pose
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import DEFAULT_SCREEN_OFFSET, MarkerProjector
 from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
+from eye_bci_ros2.rounds import ArbiterSettings
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 
@@ -36,10 +37,13 @@ ROOMS = {'kitchen': (7.0, 6.0, 0.0), 'bedroom': (10.0, 6.0, 0.0), 'bathroom': (1
 CUBE_SCALE = (1.5, 1.5, 0.05)
 #: The projector's default render panel, px.
 PANEL = (1280, 720)
-WINDOW_S = 0.5
+WINDOW_S = 1.0
+#: The gaze rests off every marker this long after a question before it moves to the option, s.
+LOOK_AWAY_S = 0.25
 GAZE_RATE_HZ = 100.0
 WAIT_S = 10.0
-
+#: Where the gaze rests off every marker: the screen's bottom-left corner, px.
+AWAY_PX = (30.0, 1050.0)
 
 def aim(position):
     """Screen px where a world point (map, m) appears in the default static view."""
@@ -102,11 +106,18 @@ class Pipeline:
         assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, WAIT_S)
 
     def look_until_chosen(self, screen_xy):
-        """Stream gaze around ``screen_xy`` (px) over LSL until a new choice arrives."""
+        """
+        Look away for 0.3 s, then at ``screen_xy`` (px), over LSL until a new choice arrives.
+
+        As a person does when asked: the gaze moves to the option after the question
+        (the default rule weighs a reaction, not a gaze resting there before).
+        """
         before = len(self.chosen.messages)
-        end = time.monotonic() + WAIT_S
+        start = time.monotonic()
+        end = start + WAIT_S
         while len(self.chosen.messages) == before and time.monotonic() < end:
-            point = self.rng.normal(screen_xy, 4.0)
+            looking = time.monotonic() - start > LOOK_AWAY_S
+            point = self.rng.normal(screen_xy if looking else AWAY_PX, 4.0)
             self.outlet.push_sample(sample_for('xy_pixels', point).tolist())
             self.graph.spin_for(1.0 / GAZE_RATE_HZ)
         assert len(self.chosen.messages) > before, 'no choice from the gaze'
@@ -120,9 +131,10 @@ def test_gaze_on_a_marker_chooses_it_and_another_marker_another(graph):
     pipeline.look_until_chosen(aim(ROOMS['bathroom']))
     assert pipeline.labels == ['bathroom']
     decision = pipeline.arbiter.last_decision
-    assert decision.method == 'mean'
-    assert decision.counts['bathroom'] == decision.in_region_samples > 0.5 * WINDOW_S * \
-        GAZE_RATE_HZ
+    assert decision.method == 'early'     # the default rule: a settled fixation decides
+    # The deciding fixation lasted dwell_s: that many samples of the tracker at least.
+    assert decision.counts['bathroom'] == decision.in_region_samples >= 0.8 * \
+        ArbiterSettings().dwell_s * GAZE_RATE_HZ
 
     pipeline.request()
     pipeline.look_until_chosen(aim(ROOMS['kitchen']))
