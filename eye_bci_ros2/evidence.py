@@ -257,7 +257,7 @@ def posterior_from_counts(counts, hit_rate: float = DEFAULT_HIT_RATE) -> np.ndar
     return unnormalised / unnormalised.sum(axis=-1, keepdims=True)
 
 
-def _counts_summary(counts: np.ndarray, hit_rate: float) -> Tuple[int, float, np.ndarray]:
+def counts_summary(counts: np.ndarray, hit_rate: float) -> Tuple[int, float, np.ndarray]:
     """Leader index, margin and posterior of per-label counts (L,), L >= 1."""
     total = counts.sum()
     posterior = posterior_from_counts(counts, hit_rate)
@@ -266,81 +266,6 @@ def _counts_summary(counts: np.ndarray, hit_rate: float) -> Tuple[int, float, np
     runner_up = ordered[1] if len(ordered) > 1 else 0
     margin = float((ordered[0] - runner_up) / total) if total else 0.0
     return leader, margin, posterior
-
-
-def _label_counts(region_set: RegionSet, region: np.ndarray) -> Tuple[list, np.ndarray]:
-    """Distinct labels of a set and the count of region indices per label."""
-    distinct = sorted(region_set.label_set)
-    index = {label: i for i, label in enumerate(distinct)}
-    to_label = np.array([index[label] for label in region_set.labels] + [-1], dtype=np.intp)
-    ids = to_label[region]
-    counts = np.bincount(ids[ids >= 0], minlength=len(distinct))
-    return distinct, counts
-
-
-def decide_mean(points, region_set: RegionSet,
-                hit_rate: float = DEFAULT_HIT_RATE) -> Decision:
-    """
-    Apply the original rule to one batch of samples and static regions.
-
-    Drop the samples outside every region, average the rest, and choose the
-    region that contains the mean.
-
-    :param points: shape (N, 2), screen px.
-    :param region_set: the regions shown.
-    :param hit_rate: only for the reported posterior.
-    :returns: the decision; ``label`` is None when no sample is in a region or
-        the mean is in none.
-    """
-    points = points_array(points)
-    region = region_set.classify(points)
-    inside = region >= 0
-    used, in_region = len(points), int(inside.sum())
-    if not in_region:
-        return Decision(None, 'mean', used, 0, 0.0, math.nan, reason='no sample in any region')
-    distinct, counts = _label_counts(region_set, region)
-    _, margin, posterior = _counts_summary(counts, hit_rate)
-    mean = points[inside].mean(axis=0)
-    chosen = region_set.classify_one(mean[0], mean[1])
-    counts_map = dict(zip(distinct, counts.tolist()))
-    mean_point = (float(mean[0]), float(mean[1]))
-    if chosen < 0:
-        leader = int(np.argmax(counts))
-        return Decision(None, 'mean', used, in_region, margin, float(posterior[leader]),
-                        counts=counts_map, mean_point=mean_point,
-                        reason=f'mean ({mean[0]:.1f}, {mean[1]:.1f}) px is in no region')
-    label = region_set.labels[chosen]
-    return Decision(label, 'mean', used, in_region, margin,
-                    float(posterior[distinct.index(label)]), counts=counts_map,
-                    mean_point=mean_point)
-
-
-def decide_vote(points, region_set: RegionSet,
-                hit_rate: float = DEFAULT_HIT_RATE) -> Decision:
-    """
-    Choose the majority of the in-region samples, on one batch and static regions.
-
-    :param points: shape (N, 2), screen px.
-    :param region_set: the regions shown.
-    :param hit_rate: only for the reported posterior.
-    :returns: the decision; ``label`` is None without in-region samples or on
-        a tie between the two leading labels.
-    """
-    points = points_array(points)
-    region = region_set.classify(points)
-    used, in_region = len(points), int((region >= 0).sum())
-    if not in_region:
-        return Decision(None, 'vote', used, 0, 0.0, math.nan, reason='no sample in any region')
-    distinct, counts = _label_counts(region_set, region)
-    leader, margin, posterior = _counts_summary(counts, hit_rate)
-    mean = points[region >= 0].mean(axis=0)
-    details = {'counts': dict(zip(distinct, counts.tolist())),
-               'mean_point': (float(mean[0]), float(mean[1]))}
-    if margin == 0.0:
-        return Decision(None, 'vote', used, in_region, 0.0, float(posterior[leader]),
-                        reason='tie between the leading regions', **details)
-    return Decision(distinct[leader], 'vote', used, in_region, margin, float(posterior[leader]),
-                    **details)
 
 
 class RoundEvidence:
@@ -780,7 +705,7 @@ class RoundEvidence:
             raise ValueError(f"unknown method '{method}': use one of {', '.join(METHODS)}")
         if not self.in_region:
             return self._decision(None, method, 'no sample in any region')
-        leader, margin, _ = _counts_summary(self._counts, self.hit_rate)
+        leader, margin, _ = counts_summary(self._counts, self.hit_rate)
         if method == 'vote':
             if margin == 0.0:
                 return self._decision(None, method, 'tie between the leading regions')
@@ -805,7 +730,7 @@ class RoundEvidence:
         """Build a Decision from the current state (early: margin, posterior of fresh counts)."""
         weighed = self._fresh_counts if method == 'early' else self._counts
         if self.in_region:
-            leader, margin, posterior = _counts_summary(weighed, self.hit_rate)
+            leader, margin, posterior = counts_summary(weighed, self.hit_rate)
             chosen = self._label_index[label] if label is not None else leader
             probability = float(posterior[chosen])
             mean = self.mean_point()

@@ -43,10 +43,35 @@ _EMPTY_REGIONS = RegionSet([], np.zeros((0, 3, 2)))
 
 _DEFAULT_MODEL = GazeErrorModel()
 
-#: The decision rules (``method``): the fixation rule (:mod:`eye_bci_ros2.fixation`, the
-#: default) and the sample-count rules of :mod:`eye_bci_ros2.evidence` ('mean' is the
-#: original report's).  :meth:`ArbiterSettings.evidence` makes each rule's evidence.
-METHODS = ('fixation',) + COUNT_METHODS
+
+def _fixation_evidence(settings: 'ArbiterSettings', start: float) -> FixationEvidence:
+    """Make the fixation rule's evidence of a round (:mod:`eye_bci_ros2.fixation`)."""
+    return FixationEvidence(start, settings.screen, settings.sigma_gaze_deg,
+                            dwell_s=settings.dwell_s, min_samples=settings.min_samples,
+                            min_reaction_s=settings.min_reaction_s,
+                            confidence=settings.confidence, classifier=settings.regions)
+
+
+def _count_evidence(settings: 'ArbiterSettings', start: float) -> RoundEvidence:
+    """Make the count rules' evidence of a round (:mod:`eye_bci_ros2.evidence`; mean, vote)."""
+    return RoundEvidence(start, hit_rate=settings.hit_rate, min_samples=settings.min_samples,
+                         dwell_s=settings.dwell_s, min_reaction_s=settings.min_reaction_s,
+                         min_share=settings.min_share, classifier=settings.regions,
+                         screen_px=(settings.screen_width, settings.screen_height))
+
+
+#: The decision rules, the one place they are registered: ``method`` -> the evidence a round
+#: of it keeps (:meth:`ArbiterSettings.evidence`).  Each evidence takes samples in time order
+#: (``add``, with the early decision), decides at the window end (``decide``), reports
+#: progress for the feedback (``progress``) and takes new timing settings (``configure``).
+#: The fixation rule is the default; 'mean' is the original report's.
+RULE_EVIDENCE: Dict[str, Callable[['ArbiterSettings', float], object]] = {
+    'fixation': _fixation_evidence,
+    **{method: _count_evidence for method in COUNT_METHODS},
+}
+
+#: The names of the decision rules (the ``method`` parameter's choices).
+METHODS = tuple(RULE_EVIDENCE)
 
 #: The settings that make the original rule (docs/DESIGN.md, "Decision"): samples count
 #: only inside an option, no share test; with ``method`` 'mean' (and no early decision)
@@ -289,15 +314,7 @@ class ArbiterSettings:
         weigh with the whole rule (every region set given to them classified by
         :meth:`regions`, once per set; the count rules' share test).
         """
-        if self.method == 'fixation':
-            return FixationEvidence(start, self.screen, self.sigma_gaze_deg,
-                                    dwell_s=self.dwell_s, min_samples=self.min_samples,
-                                    min_reaction_s=self.min_reaction_s,
-                                    confidence=self.confidence, classifier=self.regions)
-        return RoundEvidence(start, hit_rate=self.hit_rate, min_samples=self.min_samples,
-                             dwell_s=self.dwell_s, min_reaction_s=self.min_reaction_s,
-                             min_share=self.min_share, classifier=self.regions,
-                             screen_px=(self.screen_width, self.screen_height))
+        return RULE_EVIDENCE[self.method](self, start)
 
     def replace(self, **changed) -> 'ArbiterSettings':
         """Return a copy with ``changed`` fields (unknown names are ignored)."""

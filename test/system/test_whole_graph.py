@@ -45,6 +45,7 @@ WAIT_S = 10.0
 #: Where the gaze rests off every marker: the screen's bottom-left corner, px.
 AWAY_PX = (30.0, 1050.0)
 
+
 def aim(position):
     """Screen px where a world point (map, m) appears in the default static view."""
     external = look_at(DEFAULT_EYE, DEFAULT_FOCUS, DEFAULT_UP)

@@ -3,10 +3,11 @@
 from dataclasses import replace
 import math
 
+from batch_rules import decide_mean, decide_vote
 import numpy as np
 import pytest
 
-from eye_bci_ros2.evidence import decide_mean, decide_vote, posterior_from_counts, RoundEvidence
+from eye_bci_ros2.evidence import posterior_from_counts, RoundEvidence
 from eye_bci_ros2.regions import RegionSet
 
 RATE_HZ = 100.0

@@ -20,11 +20,12 @@ decisive point is more than 1e-6 px from every region edge.
 
 import math
 
+from batch_rules import decide_mean, decide_vote
 from hypothesis import assume, given, HealthCheck, settings, strategies as st
 import numpy as np
 
 from eye_bci_ros2.camera_model import rviz_intrinsic, RvizCamera
-from eye_bci_ros2.evidence import decide_mean, decide_vote, RoundEvidence
+from eye_bci_ros2.evidence import RoundEvidence
 from eye_bci_ros2.geometry import (back_project, box_silhouettes, cube_corners_batch, look_at,
                                    MIN_DEPTH, polygon_signed_area, project_points)
 from eye_bci_ros2.regions import RegionSet

@@ -2,11 +2,12 @@
 
 import math
 
+from batch_rules import decide_mean
 import numpy as np
 import pytest
 
 from bench import decision, tolerance
-from eye_bci_ros2.evidence import decide_mean, EARLY_SHARE_S, RoundEvidence
+from eye_bci_ros2.evidence import EARLY_SHARE_S, RoundEvidence
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE, ORIGINAL_RULE, RoundScheduler
 from eye_bci_ros2.sim.person import ORIGINAL_TOBII_4C
