@@ -39,15 +39,21 @@ something else).  A fixation decides once it has lasted ``dwell_s`` (sample
 time from its first to its last sample) and holds ``min_samples`` samples:
 long enough for the corrective saccade that follows most transient landings.
 
-Fresh fixations only.  A fixation that began before ``start +
-min_reaction_s`` (a gaze resting there when the question came) or before the
-options last moved + ``min_reaction_s``, and a later one within
-:data:`REST_RADIUS_DEG` of such a resting place before the gaze has left it
-(a fixation farther away), are not a reaction to the question, and never
-choose, early or at the window end: a gaze resting near an option (looking at
-something else) measures inside it as often as the tracker's error reaches
-across its edge, so a choice needs the eye to move to the option.  The round
-ends without a choice, with that reason, and the menu asks again.
+Fresh fixations only.  A fixation is a reaction to the options when it began
+at least ``min_reaction_s`` after they appeared on the screen where they are
+(the round's start, or, for a question about options already shown unmoved,
+since when they have been: ``shown_since``) and after they last moved.  One
+that began earlier (a gaze resting there when they appeared), and a later one
+within :data:`REST_RADIUS_DEG` of such a resting place before the gaze has
+left it (a fixation farther away), is not, and never chooses, early or at the
+window end: a gaze resting near an option (looking at something else)
+measures inside it as often as the tracker's error reaches across its edge,
+so a choice needs the eye to move to the option.  The round ends without a
+choice, with that reason, and the menu asks again.  A question asked about
+options that have been on the screen for a while (the menu asks when the
+camera has arrived; it asks again after a round without a choice) takes a
+fixation on one as a reaction to them: a person looks at what they want
+before they are asked.
 
 Still fixations only.  An eye following a moving thing (smooth pursuit) drags
 a dispersion window along; a fixation decides only while the means of the
@@ -178,6 +184,9 @@ class FixationEvidence:
     :param min_samples: ... and holds this many samples (>= 1).
     :param min_reaction_s: fixations starting earlier after the start (or
         after the options moved) are not fresh, s (>= 0).
+    :param shown_since: since when the options shown at the start have been on
+        the screen unmoved, s (None: ``start``): a question asked about options
+        long shown takes a fixation on one as a reaction to them (module doc).
     :param confidence: posterior a choice needs, in (0.5, 1).
     :param classifier: maps a region set to the one whose outlines count
         (module doc: only the outline test of a resting fixation uses it);
@@ -186,12 +195,15 @@ class FixationEvidence:
 
     def __init__(self, start: float, screen: ScreenGeometry, sigma_gaze_deg: float,
                  dwell_s: float, min_samples: int = 1, min_reaction_s: float = 0.1,
+                 shown_since: Optional[float] = None,
                  confidence: float = 0.95,
                  classifier: Optional[Callable[[RegionSet], RegionSet]] = None):
         """Start an empty round."""
         if not sigma_gaze_deg > 0:
             raise ValueError(f'the gaze error must be > 0 deg, got {sigma_gaze_deg}')
         self.start = float(start)
+        self.shown_since = self.start if shown_since is None else min(float(shown_since),
+                                                                       self.start)
         self.screen = screen
         self.sigma_gaze_deg = float(sigma_gaze_deg)
         self.dwell_s = float(dwell_s)
@@ -235,7 +247,7 @@ class FixationEvidence:
     @property
     def fresh_from(self) -> float:
         """Fixations starting before this stamp are not fresh (module doc), s."""
-        return max(self.start, self._moved_at) + self.min_reaction_s
+        return max(self.shown_since, self._moved_at) + self.min_reaction_s
 
     @property
     def elapsed(self) -> float:

@@ -17,7 +17,7 @@ import numpy as np
 
 from eye_bci_ros2.evidence import (check_hit_rate, check_min_reaction, check_min_share,
                                    Decision, DEFAULT_HIT_RATE, DEFAULT_MIN_REACTION_S,
-                                   METHODS as COUNT_METHODS, RoundEvidence)
+                                   METHODS as COUNT_METHODS, options_moved, RoundEvidence)
 from eye_bci_ros2.fixation import FixationEvidence
 from eye_bci_ros2.regions import points_array, RegionSet
 from eye_bci_ros2.tolerance import (CLASSIFICATIONS, DEFAULT_RATIO, GazeErrorModel,
@@ -44,15 +44,18 @@ _EMPTY_REGIONS = RegionSet([], np.zeros((0, 3, 2)))
 _DEFAULT_MODEL = GazeErrorModel()
 
 
-def _fixation_evidence(settings: 'ArbiterSettings', start: float) -> FixationEvidence:
+def _fixation_evidence(settings: 'ArbiterSettings', start: float,
+                       shown_since: Optional[float]) -> FixationEvidence:
     """Make the fixation rule's evidence of a round (:mod:`eye_bci_ros2.fixation`)."""
     return FixationEvidence(start, settings.screen, settings.sigma_gaze_deg,
+                            shown_since=shown_since,
                             dwell_s=settings.dwell_s, min_samples=settings.min_samples,
                             min_reaction_s=settings.min_reaction_s,
                             confidence=settings.confidence, classifier=settings.regions)
 
 
-def _count_evidence(settings: 'ArbiterSettings', start: float) -> RoundEvidence:
+def _count_evidence(settings: 'ArbiterSettings', start: float,
+                    shown_since: Optional[float]) -> RoundEvidence:
     """Make the count rules' evidence of a round (:mod:`eye_bci_ros2.evidence`; mean, vote)."""
     return RoundEvidence(start, hit_rate=settings.hit_rate, min_samples=settings.min_samples,
                          dwell_s=settings.dwell_s, min_reaction_s=settings.min_reaction_s,
@@ -65,7 +68,7 @@ def _count_evidence(settings: 'ArbiterSettings', start: float) -> RoundEvidence:
 #: (``add``, with the early decision), decides at the window end (``decide``), reports
 #: progress for the feedback (``progress``) and takes new timing settings (``configure``).
 #: The fixation rule is the default; 'mean' is the original report's.
-RULE_EVIDENCE: Dict[str, Callable[['ArbiterSettings', float], object]] = {
+RULE_EVIDENCE: Dict[str, Callable[['ArbiterSettings', float, Optional[float]], object]] = {
     'fixation': _fixation_evidence,
     **{method: _count_evidence for method in COUNT_METHODS},
 }
@@ -305,16 +308,20 @@ class ArbiterSettings:
         """Return the gaze error per axis the fixation rule expects, degrees."""
         return math.hypot(float(self.accuracy_deg), float(self.precision_deg))
 
-    def evidence(self, start: float):
+    def evidence(self, start: float, shown_since: Optional[float] = None):
         """
         Make the empty evidence of the rule ``method`` for a round starting at ``start`` s.
+
+        ``shown_since``: since when the round's options have been on the screen,
+        unmoved, s (None: since ``start``); the fixation rule takes a fixation
+        from ``min_reaction_s`` after it as a reaction to them.
 
         A :class:`~eye_bci_ros2.fixation.FixationEvidence` for 'fixation', a
         :class:`~eye_bci_ros2.evidence.RoundEvidence` for the count rules; both
         weigh with the whole rule (every region set given to them classified by
         :meth:`regions`, once per set; the count rules' share test).
         """
-        return RULE_EVIDENCE[self.method](self, start)
+        return RULE_EVIDENCE[self.method](self, start, shown_since)
 
     def replace(self, **changed) -> 'ArbiterSettings':
         """Return a copy with ``changed`` fields (unknown names are ignored)."""
@@ -327,11 +334,14 @@ class ArbiterSettings:
 class _Round:
     """State of the open round."""
 
-    def __init__(self, start: float, settings: ArbiterSettings):
+    def __init__(self, start: float, settings: ArbiterSettings, shown_since: float):
         self.start = start
+        # Since when the options of the round's start have been shown, unmoved (a question
+        # asked about options long on screen: a gaze on one can be a reaction to them).
+        self.shown_since = shown_since
         # The settings the round weighs with: its rule (RULE_FIELDS) stays for the round.
         self.settings = settings
-        self.evidence = settings.evidence(start)
+        self.evidence = settings.evidence(start, shown_since)
         # In-window samples as they arrived, for re-classification.
         self.log = SampleLog()
         self.window_closed = False
@@ -781,6 +791,19 @@ class RoundScheduler:
         round_.window_closed = closes
         return self._reclassify(round_, now)
 
+    def _shown_since(self, stamp: float) -> float:
+        """Return since when the options shown at ``stamp`` have been shown unmoved, s."""
+        stamps = self._history_stamps
+        if not stamps:
+            return stamp
+        index = max(bisect.bisect_right(stamps, stamp) - 1, 0)
+        while index > 0:
+            new, old = self._history[index], self._history[index - 1]
+            if new.labels != old.labels or options_moved(old, new):
+                break
+            index -= 1
+        return min(float(stamps[index]), stamp)
+
     def _regions_at(self, stamp: float) -> RegionSet:
         """Return the region set shown at ``stamp`` (the newest in the steady state)."""
         stamps = self._history_stamps
@@ -798,7 +821,7 @@ class RoundScheduler:
             closed and ``until`` is past it), else None.
         """
         settings = self.settings
-        evidence = round_.settings.evidence(round_.start)
+        evidence = round_.settings.evidence(round_.start, round_.shown_since)
         stamps, points = round_.log.ordered()
         if until < math.inf:
             keep = np.searchsorted(stamps, until, side='left')
@@ -868,7 +891,7 @@ class RoundScheduler:
         :param replay: take the recent samples stamped after ``start`` (they
             arrived before the regions that start the round).
         """
-        round_ = self._round = _Round(start, self.settings)
+        round_ = self._round = _Round(start, self.settings, self._shown_since(start))
         self.rounds_started += 1
         self._on_log('info', 'round',
                      f'round {self.rounds_started} ({cause}): offered {sorted(self._offered)}, '

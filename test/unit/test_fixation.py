@@ -181,3 +181,32 @@ def test_the_rule_refuses_a_gaze_error_model_without_error():
 def test_settings_name_the_fixation_rule_and_its_error():
     assert SETTINGS.method == 'fixation' and SETTINGS.early_decision
     assert SETTINGS.sigma_gaze_deg == pytest.approx(math.hypot(0.8, 0.3))
+
+
+def test_a_question_about_options_long_shown_takes_the_fixation_already_on_one():
+    # The options appear at 10 s, the person looks at 'right' from 10.4 s; the menu asks
+    # at 12 s (the camera has arrived): the gaze on 'right' is a reaction to the options.
+    decisions = []
+    scheduler = RoundScheduler(ArbiterSettings(), decisions.append)
+    scheduler.add_regions(options(10.0), now=10.0)
+    stamps, points = path([(0.4, AWAY, AWAY), (0.04, AWAY, CENTRES['right']),
+                           (2.0, CENTRES['right'], CENTRES['right'])], rate=90.0)
+    stamps = stamps + 10.0
+    asked = int(np.searchsorted(stamps, 12.0))
+    scheduler.add_samples(stamps[:asked], points[:asked], now=12.0)
+    decisions.clear()     # the first round (the options' appearance) is not the question
+    scheduler.request(now=12.0)
+    scheduler.add_samples(stamps[asked:], points[asked:], now=stamps[-1])
+    assert decisions and decisions[-1].label == 'right'
+
+
+def test_options_that_appear_under_a_resting_gaze_are_not_chosen_when_asked_at_once():
+    decisions = []
+    scheduler = RoundScheduler(ArbiterSettings(window_s=0.8), decisions.append)
+    stamps, points = path([(1.5, CENTRES['right'], CENTRES['right'])], rate=90.0)
+    stamps = stamps + 10.0
+    scheduler.add_samples(stamps[:40], points[:40], now=stamps[39])
+    scheduler.add_regions(options(stamps[40]), now=stamps[40])   # a new menu: a round opens
+    scheduler.add_samples(stamps[40:], points[40:], now=stamps[-1])
+    scheduler.tick(now=stamps[-1] + 5.0)
+    assert decisions and decisions[-1].label is None
