@@ -328,8 +328,10 @@ def measure_steps(recording: GazeRecording) -> StepMeasures:
 def _measure_one(stamps: np.ndarray, angles: np.ndarray, saccades: Saccades, onset: float,
                  end: float, target: np.ndarray, jump: bool) -> Tuple:
     """
-    latency, settle, first landing, settled error, error (2,), drift, gain, landing
-    ratio, rest of one step.
+    Measure one step (module doc).
+
+    :returns: latency, settle, first landing, settled error, error (2,), drift,
+        gain, landing ratio, rest.
 
     :param onset: when the target is shown still at its place, s.
     :param end: end of its settled window, s.
