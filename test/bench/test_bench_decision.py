@@ -264,6 +264,8 @@ def test_stress_scenarios_start_where_they_say(section):
 
 
 def test_the_node_default_never_chooses_wrong_in_the_stress_scenarios(section):
+    # On the quick section's 20 persons per cell.  The full bench (200 per cell) finds one
+    # wrong choice in 200 at near_edge 9 x 100 px (0.5 %) and none while the camera moves.
     for scenario in ('near_edge', 'camera_moving'):
         cells = [m for row in section[f'stress_{scenario}']['node_default'].values()
                  for m in row.values()]
