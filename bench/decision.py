@@ -40,13 +40,20 @@ gaze rests where it was) depends on the scenario:
   step), the regions updated every :data:`REGION_STEP_S` as the
   marker_projector does; the gaze rests off the menu and follows the goal
   as it moves (catch-up saccades).  Fixation onset is measured on the goal
-  where it is at each sample.
+  where it is (and as large as it is) at each sample.
 
-The eye starts its saccade after the model's latency (120 ms + gamma, mean
-200 ms) and lands on the target centre after a main-sequence duration.
-*Fixation onset* is the stamp of the first sample at which the true eye
-position (no tracker error) is within :data:`LANDED_DEG` of the target
-centre.
+The eye starts its saccade after the model's latency (100 ms + gamma, mean
+180 ms); the primary saccade lands about 5 % short, with a scatter, and a
+landing far off is corrected about 100 ms later (the realistic person of
+:mod:`eye_bci_ros2.sim.person`).  *Fixation onset* is the stamp of the first
+landing on the chosen target: the first sample at which the true eye (no
+tracker error) is inside the target's square grown by
+:data:`LANDED_MARGIN_DEG` on each side and not in flight (its speed relative
+to the target below the saccade threshold,
+:data:`eye_bci_ros2.recordings.gaze_statistics.MIN_VELOCITY_DEG_S`).  The
+eye seldom reaches the centre itself (an earlier definition, within 0.1 deg
+of the centre, came after most decisions once the person's landings were
+realistic), and a rule can only react to where the eye rests.
 
 Rules:
 
@@ -55,8 +62,12 @@ Rules:
 * ``vote``: majority of the in-region samples of the same window.
 * ``node_default``: the node with ``early_decision: true`` and every other
   parameter at its default (:data:`NODE_DEFAULT`: the
-  :class:`~eye_bci_ros2.rounds.ArbiterSettings` defaults, the node's).
-* ``best``: early decision with the configuration (confidence, min_samples,
+  :class:`~eye_bci_ros2.rounds.ArbiterSettings` defaults, the node's: the
+  fixation rule, :mod:`eye_bci_ros2.fixation`).  Not tuned here: reported
+  beside ``best``.
+* ``best``: the tolerant sample-count rule (:data:`COUNT_EARLY`, the default
+  before the fixation rule) with its early decision, the configuration
+  (confidence, min_samples,
   dwell_s, min_reaction_s, hit_rate) picked by a grid search on separate
   tuning persons (seeds disjoint from the test seeds; the test set is never
   used to choose); without an early decision the node falls back to
@@ -97,6 +108,7 @@ import numpy as np
 
 from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
 from eye_bci_ros2.experiments.trials import decide_trial, ORIGINAL, settings_for
+from eye_bci_ros2.recordings.gaze_statistics import MIN_VELOCITY_DEG_S
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeParams, GazeSimulator
@@ -114,8 +126,10 @@ SIZES = (60, 100, 150, 200)
 PITCH = 1.5
 #: Window of the window rules and of the node's fallback, s.
 WINDOW_S = 1.0
-#: The true eye within this of the target centre has landed, degrees.
-LANDED_DEG = 0.1
+#: Fixation onset: the true eye at rest within this of the chosen target's edge (or inside
+#: it), degrees: a primary saccade lands about 5 % short (0.5 deg of a 10 deg saccade),
+#: and the person has then looked at the target.
+LANDED_MARGIN_DEG = 0.5
 #: Test trials per cell (full, quick) and tuning trials per cell and scenario at 90 Hz.
 TRIALS = 200
 QUICK_TRIALS = 20
@@ -262,7 +276,6 @@ def simulate_trials(count: int, size: float, seeds: Sequence[int],
                          f"{', '.join(_SCENARIO_CODE)}")
     centres = layout(count, size, params)
     screen = params.person.screen
-    landed_px = float(screen.visual_angle_px(LANDED_DEG))
     moving = scenario == 'camera_moving'
     history = moving_regions(count, size, params) if moving else None
     trials = []
@@ -277,14 +290,38 @@ def simulate_trials(count: int, size: float, seeds: Sequence[int],
                 return moving_centres(count, size, np.asarray(t), params)[:, goal]
             trace = simulator.simulate(WINDOW_S, target, initial_xy=start)
             where = moving_centres(count, size, trace.t, params)[:, goal]
+            side = size * (MOVE_FROM_SCALE + (1.0 - MOVE_FROM_SCALE) * _moved(trace.t))
         else:
             trace = simulator.simulate(WINDOW_S, [(0.0, centres[goal])], initial_xy=start)
-            where = centres[goal]
-        landed = np.flatnonzero(np.hypot(*(trace.eye_xy - where).T) <= landed_px)
-        onset = float(trace.t[landed[0]]) if landed.size else math.nan
+            where = np.broadcast_to(centres[goal], trace.eye_xy.shape)
+            side = np.full(len(trace.t), float(size))
+        onset = landing_onset(trace.t, trace.eye_xy, where, side, screen)
         valid = trace.valid
         trials.append(Trial(goal, start, trace.t[valid], trace.xy[valid], onset, history))
     return trials
+
+
+def landing_onset(t: np.ndarray, eye_xy: np.ndarray, centre: np.ndarray, side: np.ndarray,
+                  screen) -> float:
+    """
+    Fixation onset (module doc): the first sample with the true eye at rest on or near the target.
+
+    :param t: sample stamps, s, shape (N,).
+    :param eye_xy: the true eye, screen px, shape (N, 2).
+    :param centre: the target's centre at each sample, px, shape (N, 2).
+    :param side: the target's side at each sample, px, shape (N,).
+    :param screen: the :class:`~eye_bci_ros2.visual_angle.ScreenGeometry` (pixels per degree
+        at its centre convert the speed; the targets are near it).
+    :returns: the stamp, s, or NaN when the eye never landed there.
+    """
+    relative = eye_xy - centre
+    reach = side / 2 + float(screen.visual_angle_px(LANDED_MARGIN_DEG))
+    inside = np.all(np.abs(relative) <= reach[:, None], axis=1)
+    # Speed from the previous sample (the first sample has none: the eye rests at the start).
+    step = np.hypot(*np.diff(relative, axis=0).T) / float(screen.visual_angle_px(1.0))
+    speed = np.concatenate([[0.0], step / np.maximum(np.diff(t), 1e-9)])
+    landed = np.flatnonzero(inside & (speed < MIN_VELOCITY_DEG_S))
+    return float(t[landed[0]]) if landed.size else math.nan
 
 
 def moving_centres(count: int, size: float, t: np.ndarray,
@@ -413,7 +450,7 @@ def _cells_of(table) -> List[Tuple[int, Dict[str, float]]]:
 def tune(sets: Dict[str, Dict], grid: Dict[str, Sequence]) -> Tuple[ArbiterSettings,
                                                                     Dict[str, object]]:
     """
-    Pick the early-decision configuration on the tuning cells.
+    Pick the count rule's early-decision configuration (:data:`COUNT_EARLY`) on the tuning cells.
 
     Feasible: accuracy >= :data:`GOAL_ACCURACY` in every tuning cell of
     :data:`GOAL_SIZE` px and larger, in every tuning set.  Among the feasible
@@ -430,7 +467,7 @@ def tune(sets: Dict[str, Dict], grid: Dict[str, Sequence]) -> Tuple[ArbiterSetti
     names = ('confidence', 'min_samples', 'dwell_s', 'min_reaction_s', 'hit_rate')
     scored = []
     for values in itertools.product(*(grid[name] for name in names)):
-        config = NODE_DEFAULT.replace(**dict(zip(names, values)))
+        config = COUNT_EARLY.replace(**dict(zip(names, values)))
         cells = [cell for data in sets.values() for cell in _cells_of(evaluate(config, data))]
         feasible = all(m['accuracy'] >= GOAL_ACCURACY for size, m in cells if size >= GOAL_SIZE)
         score = float(np.mean([m['itr_bits_per_min'] for _, m in cells]))
@@ -513,7 +550,7 @@ def run(quick: bool = False, trials: Optional[int] = None, tuning_trials: Option
         'best': {..., 'config': {...}, 'search': {...}}, 'goal_100px': {...},
         'stress_<scenario>': {rule: ...} per :data:`STRESS_SCENARIOS`,
         'fast_1200hz': {scenario: {rule: ...}},
-        'node_default_is_best': bool, 'setup': {...}}``.
+        'goal_100px_node_default': {...}, 'setup': {...}}``.
     """
     if GOAL_SIZE not in sizes:
         raise ValueError(f'sizes must include {GOAL_SIZE} px for the goal check')
@@ -550,6 +587,9 @@ def run(quick: bool = False, trials: Optional[int] = None, tuning_trials: Option
         stress_best = section['stress_other_target']['best']
     section['goal_100px'] = goal_check(section['original'], section['best'],
                                        [str(count) for count in counts], stress_best)
+    section['goal_100px_node_default'] = goal_check(
+        section['original'], section['node_default'], [str(count) for count in counts],
+        section['stress_other_target']['node_default'] if stress else None)
     if fast_trials:
         section['fast_1200hz'] = {}
         for scenario in scenarios:
@@ -557,7 +597,6 @@ def run(quick: bool = False, trials: Optional[int] = None, tuning_trials: Option
             section['fast_1200hz'][scenario] = {
                 name: evaluate(rule, fast) for name, rule in rules.items()
                 if name in ('original', 'node_default', 'best')}
-    section['node_default_is_best'] = node_default == config
     section['setup'] = {
         'decision_logic': 'eye_bci_ros2.rounds.RoundEvidence (the choice_arbiter node '
                           'logic) on simulated time, valid samples in stamp order',
@@ -571,8 +610,9 @@ def run(quick: bool = False, trials: Optional[int] = None, tuning_trials: Option
                  'stress: on another target of the layout (other_target), '
                  f'{NEAR_EDGE_DEG} deg outside another target (near_edge), off the menu '
                  f'while the camera moves for {MOVE_S} s (camera_moving)',
-        'fixation_onset': f'first sample with the true eye within {LANDED_DEG} deg of the '
-                          'target centre',
+        'fixation_onset': 'first sample with the true eye at rest (below '
+                          f'{MIN_VELOCITY_DEG_S:g} deg/s) inside the target grown by '
+                          f'{LANDED_MARGIN_DEG} deg',
         'window_s': WINDOW_S, 'gaze_shift_s': GAZE_SHIFT_S,
         'node_default': early_fields(node_default),
         'trials_per_cell': trials, 'tuning_trials_per_cell_and_scenario': tuning_trials,
@@ -634,18 +674,20 @@ def format_lines(section: Dict) -> List[str]:
         lines.append(f'{rate:.0f} Hz tracker, {scenario}, all cells: {summary}')
     search = section['best']['search']
     lines.append('')
-    lines.append(f'best config (tuned on separate seeds, {search["tuning_trials"]} trials in '
-                 f'{", ".join(search["tuning_sets"])}): {json.dumps(section["best"]["config"])}')
-    lines.append(f'node defaults (early_decision true) are the best config: '
-                 f'{"yes" if section["node_default_is_best"] else "NO"}')
-    goal = section['goal_100px']
-    stress = '' if math.isnan(goal['stress_accuracy']) else \
-        f'; stress accuracy {100 * goal["stress_accuracy"]:.1f} %'
-    lines.append(f'goal at {GOAL_SIZE} px, main scenario (worst over N): accuracy '
-                 f'{100 * goal["accuracy"]:.1f} % (>= {100 * GOAL_ACCURACY:.0f}), median '
-                 f'{goal["median_ms"]:.0f} ms (<= {GOAL_MEDIAN_MS:.0f}), ITR '
-                 f'x{goal["itr_ratio"]:.2f} (>= {GOAL_ITR_RATIO:.0f}): '
-                 f'{"MET" if goal["met"] else "NOT MET"}{stress}')
+    lines.append(f'best: the count rule tuned on separate seeds ({search["tuning_trials"]} '
+                 f'trials in {", ".join(search["tuning_sets"])}): '
+                 f'{json.dumps(section["best"]["config"])}')
+    lines.append(f'node_default: the fixation rule, not tuned here: '
+                 f'{json.dumps(section["setup"]["node_default"])}')
+    for rule, key in (('best', 'goal_100px'), ('node_default', 'goal_100px_node_default')):
+        goal = section[key]
+        stress = '' if math.isnan(goal['stress_accuracy']) else \
+            f'; stress accuracy {100 * goal["stress_accuracy"]:.1f} %'
+        lines.append(f'goal at {GOAL_SIZE} px, main scenario (worst over N), {rule}: accuracy '
+                     f'{100 * goal["accuracy"]:.1f} % (>= {100 * GOAL_ACCURACY:.0f}), median '
+                     f'{goal["median_ms"]:.0f} ms (<= {GOAL_MEDIAN_MS:.0f}), ITR '
+                     f'x{goal["itr_ratio"]:.2f} (>= {GOAL_ITR_RATIO:.0f}): '
+                     f'{"MET" if goal["met"] else "NOT MET"}{stress}')
     return lines
 
 

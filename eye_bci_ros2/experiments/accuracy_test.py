@@ -16,9 +16,11 @@ Two results:
    (``--search-threshold`` < 1 accepts a fraction), per decision rule;
 2. the accuracy against size curve, N trials per size, per rule
    (:data:`eye_bci_ros2.experiments.trials.RULES`: ``original`` = the
-   report's rule, inside-only mean; ``mean``, ``vote``, ``early`` = the
-   choice_arbiter's default rule, tolerant to the tracker's error, deciding
-   at the window end or early), written as CSV and PNG with a printed table.
+   report's rule, inside-only mean; ``early`` = the choice_arbiter's
+   default, the fixation rule with its early decision; ``mean`` and ``vote``
+   = the tolerant sample counts at the window end), written as CSV and PNG
+   with a printed table.  By default ``original`` and ``early``: the
+   report's rule beside the node's.
 
 By default nothing runs in real time: the simulated person
 (:mod:`eye_bci_ros2.sim.person`) produces each trial's samples on simulated
@@ -412,7 +414,7 @@ def build_parser() -> argparse.ArgumentParser:
                'no LSL; fast and deterministic). --live: real nodes, a real tracker on LSL '
                'and a real person looking at RViz.',
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument('--methods', default='original,mean',
+    parser.add_argument('--methods', default='original,early',
                         help=f"decision rules, comma separated, of {', '.join(CURVE_METHODS)}")
     parser.add_argument('--preset', default=ORIGINAL_TOBII_4C.name, choices=sorted(PRESETS),
                         help='simulated person and tracker')

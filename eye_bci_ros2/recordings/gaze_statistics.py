@@ -44,6 +44,17 @@ the ``still`` time equal to the onset):
 * *first landing*: the median gaze in the ``LANDING_S`` after that saccade
   ends (before any next saccade); a *corrective* step has its first landing
   more than ``CORRECTIVE_DEG`` from the settled point.
+* *primary gain* (steps whose first saccade is not an anticipation): how
+  much of the way from the gaze before the saccade (median of its
+  ``PRE_SACCADE_S``) to the settled point the first landing covers, along
+  that line (1 = lands where the eye settles; 0.9 = 10 % short).  Measured
+  gaze against measured gaze, so the tracker's offset cancels; the landing
+  error relative to the amplitude is what puts a landing on a neighbouring
+  option.  Its *landing error ratio* is the first landing's distance from the
+  settled point over that same amplitude.
+* *landing rest*: from the first saccade's end to the next saccade's onset
+  when one starts before the settled window (the time the eye rests on its
+  first landing before a corrective saccade).
 * *settling time*: from the saccade's onset until the 3-sample running median
   of the gaze stays within ``SETTLE_DEG`` of the settled point up to the end of
   the settled window.
@@ -86,6 +97,8 @@ LATENCY_WINDOW_S = 0.6
 ANTICIPATION_S = 0.080
 #: Time after a saccade's end over which its landing is taken, s.
 LANDING_S = 0.040
+#: The gaze before a saccade is the median of this long before its onset, s.
+PRE_SACCADE_S = 0.050
 #: A first landing further than this from the settled point needed a correction, deg.
 CORRECTIVE_DEG = 2.0
 #: The gaze has settled once it stays within this of the settled point, deg.
@@ -230,6 +243,11 @@ class StepMeasures:
     :param settled_error_deg: settled gaze to the target.
     :param error_xy_deg: (K, 2) settled gaze minus target, (right, down) deg.
     :param drift_deg: displacement within the settled window.
+    :param gain: primary gain (module doc).
+    :param landing_ratio: first landing's distance from the settled point over
+        the primary saccade's amplitude (module doc).
+    :param rest_s: first saccade's end to the next saccade's onset, when one
+        starts before the settled window.
     """
 
     amplitude_deg: np.ndarray
@@ -239,6 +257,9 @@ class StepMeasures:
     settled_error_deg: np.ndarray
     error_xy_deg: np.ndarray
     drift_deg: np.ndarray
+    gain: np.ndarray
+    landing_ratio: np.ndarray
+    rest_s: np.ndarray
 
 
 def _median_point(angles: np.ndarray) -> np.ndarray:
@@ -293,29 +314,35 @@ def measure_steps(recording: GazeRecording) -> StepMeasures:
                                                 target_angles[k], jump))
     if not rows:
         empty = np.empty(0)
-        return StepMeasures(empty, empty, empty, empty, empty, np.empty((0, 2)), empty)
+        return StepMeasures(empty, empty, empty, empty, empty, np.empty((0, 2)), empty, empty,
+                            empty, empty)
     columns = list(zip(*rows))
     return StepMeasures(
         amplitude_deg=np.array(columns[0]), latency_s=np.array(columns[1]),
         settle_s=np.array(columns[2]), first_landing_deg=np.array(columns[3]),
         settled_error_deg=np.array(columns[4]), error_xy_deg=np.array(columns[5]),
-        drift_deg=np.array(columns[6]))
+        drift_deg=np.array(columns[6]), gain=np.array(columns[7]),
+        landing_ratio=np.array(columns[8]), rest_s=np.array(columns[9]))
 
 
 def _measure_one(stamps: np.ndarray, angles: np.ndarray, saccades: Saccades, onset: float,
                  end: float, target: np.ndarray, jump: bool) -> Tuple:
     """
-    latency, settle, first landing, settled error, error (2,), drift of one step.
+    Measure one step (module doc).
+
+    :returns: latency, settle, first landing, settled error, error (2,), drift,
+        gain, landing ratio, rest.
 
     :param onset: when the target is shown still at its place, s.
     :param end: end of its settled window, s.
     :param jump: whether it jumped there (else it glided: no latency, landing or settling).
     """
     nan2 = np.full(2, np.nan)
+    nan3 = (math.nan,) * 3
     low, high = np.searchsorted(stamps, [onset + SETTLED_WINDOW_S[0], end])
     window = angles[low:high]
     if np.isfinite(window).all(axis=1).sum() < max(3, (high - low) // 2):
-        return math.nan, math.nan, math.nan, math.nan, nan2, math.nan
+        return (math.nan, math.nan, math.nan, math.nan, nan2, math.nan) + nan3
     settled = _median_point(window)
     error = settled - target
     # Drift: only when no saccade falls in the settled window.
@@ -326,12 +353,12 @@ def _measure_one(stamps: np.ndarray, angles: np.ndarray, saccades: Saccades, ons
         tail = window[stamps[low:high] > stamps[high - 1] - DRIFT_EDGE_S]
         drift = float(np.hypot(*(_median_point(tail) - _median_point(head))))
     if not jump:
-        return (math.nan, math.nan, math.nan, float(np.hypot(*error)), error, drift)
+        return (math.nan, math.nan, math.nan, float(np.hypot(*error)), error, drift) + nan3
     # The first saccade after the onset.
     candidates = np.flatnonzero((saccades.onsets >= onset)
                                 & (saccades.onsets < onset + LATENCY_WINDOW_S))
     if not len(candidates):
-        return (math.nan, math.nan, math.nan, float(np.hypot(*error)), error, drift)
+        return (math.nan, math.nan, math.nan, float(np.hypot(*error)), error, drift) + nan3
     first = candidates[0]
     latency = float(saccades.onsets[first] - onset)
     landing_end = saccades.offsets[first] + LANDING_S
@@ -349,7 +376,19 @@ def _measure_one(stamps: np.ndarray, angles: np.ndarray, saccades: Saccades, ons
         outside = np.flatnonzero(distance > SETTLE_DEG)
     settle = (float(stamps[start + outside[-1] + 1] - stamps[start]) if len(outside)
               and start + outside[-1] + 1 < high else 0.0)
-    return latency, settle, first_landing, float(np.hypot(*error)), error, drift
+    gain = ratio = rest = math.nan
+    if latency >= ANTICIPATION_S:
+        before = np.searchsorted(stamps, stamps[start] - PRE_SACCADE_S)
+        way = settled - _median_point(angles[before:start + 1])
+        amplitude = float(np.hypot(*way))
+        if amplitude >= MIN_STEP_DEG:
+            gain = float(np.dot(landing - settled + way, way)) / amplitude ** 2
+            ratio = first_landing / amplitude
+    if first + 1 < len(saccades.onsets) and \
+            saccades.onsets[first + 1] < onset + SETTLED_WINDOW_S[0]:
+        rest = float(saccades.onsets[first + 1] - saccades.offsets[first])
+    return (latency, settle, first_landing, float(np.hypot(*error)), error, drift, gain, ratio,
+            rest)
 
 
 def blink_count(recording: GazeRecording) -> int:
@@ -388,6 +427,16 @@ class GazeStatistics:
         their mean (how much the error varies over the screen), the median
         over recordings.
     :param drift_median_deg: drift within the settled window, median.
+    :param gain_median: primary gain (first landing along the way to the
+        settled point over that way), median.
+    :param gain_p10: its 10th percentile.
+    :param gain_p90: its 90th percentile.
+    :param landing_ratio_median: first landing's distance from the settled
+        point over the primary saccade's amplitude, median.
+    :param landing_ratio_p90: its 90th percentile.
+    :param rest_median_ms: first saccade's end to the next saccade's onset
+        (before the settled window), median.
+    :param rest_p90_ms: its 90th percentile.
     :param spikes_per_1000: single-sample spikes per 1000 valid samples.
     :param blinks_per_min: blinks per minute.
     :param lost_share: share of samples lost.
@@ -406,6 +455,13 @@ class GazeStatistics:
     mean_offset_deg: float
     error_spread_deg: float
     drift_median_deg: float
+    gain_median: float
+    gain_p10: float
+    gain_p90: float
+    landing_ratio_median: float
+    landing_ratio_p90: float
+    rest_median_ms: float
+    rest_p90_ms: float
     spikes_per_1000: float
     blinks_per_min: float
     lost_share: float
@@ -445,6 +501,9 @@ def gaze_statistics(recordings: Iterable[GazeRecording]) -> GazeStatistics:
     landing = np.concatenate([m.first_landing_deg for m in measures])
     error = np.concatenate([m.settled_error_deg for m in measures])
     drift = np.concatenate([m.drift_deg for m in measures])
+    gain = np.concatenate([m.gain for m in measures])
+    ratio = np.concatenate([m.landing_ratio for m in measures])
+    rest = np.concatenate([m.rest_s for m in measures]) * 1e3
     offsets, spreads = [], []
     for m in measures:
         vectors = m.error_xy_deg[np.isfinite(m.error_xy_deg).all(axis=1)]
@@ -480,6 +539,13 @@ def gaze_statistics(recordings: Iterable[GazeRecording]) -> GazeStatistics:
             mean_offset_deg=float(np.median(offsets)) if offsets else math.nan,
             error_spread_deg=float(np.median(spreads)) if spreads else math.nan,
             drift_median_deg=_percentile(drift, 50),
+            gain_median=_percentile(gain, 50),
+            gain_p10=_percentile(gain, 10),
+            gain_p90=_percentile(gain, 90),
+            landing_ratio_median=_percentile(ratio, 50),
+            landing_ratio_p90=_percentile(ratio, 90),
+            rest_median_ms=_percentile(rest, 50),
+            rest_p90_ms=_percentile(rest, 90),
             spikes_per_1000=1e3 * spikes / valid if valid else math.nan,
             blinks_per_min=60.0 * blinks / duration if duration > 0 else math.nan,
             lost_share=lost / samples if samples else math.nan)

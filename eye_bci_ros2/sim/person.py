@@ -29,11 +29,15 @@ Model, per sample (see :class:`PersonParams` for the numbers and where they come
    minimum-jerk profile along the straight screen line (a great circle of the
    eye, since a plane shows great circles as straight lines).
 2. Landing: a primary saccade covers ``saccade_gain`` of the way (people
-   undershoot by about 10 %, Becker 1989) with a scatter of ``landing_sd`` of
-   the amplitude along its direction and 60 % of that across (van Opstal &
-   van Gisbergen 1989); a landing further than ``correction_min_deg`` from
-   the target is followed, ``correction_interval_ms`` later (Becker 1989:
-   100-150 ms), by a corrective saccade with half that scatter.  Smaller
+   undershoot by 5-10 % of the amplitude, Becker 1989; Harris 1995) with a
+   scatter of ``landing_sd`` of the amplitude along its direction and 60 % of
+   that across (van Opstal & van Gisbergen 1989); a landing further than
+   ``correction_min_deg`` from the target is followed,
+   ``correction_interval_ms`` later (Becker 1989: 100-150 ms), by a
+   corrective saccade with half that scatter.  How long the eye rests on a
+   landing short of the target matters as much as how far short it is: a
+   rest longer than a decision rule's dwell on a neighbouring option is a
+   wrong choice.  Smaller
    landing errors stay: where the eye rests differs from fixation to
    fixation.  After every saccade the measured eye overshoots and rings back
    (post-saccadic oscillation of video trackers, Nystrom & Holmqvist 2010;
@@ -154,7 +158,7 @@ class PersonParams:
         in tasks with regular timing (Kowler 1990; Wenban-Smith & Findlay
         1991).
     :param saccade_gain: share of the way a primary saccade covers (Becker
-        1989: about 0.9; 1 = lands on the target).
+        1989, Harris 1995: 0.90-0.95; 1 = lands on the target).
     :param landing_sd: scatter of a primary saccade's landing along its
         direction, as a fraction of the amplitude (van Opstal & van Gisbergen
         1989: 5-10 %); across: 60 % of it.
@@ -162,7 +166,10 @@ class PersonParams:
         corrected by a second saccade (smaller errors stay).
     :param correction_interval_ms: mean time from a landing to the corrective
         saccade (Becker 1989: 100-150 ms; gamma, SD a quarter of the mean,
-        at least 60 ms).
+        at least 60 ms).  The default is the lower end: the X2-60 recordings
+        (``python -m eye_bci_ros2.sim.realism``, ``rest_median_ms``) show
+        no longer rests, and longer ones made the simulated person choose
+        a neighbouring option far more often than real people.
     :param pso_fraction: post-saccadic oscillation: first overshoot as a
         fraction of the saccade's amplitude (0 = none).
     :param field_deg: RMS per axis of the error that varies over the screen
@@ -198,10 +205,10 @@ class PersonParams:
     saccade_max_ms: float = 100.0
     retarget_deg: float = 0.5
     anticipation_prob: float = 0.05
-    saccade_gain: float = 0.92
+    saccade_gain: float = 0.95
     landing_sd: float = 0.08
     correction_min_deg: float = 0.5
-    correction_interval_ms: float = 130.0
+    correction_interval_ms: float = 100.0
     pso_fraction: float = 0.04
     field_deg: float = 0.0
     wander_deg: float = 0.0

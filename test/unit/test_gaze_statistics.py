@@ -32,6 +32,9 @@ def test_an_ideal_eye_has_its_latency_lands_at_once_and_rests_on_the_target():
     assert stats.corrective_share == 0.0 and stats.slow_landing_share == 0.0
     assert stats.error_median_deg < 0.01 and stats.mean_offset_deg < 0.01
     assert stats.drift_median_deg < 0.01
+    assert stats.gain_median == pytest.approx(1.0, abs=0.01)
+    assert stats.gain_p10 > 0.98 and stats.landing_ratio_p90 < 0.01
+    assert np.isnan(stats.rest_median_ms)  # no second saccade
     assert stats.spikes_per_1000 == 0.0 and stats.blinks_per_min == 0.0
 
 
@@ -42,6 +45,12 @@ def test_an_undershooting_eye_needs_a_correction_and_lands_late():
     assert stats.corrective_share > 0.9
     assert stats.slow_landing_share > 0.9 and stats.settle_median_ms > 150.0
     assert stats.error_median_deg < 0.01
+    # A quarter short of the way, and resting there until the correction.
+    assert stats.gain_median == pytest.approx(0.75, abs=0.02)
+    assert stats.landing_ratio_median == pytest.approx(0.25, abs=0.02)
+    # Gamma around 150 ms (SD a quarter), less the few ms the velocity filter adds to each
+    # saccade's ends.
+    assert 130.0 < stats.rest_median_ms < 160.0
 
 
 def test_spikes_and_blinks_put_into_a_recording_are_counted():
