@@ -90,7 +90,7 @@ from eye_bci_ros2.nodes.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, F
                                        MENU_ANSWER_TOPIC, MENU_RESULT_TOPIC, REGIONS_TOPIC,
                                        REQUEST_TOPIC, RVIZ_CAMERA_POSE_TOPIC, SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import METHODS
+from eye_bci_ros2.rounds import ArbiterSettings, METHODS
 from eye_bci_ros2.scene import load_scene, Scene
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
 from eye_bci_ros2.sim.eeg_outlet import EegStreamer
@@ -127,6 +127,10 @@ class DemoError(RuntimeError):
     """Something the demo cannot continue after; the message says what and why."""
 
 
+#: The choice_arbiter's defaults: the demo runs the node's default rule unless told.
+_NODE_DEFAULTS = ArbiterSettings()
+
+
 @dataclass
 class DemoOptions:
     """
@@ -154,8 +158,8 @@ class DemoOptions:
 
     rounds: int = 4
     seed: int = 0
-    method: str = 'mean'
-    early: bool = False
+    method: str = _NODE_DEFAULTS.method
+    early: bool = _NODE_DEFAULTS.early_decision
     window_s: float = 1.0
     output_dir: str = 'demo_output'
     preset: str = ORIGINAL_TOBII_4C.name
@@ -934,7 +938,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--seed', type=int, default=d.seed,
                         help=f'seeds the script and the simulated person (default {d.seed})')
     parser.add_argument('--method', choices=METHODS, default=d.method,
-                        help=f'decision rule at the window end; mean = the original '
+                        help=f'decision rule; fixation = the node default, mean = the original '
                              f'(default {d.method})')
     parser.add_argument('--input', choices=INPUTS, default=d.input_mode,
                         help='what chooses: gaze, ssvep (simulated EEG and the SSVEP decoder) '
@@ -944,8 +948,9 @@ def build_parser() -> argparse.ArgumentParser:
                         choices=[subject.name for subject in SUBJECTS],
                         help='simulated EEG subject for --input ssvep/hybrid '
                              f'(default {d.subject})')
-    parser.add_argument('--early', action='store_true',
-                        help='let the arbiter decide before the window ends when confident')
+    parser.add_argument('--early', action=argparse.BooleanOptionalAction, default=d.early,
+                        help='let the arbiter decide before the window ends when confident '
+                             f'(default: {"on" if d.early else "off"}, as the node)')
     parser.add_argument('--ask', choices=ASK_MODES, default=d.ask,
                         help='when each question is asked: once the camera move has ended '
                              '(as in the original experiment) or when the options change '
