@@ -69,6 +69,9 @@ _REGION_WEIGHT = {'fp': (0.02, 0.1, 1.0), 'af': (0.03, 0.1, 0.8), 'f': (0.05, 0.
 #: Paul Kellet's pink-noise filter (1/f within 1 % from 0.0009 to 0.4 of the rate).
 _PINK_B = np.array([0.049922035, -0.095993537, 0.050612699, -0.004408786])
 _PINK_A = np.array([1.0, -2.494956002, 2.017265875, -0.522189400])
+#: Where a railed channel of a layout without a known range sticks, uV (a +-500 uV
+#: amplifier such as the g.Mobilab+).
+UNKNOWN_RAIL_UV = 500.0
 #: Blink length, s.
 BLINK_S = 0.3
 
@@ -274,7 +277,7 @@ class EegSimulator:
         out += self._blink_wave(t)[:, None] * self._blink_w
         out[:, ~self._eeg] = 0.0
         out[:, self._flat] = 0.0
-        out[:, self._railed] = self.layout.rail_uv
+        out[:, self._railed] = self.layout.rail_uv or UNKNOWN_RAIL_UV
         return t, out
 
     def _attended_stimulus(self, t: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
