@@ -72,6 +72,8 @@ _PINK_A = np.array([1.0, -2.494956002, 2.017265875, -0.522189400])
 #: Where a railed channel of a layout without a known range sticks, uV (a +-500 uV
 #: amplifier such as the g.Mobilab+).
 UNKNOWN_RAIL_UV = 500.0
+#: Longest extra rest between calibration trials, s (uniform from 0).
+REST_JITTER_S = 0.5
 #: Blink length, s.
 BLINK_S = 0.3
 
@@ -356,19 +358,23 @@ def narrowband_snr_db(x: np.ndarray, rate: float, frequency: float,
 
 def calibration_session(simulator: EegSimulator, stimuli: StimulusMap, trials_per_option: int,
                         trial_s: float = 2.0, rest_s: float = 1.0, seed: int = 0,
-                        ) -> Tuple[np.ndarray, np.ndarray, List[Tuple[float, str]]]:
+                        rest_trials: int = 0,
+                        ) -> Tuple[np.ndarray, np.ndarray, List[Tuple[float, Optional[str]]]]:
     """
     Record a cue-guided calibration: each option attended ``trials_per_option`` times.
 
     Trials come in a seeded random order; each starts its stimuli at the
     onset (the stimulus epoch of that trial), lasts ``trial_s`` and is
-    followed by ``rest_s`` with nothing attended.  The first trial starts
-    after ``rest_s``.
+    followed by ``rest_s`` (plus up to :data:`REST_JITTER_S`) with nothing
+    attended.  The first trial starts after ``rest_s``.  ``rest_trials`` more trials (label None) show the
+    stimuli while the person attends none of them (a fixation point).
 
-    :returns: ``(times (n,), samples (n, C), trials [(onset s, label)])``.
+    :returns: ``(times (n,), samples (n, C), trials [(onset s, label or None)])``.
     """
-    order = np.repeat(np.arange(len(stimuli.labels)), int(trials_per_option))
-    np.random.default_rng(seed).shuffle(order)
+    order = np.repeat(np.arange(len(stimuli.labels) + 1),
+                      [int(trials_per_option)] * len(stimuli.labels) + [int(rest_trials)])
+    rng = np.random.default_rng(seed)
+    rng.shuffle(order)
     simulator.start(0.0, None)
     times, chunks, trials = [], [], []
     now = float(rest_s)
@@ -376,14 +382,16 @@ def calibration_session(simulator: EegSimulator, stimuli: StimulusMap, trials_pe
     times.append(t)
     chunks.append(x)
     for target in order:
-        label = stimuli.labels[target]
+        label = stimuli.labels[target] if target < len(stimuli.labels) else None
         simulator.set_stimuli(StimulusMap(stimuli.labels, stimuli.frequencies, stimuli.phases,
                                           now))
         simulator.set_attended(label, now)
         trials.append((now, label))
         end = now + trial_s
         simulator.set_attended(None, end)
-        now = end + rest_s
+        # A person takes a varying time to be ready for the next cue: trials are not
+        # locked to the mains (whose residue TRCA would otherwise learn as a response).
+        now = end + rest_s + rng.uniform(0.0, REST_JITTER_S)
         t, x = simulator.next_chunk(now - 0.5 / simulator.rate)
         times.append(t)
         chunks.append(x)

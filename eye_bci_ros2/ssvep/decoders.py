@@ -351,19 +351,24 @@ class TrcaModel:
                        (rest_epochs if rest_epochs is not None else [])]
             null.append(np.concatenate(values))
         repeat = np.zeros(len(epochs))
-        counts = np.bincount(targets, minlength=len(self.labels))
         for index, (trial, target) in enumerate(zip(epochs, targets)):
-            others = (self.templates[target] * counts[target] - trial) / (counts[target] - 1)
-            repeat[index] = self._score(trial, others, target)
+            # Template and spatial filter both made without the trial: a filter fitted on
+            # it would find chance alignments of random-phase trials and look like repetition.
+            others = epochs[(targets == target) & (np.arange(len(epochs)) != index)]
+            filters = self.filters.copy()
+            for band in range(self.bands):
+                filters[band, target] = trca_filter(others[:, band])
+            repeat[index] = self._score(trial, others.mean(axis=0), target, filters)
         return null, repeat
 
-    def _score(self, window: np.ndarray, template: np.ndarray, target: int) -> float:
+    def _score(self, window: np.ndarray, template: np.ndarray, target: int,
+               filters: Optional[np.ndarray] = None) -> float:
         """Score of a window (B, n, C) against one template (B, m, C) of ``target``."""
+        filters = self.filters if filters is None else filters
         part = window[:, :template.shape[1]]
         rho = np.zeros(self.bands)
         for band in range(self.bands):
-            w = (self.filters[band].T if self.ensemble
-                 else self.filters[band, target][:, None])
+            w = (filters[band].T if self.ensemble else filters[band, target][:, None])
             rho[band] = _correlation(part[band] @ w, template[band, :part.shape[1]] @ w)
         return float(self._weights @ rho)
 

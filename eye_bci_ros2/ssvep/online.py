@@ -23,6 +23,8 @@ Junk never chooses:
   before filtering (so the filter state stays finite) and its channel is
   left out of every window that overlaps it or the ``settle_s`` after it
   (the filters ring);
+- at the start and after a gap the filters restart: windows start
+  ``settle_s`` (measured from the filters) after it;
 - a channel whose filtered signal has a standard deviation below
   ``flat_uv`` in the window (disconnected, shorted) is left out;
 - FBCCA decodes the remaining channels; TRCA needs all its channels;
@@ -33,8 +35,6 @@ Junk never chooses:
   more than the stimuli's precision (:meth:`OnlineDecoder.rate_precision`:
   a 256 Hz stream advertised as 250 Hz) is decoded at the measured rate
   (FBCCA, one note) or refused (a TRCA model fitted at another rate);
-- at the start and after a gap in the sample times the filters restart and
-  their first ``settle_s`` (measured from the filters) is left out;
 - a stimulus map that lacks an offered option, fewer than 2 options, or a
   TRCA model without the options' stimuli decode nothing.
 
@@ -224,6 +224,8 @@ class OnlineDecoder:
         self._rate_known = False
         self._round: Optional[Tuple[float, Tuple[str, ...], Optional[StimulusMap]]] = None
         self._done = False
+        #: Time from which the filters' output is settled, s.
+        self._settled_at = math.inf
         #: Counts of zeroed samples by reason since start.
         self.counters = {'nonfinite': 0, 'railed': 0, 'gaps': 0}
         #: One-line notes for the user (e.g. the rate adopted), to log and clear.
@@ -284,11 +286,9 @@ class OnlineDecoder:
             self.reset()
         self._track_rate(times)
         if self._settling:
+            # The filters' start-up transient: every window starts after it.
             self._settling = False
-            settled = times[0] + self.settle_s
-            self._bad_until[:] = np.maximum(self._bad_until, settled)
-            self._bad_why = ['filters settling' if until == settled else why
-                             for until, why in zip(self._bad_until, self._bad_why)]
+            self._settled_at = float(times[0]) + self.settle_s
         nonfinite = ~np.isfinite(raw)
         railed = self._railed(raw, nonfinite)
         bad = nonfinite | railed
@@ -431,7 +431,7 @@ class OnlineDecoder:
             return np.zeros((self._bank.bands, 0, len(self.channels))), np.zeros(0)
         end = self._written % self._capacity + self._capacity
         times = self._times[end - held:end]
-        keep = times >= start_s + self.settings.onset_s
+        keep = times >= max(start_s + self.settings.onset_s, self._settled_at)
         first = int(np.argmax(keep)) if keep.any() else held
         first = max(first, held - int(round(self.settings.window_s * self.rate)))
         return self._data[:, end - held + first:end], times[first:]
