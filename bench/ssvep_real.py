@@ -18,6 +18,11 @@ clone).
    :data:`ROUND_S` s, the decoder's default settings: right / wrong / no
    choice of the stimulus trials, choices in rest trials, median decision
    time after the cue.
+3. ``hybrid``: the same rounds through the hybrid fusion
+   (:class:`~eye_bci_ros2.fusion.ChoiceFusion`, default settings) with the
+   gaze resting on an option from :data:`GAZE_AT_S` after the cue: in rest
+   trials on each option in turn (looking without attending: must not
+   choose), in stimulus trials on the attended one (must be confirmed).
 
 Decoders: ``fbcca`` (no training) and ``trca`` / ``ensemble_trca`` calibrated
 as the README says (``ssvep_calibrate``: the subject's *other* sessions, their
@@ -43,6 +48,7 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 
 from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
+from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
 from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EegRecording,
                                          find_eeg_recordings, load_eeg)
 from eye_bci_ros2.ssvep.decoders import FbccaDecoder, TrcaModel
@@ -58,6 +64,8 @@ STEP_S = 0.1
 #: Offline windows, s, and where they start after the cue, s.
 WINDOWS_S = (0.5, 1.0, 1.5, 2.0, 3.0)
 OFFLINE_START_S = 1.5
+#: When the gaze reaches the option in the hybrid rounds, after the cue, s.
+GAZE_AT_S = 1.0
 #: Calibration trial length, s.
 TRIAL_S = 2.0
 DECODERS = ('fbcca', 'trca', 'ensemble_trca')
@@ -124,15 +132,55 @@ def _online(recording: EegRecording, settings: OnlineSettings,
             cue, hz = upcoming
             decoder.start_round(cue, _stimuli(recording).labels, _stimuli(recording, cue))
             trial = {'target': None if hz is None else f'{hz:g} Hz', 'choice': None,
-                     'after_s': None, 'cue': cue}
+                     'after_s': None, 'cue': cue, 'labels': _stimuli(recording).labels,
+                     'steps': []}
             outcome.append(trial)
             upcoming = next(cues, None)
         if trial is None or now > trial['cue'] + ROUND_S or k % per_step:
             continue
         result = decoder.step()
-        if result is not None and result.choice is not None and trial['choice'] is None:
+        if result is None:
+            continue
+        if len(result.posterior):
+            trial['steps'].append((float(now), result.labels, result.posterior.tolist()))
+        if result.choice is not None and trial['choice'] is None:
             trial['choice'], trial['after_s'] = result.choice, float(now - trial['cue'])
     return outcome
+
+
+def _hybrid(trials: List[Dict]) -> Dict:
+    """
+    The hybrid fusion on these rounds: the gaze rests on an option from ``GAZE_AT_S``.
+
+    Rest trials: the gaze rests on each option in turn (the person looks at it
+    without attending it: the EEG says nothing is attended); a choice is a
+    false one.  Stimulus trials: the gaze rests on the attended option.
+    """
+    rest = confirmed = 0
+    rest_rounds = stimulus_rounds = 0
+    for trial in trials:
+        labels = trial['labels']
+        candidates = labels if trial['target'] is None else (trial['target'],)
+        for candidate in candidates:
+            fusion = ChoiceFusion(FusionSettings('hybrid'))
+            fusion.new_round(labels)
+            got = None
+            gazed = False
+            for t, step_labels, posterior in trial['steps']:
+                if not gazed and t >= trial['cue'] + GAZE_AT_S:
+                    got = fusion.gaze(candidate, t, 1.0) or got
+                    gazed = True
+                got = fusion.ssvep_scores(step_labels, posterior, t) or got
+            if trial['target'] is None:
+                rest_rounds += 1
+                rest += got is not None
+            else:
+                stimulus_rounds += 1
+                confirmed += got == candidate
+    return {'rest_rounds': rest_rounds, 'rest_choices': rest,
+            'rest_no_choice_share': round(1 - rest / rest_rounds, 4) if rest_rounds else None,
+            'intent_rounds': stimulus_rounds, 'intent_confirmed': confirmed,
+            'intent_share': round(confirmed / stimulus_rounds, 3) if stimulus_rounds else None}
 
 
 def _online_row(trials: List[Dict]) -> Dict:
@@ -201,7 +249,8 @@ def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str]
                 hits = _offline(recording, model)
                 for w in WINDOWS_S:
                     offline[w] += hits[w]
-                online += _online(recording, OnlineSettings(decoder=decoder), model)
+                online += _online(recording, OnlineSettings(decoder=decoder,
+                                                            keep_scoring=True), model)
             print(f'{decoder} {subject}: {_online_row(online)}', file=log, flush=True)
             if online:
                 classes = len(recordings[0].frequencies)
@@ -212,6 +261,7 @@ def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str]
                     offline_all[w] += offline[w]
         if online_all:
             results[f'{decoder} online all'] = _online_row(online_all)
+            results[f'{decoder} hybrid all'] = _hybrid(online_all)
             results[f'{decoder} offline all'] = _offline_row(offline_all, 3)
         if refused:
             results[f'{decoder} calibration refused'] = {

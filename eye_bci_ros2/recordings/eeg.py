@@ -132,3 +132,64 @@ def eeg_data_dir() -> Optional[Path]:
     if named:
         return Path(named) if Path(named).is_dir() else None
     return find_shared_data('real_eeg')
+
+
+#: Neighbours of a frequency whose amplitudes make the noise floor, Hz away (both sides).
+NOISE_NEIGHBOURS_HZ = (1.0, 1.25, 1.5, 1.75, 2.0)
+
+
+def _power(x: np.ndarray, rate: float, frequency: float) -> float:
+    """Power of the sinusoid at ``frequency`` in ``x`` (least squares), uV^2."""
+    t = np.arange(len(x)) / rate
+    basis = np.column_stack([np.sin(2 * np.pi * frequency * t),
+                             np.cos(2 * np.pi * frequency * t), np.ones_like(t)])
+    coefficients = np.linalg.lstsq(basis, x, rcond=None)[0]
+    return float(coefficients[0] ** 2 + coefficients[1] ** 2)
+
+
+def _response(x: np.ndarray, rate: float, frequency: float) -> Tuple[float, float]:
+    """(power at ``frequency``, mean power at its neighbours) of a window, uV^2."""
+    noise = np.mean([_power(x, rate, frequency + sign * d)
+                     for d in NOISE_NEIGHBOURS_HZ for sign in (-1, 1)])
+    return _power(x, rate, frequency), float(noise)
+
+
+def session_statistics(eeg_uv: np.ndarray, rate: float, channel: int,
+                       trials: Sequence[Tuple[float, Optional[float]]]) -> Dict[str, float]:
+    """
+    What a cued SSVEP session shows at one channel (e.g. Oz): the simulator must match it.
+
+    :param eeg_uv: raw EEG, (n, C), uV; ``trials``: (cue s from the first
+        sample, attended Hz or None = rest), each followed by >= 5 s of EEG.
+    :returns: ``snr_db`` median SNR of the response 1.5-5 s after the cue
+        (power at the attended frequency over the mean at 1-2 Hz either side);
+        ``snr_iqr_db`` its interquartile range over the trials (how much the
+        response varies from trial to trial); ``buildup`` the median share of
+        the response's power above the noise 0-2 s after the cue of that 3-5 s
+        after it (1 = at once, small = slow build-up); ``alpha_db`` the median
+        power ratio of 8-12 Hz to 14-22 Hz in rest trials (how much the alpha
+        rhythm stands out where the decoys and stimuli are).
+    """
+    from scipy import signal  # noqa: I100 - only this statistic needs it
+    x = signal.sosfiltfilt(signal.butter(4, (3.0, 45.0), btype='bandpass', fs=rate,
+                                         output='sos'), eeg_uv[:, channel])
+    second = int(round(rate))
+    snr, early, late, alpha = [], [], [], []
+    for cue, hz in trials:
+        start = int(round(cue * rate))
+        if hz is None:
+            f, p = signal.welch(x[start + second:start + 5 * second], rate, nperseg=second)
+            alpha.append(10 * np.log10(p[(f >= 8) & (f <= 12)].mean()
+                                       / p[(f >= 14) & (f <= 22)].mean()))
+            continue
+        power, noise = _response(x[start + int(1.5 * rate):start + 5 * second], rate, hz)
+        snr.append(10 * np.log10(power / noise))
+        for part, (a, b) in ((early, (0, 2)), (late, (3, 5))):
+            power, noise = _response(x[start + a * second:start + b * second], rate, hz)
+            part.append(power - noise)
+    q1, median, q3 = np.percentile(snr, [25, 50, 75]) if snr else (np.nan,) * 3
+    # Medians over the trials before the ratio: one trial's noise cannot blow it up.
+    late_median = np.median(late) if late else np.nan
+    return {'snr_db': float(median), 'snr_iqr_db': float(q3 - q1),
+            'buildup': float(np.median(early) / late_median) if late_median > 0 else np.nan,
+            'alpha_db': float(np.median(alpha)) if alpha else np.nan}
