@@ -86,12 +86,12 @@ def _calibrate(others: List[EegRecording], decoder: str, settings: OnlineSetting
                force: bool) -> TrcaModel:
     """A TRCA model from other sessions of the subject, as ssvep_calibrate fits one."""
     stimuli = _stimuli(others[0])
-    trials = [[(cue + settings.onset_s, None if hz is None else f'{hz:g} Hz')
+    trials = [[(cue, None if hz is None else f'{hz:g} Hz')
                for cue, hz in recording.trials] for recording in others]
     return fit_trca([r.eeg_uv for r in others], [r.times for r in others], trials, stimuli,
                     others[0].rate, others[0].channels, trial_s=TRIAL_S,
                     ensemble=decoder == 'ensemble_trca', min_window_s=settings.min_window_s,
-                    require_repeat=not force)
+                    require_repeat=not force, onset_s=settings.onset_s)
 
 
 def _offline(recording: EegRecording, model: Optional[TrcaModel]) -> Dict[float, List[bool]]:
@@ -107,7 +107,7 @@ def _offline(recording: EegRecording, model: Optional[TrcaModel]) -> Dict[float,
         for w in WINDOWS_S:
             window = filtered[:, start:start + int(round(w * recording.rate))]
             scores = (fbcca.scores(window) if model is None
-                      else model.scores(window, OFFLINE_START_S))
+                      else model.scores(window, OFFLINE_START_S))  # the cue is the epoch
             hits[w].append(bool(frequencies[np.argmax(scores)] == hz))
     return hits
 

@@ -99,7 +99,7 @@ class RestModel:
             values = values[np.isfinite(values)]
             if len(values) < 10:
                 raise ValueError(f'{len(values)} rest values at {length:g} s: need at least '
-                                 '10 to measure the null')
+                                 '10 to measure the null (record more trials or rest trials)')
             means.append(float(values.mean()))
             stds.append(max(float(values.std(ddof=1)), 1e-9))
         return cls(tuple(float(w) for w in windows_s), tuple(means), tuple(stds), source)

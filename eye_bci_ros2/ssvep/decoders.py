@@ -228,6 +228,8 @@ class TrcaModel:
     :param channels: channel names the model was fitted on, (C,).
     :param band: preprocessing pass band, Hz; ``notch_hz`` line notch, Hz.
     :param ensemble: score with every stimulus's filter at once.
+    :param template_start_s: the templates start this long after the
+        stimulus epoch, s (the calibration left out the response's build-up).
     :param rest: the score of an option nobody attends, by window length
         (measured on the calibration's other options' and rest trials); a
         model without it cannot decide (calibrate again).
@@ -243,6 +245,7 @@ class TrcaModel:
     band: Tuple[float, float] = (6.0, 90.0)
     notch_hz: float = 50.0
     ensemble: bool = True
+    template_start_s: float = 0.0
     rest: Optional[RestModel] = None
     _weights: np.ndarray = field(init=False, repr=False)
 
@@ -285,8 +288,8 @@ class TrcaModel:
         """
         Fit from calibration trials, with the null of its scores.
 
-        :param epochs: filter-bank output of each trial from stimulus onset,
-            shape (T, B, L, C).
+        :param epochs: filter-bank output of each trial from ``template_start_s``
+            (in ``settings``) after the stimulus onset, shape (T, B, L, C).
         :param targets: index of the attended stimulus of each trial, (T,).
         :param labels: stimulus labels (K,); ``frequencies``, ``phases`` (K,).
         :param rest_epochs: trials in which nothing was attended, (R, B, L, C).
@@ -345,9 +348,10 @@ class TrcaModel:
         null = []
         for length in windows:
             n = int(round(length * self.rate))
-            values = [np.delete(self.scores(trial[:, :n]), target)
+            start = self.template_start_s
+            values = [np.delete(self.scores(trial[:, :n], start), target)
                       for trial, target in zip(epochs, targets)]
-            values += [self.scores(trial[:, :n]) for trial in
+            values += [self.scores(trial[:, :n], start) for trial in
                        (rest_epochs if rest_epochs is not None else [])]
             null.append(np.concatenate(values))
         repeat = np.zeros(len(epochs))
@@ -356,7 +360,7 @@ class TrcaModel:
             # it would find chance alignments of random-phase trials and look like repetition.
             others = epochs[(targets == target) & (np.arange(len(epochs)) != index)]
             filters = self.filters.copy()
-            for band in range(self.bands):
+            for band in range(self.bands if len(others) >= 2 else 0):  # 2 trials: keep it
                 filters[band, target] = trca_filter(others[:, band])
             repeat[index] = self._score(trial, others.mean(axis=0), target, filters)
         return null, repeat
@@ -375,7 +379,8 @@ class TrcaModel:
     def _template(self, target: int, start_s: float, samples: int) -> np.ndarray:
         """Template of ``target`` from ``start_s`` after onset, (B, m, C), m <= samples."""
         period = 1.0 / self.frequencies[target]
-        offset_s = start_s - np.floor(start_s / period) * period
+        since = start_s - self.template_start_s
+        offset_s = since - np.floor(since / period) * period
         offset = int(round(offset_s * self.rate))
         length = self.templates.shape[2]
         if offset >= length:
@@ -402,7 +407,8 @@ class TrcaModel:
                  filters=self.filters, templates=self.templates,
                  channels=np.array(self.channels, dtype=str),
                  band=np.array(self.band, dtype=float), notch_hz=self.notch_hz,
-                 ensemble=self.ensemble, **(self.rest.as_arrays() if self.rest else {}))
+                 ensemble=self.ensemble, template_start_s=self.template_start_s,
+                 **(self.rest.as_arrays() if self.rest else {}))
 
     @classmethod
     def load(cls, path: str, ensemble: Optional[bool] = None) -> 'TrcaModel':
@@ -423,6 +429,7 @@ class TrcaModel:
                             band=tuple(data['band'].tolist()),
                             notch_hz=float(data['notch_hz']),
                             ensemble=bool(data['ensemble']) if ensemble is None else ensemble,
+                            template_start_s=float(data['template_start_s']),
                             rest=(RestModel.from_arrays(data) if 'rest_mean' in data
                                   else None))
         except (OSError, KeyError, ValueError, EOFError) as error:

@@ -45,7 +45,8 @@ def cut_epochs(filtered: np.ndarray, times: np.ndarray, onsets: Sequence[float],
 def fit_trca(samples, times, trials, stimuli: StimulusMap, rate: float,
              channels: Sequence[str], trial_s: float = 2.0, bands: int = 5, band=(6.0, 90.0),
              notch_hz: float = 50.0, ensemble: bool = True,
-             min_window_s: float = 0.5, require_repeat: bool = True) -> TrcaModel:
+             min_window_s: float = 0.5, require_repeat: bool = True,
+             onset_s: float = 0.0) -> TrcaModel:
     """
     Fit a (ensemble) TRCA model and its rest model from labelled calibration recordings.
 
@@ -57,7 +58,10 @@ def fit_trca(samples, times, trials, stimuli: StimulusMap, rate: float,
     :param stimuli: the map used during calibration (frequencies, phases).
     :param rate: sampling rate, Hz.
     :param channels: names of the C channels.
-    :param trial_s: trial length used, s (the longest window of the model).
+    :param trial_s: template length, s (the longest window of the model).
+    :param onset_s: the templates start this long after each onset (the
+        response's build-up left out, as the decoder's ``onset_s`` leaves it
+        out of its windows), s; a trial must last ``onset_s + trial_s``.
     :param min_window_s: shortest window its rest model is measured at, s.
     :param require_repeat: see :meth:`TrcaModel.fit`.
     :returns: the fitted model (labels in the map's order).
@@ -81,13 +85,14 @@ def fit_trca(samples, times, trials, stimuli: StimulusMap, rate: float,
         filtered = filter_recording(recording, rate, bands, band, notch_hz)
         stamps = np.asarray(stamps, dtype=float)
         attended = [(t, label) for t, label in listed if label is not None]
-        epochs.append(cut_epochs(filtered, stamps, [t for t, _ in attended], length))
+        epochs.append(cut_epochs(filtered, stamps, [t + onset_s for t, _ in attended],
+                                 length))
         targets += [stimuli.labels.index(label) for _, label in attended]
-        rest.append(cut_epochs(filtered, stamps, [t for t, label in listed if label is None],
-                               length))
+        rest.append(cut_epochs(filtered, stamps,
+                               [t + onset_s for t, label in listed if label is None], length))
     rest_epochs = np.concatenate(rest)
     return TrcaModel.fit(np.concatenate(epochs), targets, stimuli.labels, stimuli.frequencies,
                          stimuli.phases, rate, channels, ensemble=ensemble,
                          rest_epochs=rest_epochs if len(rest_epochs) else None,
                          min_window_s=min_window_s, require_repeat=require_repeat,
-                         band=tuple(band), notch_hz=notch_hz)
+                         band=tuple(band), notch_hz=notch_hz, template_start_s=onset_s)

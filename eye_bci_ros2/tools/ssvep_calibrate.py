@@ -4,7 +4,9 @@
 The person attends each option ``--trials`` times in a seeded random order,
 mixed with ``--rest-trials`` rest trials (the stimuli shown, the person looks
 at a fixation point): each trial starts its stimuli at the onset (frame 0 at
-the onset, the map's phases), lasts ``--trial-s`` and is followed by
+the onset, the map's phases), lasts ``--onset-s`` (the gaze reaching the
+option, the response building up: not learnt, as the decoder leaves it out
+of its windows) plus ``--trial-s`` (the template) and is followed by
 ``--rest-s`` of rest.  The model keeps a rest model (its scores when nobody
 attends an option) against which the decoder weighs the evidence, and the
 tool refuses a calibration whose trials do not repeat: TRCA needs stimuli
@@ -43,6 +45,7 @@ import numpy as np
 
 from eye_bci_ros2.sim.eeg import calibration_session, EegSimulator, SUBJECTS
 from eye_bci_ros2.ssvep.layouts import LAYOUT_NAMES, LAYOUTS, parse_channels, resolve_channels
+from eye_bci_ros2.ssvep.online import DEFAULT_ONSET_S
 from eye_bci_ros2.ssvep.stimuli import assign_stimuli, StimulusMap
 from eye_bci_ros2.ssvep.training import fit_trca
 
@@ -59,6 +62,9 @@ def build_parser() -> argparse.ArgumentParser:
                         '--trials; 0 = only the other options\' trials)')
     parser.add_argument('--trial-s', type=float, default=2.0)
     parser.add_argument('--rest-s', type=float, default=1.0)
+    parser.add_argument('--onset-s', type=float, default=DEFAULT_ONSET_S,
+                        help="time from each onset the template leaves out, s (the decoder's "
+                        'onset_s)')
     parser.add_argument('--output', required=True, help='model file (.npz)')
     parser.add_argument('--source', choices=('sim', 'lsl'), default='sim')
     parser.add_argument('--layout', choices=LAYOUT_NAMES, default='generic')
@@ -86,7 +92,8 @@ def record_simulated(args, stimuli: StimulusMap):
     subject = next(s for s in SUBJECTS if s.name == args.subject)
     simulator = EegSimulator(subject, args.layout, seed=args.seed)
     times, samples, trials = calibration_session(simulator, stimuli, args.trials,
-                                                 args.trial_s, args.rest_s, args.seed,
+                                                 args.onset_s + args.trial_s, args.rest_s,
+                                                 args.seed,
                                                  rest_trials=args.rest_trials)
     return times, samples, trials, simulator.rate, list(simulator.labels)
 
@@ -146,7 +153,7 @@ def record_lsl(args, stimuli: StimulusMap):
                                           stimuli.phases, onset))
                 streamer.attend(label, onset)
             trials.append((onset, label))
-            pull_until(onset + args.trial_s)
+            pull_until(onset + args.onset_s + args.trial_s)
             if streamer is not None:
                 streamer.attend(None)
             pull_until(pylsl.local_clock() + args.rest_s)
@@ -210,7 +217,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         indices, names = resolve_channels(LAYOUTS[args.layout], labels, samples[0].shape[1],
                                           parse_channels(args.channels))
         model = fit_trca([x[:, indices] for x in samples], times, trials, stimuli, rate,
-                         names, args.trial_s, notch_hz=args.notch_hz,
+                         names, args.trial_s, notch_hz=args.notch_hz, onset_s=args.onset_s,
                          ensemble=not args.single)
         model.save(args.output)
     except ValueError as error:
