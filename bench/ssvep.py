@@ -208,6 +208,9 @@ def _rounds(full: bool, decoder: str = 'fbcca') -> Dict[str, Dict]:
             outcome['hybrid midas'].append((None, hybrid, len(labels)))
     section = {}
     for key, rows in outcome.items():
+        if not rows:  # every calibration refused
+            section[key] = {'rounds': 0}
+            continue
         chosen = [(target, got) for target, got, _ in rows if got is not None]
         row = {'rounds': len(rows), 'choices': len(chosen)}
         if key.endswith('intent'):

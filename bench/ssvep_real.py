@@ -17,7 +17,9 @@ clone).
    the node's 0.02 s chunks), one round per trial from its cue for
    :data:`ROUND_S` s, the decoder's default settings: right / wrong / no
    choice of the stimulus trials, choices in rest trials, median decision
-   time after the cue.
+   time after the cue; and leave-subject-out: each subject decided with the
+   ``rest_z`` (:data:`REST_Z_GRID`) that does best on the *other* subjects
+   within the goals' limits (FBCCA, replayed from the recorded evidence).
 3. ``hybrid``: the same rounds through the hybrid fusion
    (:class:`~eye_bci_ros2.fusion.ChoiceFusion`, default settings) with the
    gaze resting on an option from :data:`GAZE_AT_S` after the cue: in rest
@@ -51,6 +53,7 @@ from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
 from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EegRecording,
                                          find_eeg_recordings, load_eeg)
+from eye_bci_ros2.ssvep.decision import DecisionRule
 from eye_bci_ros2.ssvep.decoders import FbccaDecoder, TrcaModel
 from eye_bci_ros2.ssvep.filters import filter_recording
 from eye_bci_ros2.ssvep.online import OnlineDecoder, OnlineSettings
@@ -64,6 +67,11 @@ STEP_S = 0.1
 #: Offline windows, s, and where they start after the cue, s.
 WINDOWS_S = (0.5, 1.0, 1.5, 2.0, 3.0)
 OFFLINE_START_S = 1.5
+#: The goals' limits: wrong choices per stimulus trial, choices per rest trial.
+GOAL_WRONG = 0.01
+GOAL_REST = 0.02
+#: ``rest_z`` values the leave-subject-out evaluation chooses from.
+REST_Z_GRID = (1.5, 2.0, 2.5, 3.0, 3.5, 4.0)
 #: When the gaze reaches the option in the hybrid rounds, after the cue, s.
 GAZE_AT_S = 1.0
 #: Calibration trial length, s.
@@ -142,7 +150,8 @@ def _online(recording: EegRecording, settings: OnlineSettings,
         if result is None:
             continue
         if len(result.posterior):
-            trial['steps'].append((float(now), result.labels, result.posterior.tolist()))
+            trial['steps'].append((float(now), result.labels, result.posterior.tolist(),
+                                   result.evidence.tolist(), result.window_s))
         if result.choice is not None and trial['choice'] is None:
             trial['choice'], trial['after_s'] = result.choice, float(now - trial['cue'])
     return outcome
@@ -166,7 +175,7 @@ def _hybrid(trials: List[Dict]) -> Dict:
             fusion.new_round(labels)
             got = None
             gazed = False
-            for t, step_labels, posterior in trial['steps']:
+            for t, step_labels, posterior, _, _ in trial['steps']:
                 if not gazed and t >= trial['cue'] + GAZE_AT_S:
                     got = fusion.gaze(candidate, t, 1.0) or got
                     gazed = True
@@ -181,6 +190,54 @@ def _hybrid(trials: List[Dict]) -> Dict:
             'rest_no_choice_share': round(1 - rest / rest_rounds, 4) if rest_rounds else None,
             'intent_rounds': stimulus_rounds, 'intent_confirmed': confirmed,
             'intent_share': round(confirmed / stimulus_rounds, 3) if stimulus_rounds else None}
+
+
+def _replay(trials: List[Dict], rule: DecisionRule) -> List[Dict]:
+    """
+    The rounds' choices under another decision rule, from their recorded evidence.
+
+    The rule is a pure function of each step's evidence z and window, and a
+    round takes its first choice, so this equals streaming them again.
+    """
+    replayed = []
+    for trial in trials:
+        choice = after = None
+        for t, labels, _, z, window_s in trial['steps']:
+            index = rule.decide(np.array(z), window_s)
+            if index is not None:
+                choice, after = labels[index], t - trial['cue']
+                break
+        replayed.append(dict(trial, choice=choice, after_s=after))
+    return replayed
+
+
+def _acceptable(row: Dict) -> bool:
+    """The goals' limits: at most 1 % wrong, at most 2 % of rest trials with a choice."""
+    return (row['wrong'] <= GOAL_WRONG * row['stimulus_trials']
+            and row['rest_choices'] <= GOAL_REST * row['rest_trials'])
+
+
+def _leave_subjects_out(per_subject: Dict[str, List[Dict]]) -> Dict[str, Dict]:
+    """
+    ``rest_z`` chosen on the other subjects, evaluated on each one.
+
+    For every subject, the :data:`REST_Z_GRID` value that gives the most right
+    choices on the *other* subjects within the goals' limits (the largest
+    value if none does) decides that subject's rounds.
+    """
+    rows, pooled = {}, []
+    for subject, trials in per_subject.items():
+        others = [t for s, listed in per_subject.items() if s != subject for t in listed]
+        best, best_right = REST_Z_GRID[-1], -1
+        for rest_z in REST_Z_GRID:
+            row = _online_row(_replay(others, DecisionRule(rest_z=rest_z)))
+            if _acceptable(row) and row['right'] > best_right:
+                best, best_right = rest_z, row['right']
+        held_out = _replay(trials, DecisionRule(rest_z=best))
+        rows[subject] = dict(_online_row(held_out), rest_z=best)
+        pooled += held_out
+    rows['all'] = _online_row(pooled)
+    return rows
 
 
 def _online_row(trials: List[Dict]) -> Dict:
@@ -232,6 +289,7 @@ def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str]
     results: Dict[str, Dict] = {}
     for decoder in decoders:
         online_all, offline_all, refused = [], {w: [] for w in WINDOWS_S}, []
+        per_subject: Dict[str, List[Dict]] = {}
         for subject, recordings in groups.items():
             online, offline = [], {w: [] for w in WINDOWS_S}
             for index, recording in enumerate(recordings):
@@ -257,11 +315,15 @@ def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str]
                 results[f'{decoder} online {subject}'] = _online_row(online)
                 results[f'{decoder} offline {subject}'] = _offline_row(offline, classes)
                 online_all += online
+                per_subject[subject] = online
                 for w in WINDOWS_S:
                     offline_all[w] += offline[w]
         if online_all:
             results[f'{decoder} online all'] = _online_row(online_all)
             results[f'{decoder} hybrid all'] = _hybrid(online_all)
+            if decoder == 'fbcca' and len(per_subject) > 1:
+                for subject, row in _leave_subjects_out(per_subject).items():
+                    results[f'{decoder} online leave-subject-out {subject}'] = row
             results[f'{decoder} offline all'] = _offline_row(offline_all, 3)
         if refused:
             results[f'{decoder} calibration refused'] = {

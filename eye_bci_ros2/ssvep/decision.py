@@ -34,9 +34,9 @@ RULES = ('posterior', 'margin')
 #: Expected z of an attended option, the posterior's gain (see the module doc).
 DEFAULT_GAIN = 3.0
 #: z at which "nothing attended" is as likely as one option, in null standard deviations
-#: (a null option passes it in 0.6 % of windows; with the posterior's margin a round of
-#: white noise ends without a choice in >= 99 % of rounds: ``python -m bench.ssvep_real
-#: --noise``, no recording involved).
+#: (a null option passes it in 0.6 % of windows): the value the leave-subject-out
+#: evaluation of ``python -m bench.ssvep_real`` picks for every held-out subject of the
+#: development recordings from 1.5-4 (docs/ssvep.md).
 DEFAULT_REST_Z = 2.5
 
 
