@@ -4,9 +4,10 @@ SSVEP benchmarks on the simulated subjects: accuracy / ITR, Midas touch, decoder
 1. ``accuracy``: FBCCA and ensemble TRCA (fitted on a 5-trials-per-option
    calibration of the same subject) on cue-guided trials of the 4-room menu,
    window 0.5-2 s from ``onset_s`` (1 s) after the stimulus onset; mean
-   over the 8 simulated people of :data:`PEOPLE` (:data:`eye_bci_ros2.sim.eeg.REALISTIC_SUBJECTS`, whose
-   statistics match real recordings; their response builds up after the cue,
-   so the early windows are weak); Wolpaw ITR with a selection time
+   over the 8 simulated people of :data:`PEOPLE`
+   (:data:`eye_bci_ros2.sim.eeg.REALISTIC_SUBJECTS`, whose statistics match
+   real recordings; their response builds up after the cue, so the early
+   windows are weak); Wolpaw ITR with a selection time
    of window + :data:`GAZE_SHIFT_S` (Nakanishi 2018's 0.5 s cue / gaze shift).
 2. ``rounds``: the room -> table task (4 then 3 options) through the online
    decoder (:class:`eye_bci_ros2.ssvep.online.OnlineDecoder`: FBCCA with the
@@ -110,7 +111,7 @@ def _accuracy(full: bool) -> Dict[str, Dict]:
 
 
 def _calibrate(simulator, stimuli, seed) -> Optional[TrcaModel]:
-    """An ensemble TRCA model from 5 trials per option and 5 rest trials, or None if refused."""
+    """Fit ensemble TRCA on 5 trials per option and 5 rest trials; None if refused."""
     t, x, trials = calibration_session(simulator, stimuli, 5, ONSET_S + 2.0, 1.0, seed=seed,
                                        rest_trials=5)
     try:

@@ -1,5 +1,5 @@
 """
-SSVEP decoders on real recorded EEG: offline accuracy / ITR and the online decoder as the node runs it.
+SSVEP decoders on real EEG: offline accuracy / ITR, and the online decoder as the node runs it.
 
 Reads recordings of :mod:`eye_bci_ros2.recordings.eeg` (e.g. Kalunga et al.
 2016 "SSVEP Exo": 256 Hz, 8 occipital channels, LEDs at 13/17/21 Hz, and
@@ -92,7 +92,7 @@ def _stimuli(recording: EegRecording, epoch_s: float = 0.0) -> StimulusMap:
 
 def _calibrate(others: List[EegRecording], decoder: str, settings: OnlineSettings,
                force: bool) -> TrcaModel:
-    """A TRCA model from other sessions of the subject, as ssvep_calibrate fits one."""
+    """Fit a TRCA model on other sessions of the subject, as ssvep_calibrate fits one."""
     stimuli = _stimuli(others[0])
     trials = [[(cue, None if hz is None else f'{hz:g} Hz')
                for cue, hz in recording.trials] for recording in others]
@@ -103,7 +103,7 @@ def _calibrate(others: List[EegRecording], decoder: str, settings: OnlineSetting
 
 
 def _offline(recording: EegRecording, model: Optional[TrcaModel]) -> Dict[float, List[bool]]:
-    """Forced choice of each stimulus trial by window length."""
+    """Score the forced choice of each stimulus trial by window length."""
     frequencies = np.array(recording.frequencies)
     filtered = filter_recording(recording.eeg_uv, recording.rate)
     fbcca = FbccaDecoder(frequencies, recording.rate)
@@ -159,7 +159,7 @@ def _online(recording: EegRecording, settings: OnlineSettings,
 
 def _hybrid(trials: List[Dict]) -> Dict:
     """
-    The hybrid fusion on these rounds: the gaze rests on an option from ``GAZE_AT_S``.
+    Run the hybrid fusion on these rounds: the gaze rests on an option from ``GAZE_AT_S``.
 
     Rest trials: the gaze rests on each option in turn (the person looks at it
     without attending it: the EEG says nothing is attended); a choice is a
@@ -194,7 +194,7 @@ def _hybrid(trials: List[Dict]) -> Dict:
 
 def _replay(trials: List[Dict], rule: DecisionRule) -> List[Dict]:
     """
-    The rounds' choices under another decision rule, from their recorded evidence.
+    Decide the rounds again under another rule, from their recorded evidence.
 
     The rule is a pure function of each step's evidence z and window, and a
     round takes its first choice, so this equals streaming them again.
@@ -212,7 +212,7 @@ def _replay(trials: List[Dict], rule: DecisionRule) -> List[Dict]:
 
 
 def _acceptable(row: Dict) -> bool:
-    """The goals' limits: at most 1 % wrong, at most 2 % of rest trials with a choice."""
+    """Tell whether a row keeps the goals' limits: <= 1 % wrong, <= 2 % rest choices."""
     return (row['wrong'] <= GOAL_WRONG * row['stimulus_trials']
             and row['rest_choices'] <= GOAL_REST * row['rest_trials'])
 

@@ -96,7 +96,7 @@ def load_eeg(path: PathLike) -> EegRecording:
 
 
 def find_eeg_recordings(folder: PathLike) -> List[Path]:
-    """The recordings in ``folder`` (``*.npz``), sorted by name."""
+    """List the recordings in ``folder`` (``*.npz``), sorted by name."""
     return sorted(Path(folder).glob('*.npz'))
 
 
@@ -127,7 +127,7 @@ def find_shared_data(kind: str, start: Optional[PathLike] = None) -> Optional[Pa
 
 
 def eeg_data_dir() -> Optional[Path]:
-    """The real-EEG folder: ``$EYE_BCI_REAL_EEG`` if set, else :func:`find_shared_data`."""
+    """Return the real-EEG folder: ``$EYE_BCI_REAL_EEG`` if set, else :func:`find_shared_data`."""
     named = os.environ.get(EEG_DATA_ENV, '')
     if named:
         return Path(named) if Path(named).is_dir() else None
@@ -157,7 +157,7 @@ def _response(x: np.ndarray, rate: float, frequency: float) -> Tuple[float, floa
 def session_statistics(eeg_uv: np.ndarray, rate: float, channel: int,
                        trials: Sequence[Tuple[float, Optional[float]]]) -> Dict[str, float]:
     """
-    What a cued SSVEP session shows at one channel (e.g. Oz): the simulator must match it.
+    Measure what a cued SSVEP session shows at one channel (e.g. Oz); the simulator matches it.
 
     :param eeg_uv: raw EEG, (n, C), uV; ``trials``: (cue s from the first
         sample, attended Hz or None = rest), each followed by >= 5 s of EEG.

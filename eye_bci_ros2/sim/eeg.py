@@ -339,7 +339,7 @@ class EegSimulator:
 
     def _attended_stimulus(self, t: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """
-        The stimulus driving the EEG at t: frequency (NaN = none), phase, and for how long.
+        Return the stimulus driving the EEG at t: frequency (NaN = none), phase, how long.
 
         :returns: ``(frequency, phase, since)``, each (n,); ``since``: s since
             the response to it began.
@@ -472,7 +472,7 @@ def cued_recording(subject: EegSubject, seed: int = 0, frequencies=(13.0, 17.0, 
                    per_class: int = 8, rate: float = 256.0, trial_s: float = 5.0,
                    rest_s: float = 1.5):
     """
-    A simulated session of the real recordings' protocol (Kalunga et al. 2016).
+    Simulate a session of the real recordings' protocol (Kalunga et al. 2016).
 
     ``per_class`` cued trials of ``trial_s`` per stimulus and as many rest
     trials (nothing attended), in a seeded order, on the generic layout's 8

@@ -133,7 +133,7 @@ def sideband_hz(min_window_s: float) -> float:
 
 
 def with_sidebands(frequencies: Sequence[float], delta: float) -> np.ndarray:
-    """The K frequencies, then each minus ``delta``, then each plus it, (3K,), Hz."""
+    """Return the K frequencies, then each minus ``delta``, then each plus it, (3K,), Hz."""
     f = np.asarray(frequencies, dtype=float)
     return np.concatenate([f, f - delta, f + delta])
 
@@ -162,7 +162,7 @@ def fbcca_null(rate: float, channels: int, bands: int, harmonics: int,
                band: Tuple[float, float], notch_hz: float, windows_s: Tuple[float, ...],
                delta: float) -> RestModel:
     """
-    The FBCCA sideband statistic of an unattended option, measured on white noise.
+    Measure the FBCCA sideband statistic of an unattended option on white noise.
 
     Seeded, so the same settings give the same null.  The statistic compares
     an option with its own neighbourhood, so its null depends on the window
@@ -328,10 +328,12 @@ class TrcaModel:
         z = rest.z(repeat, windows[-1])
         if require_repeat and z.mean() * np.sqrt(len(z)) < REPEAT_Z:
             raise ValueError(
-                f'the calibration trials do not repeat: left-out trials match their own '
-                f'stimulus\'s template no better than the others\' (mean z {z.mean():.2f} '
-                f'over {len(z)} trials, need {REPEAT_Z / np.sqrt(len(z)):.2f}).  TRCA needs stimuli whose phase is the same at every '
-                'trial onset (a screen stimulus drawn frame by frame from the onset); with '
+                'the calibration trials do not repeat: left-out trials match their own '
+                "stimulus's template no better than the others' (mean z "
+                f'{z.mean():.2f} over {len(z)} trials, need '
+                f'{REPEAT_Z / np.sqrt(len(z)):.2f}).  TRCA needs stimuli whose phase is the '
+                'same at every trial onset (a screen stimulus drawn frame by frame from the '
+                'onset); with '
                 'free-running flicker (LEDs) use the fbcca decoder')
         return cls(model.labels, model.frequencies, model.phases, model.rate, filters,
                    templates, model.channels, ensemble=ensemble, rest=rest, **settings)

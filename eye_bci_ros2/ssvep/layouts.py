@@ -119,7 +119,7 @@ LAYOUT_NAMES = tuple(LAYOUTS)
 
 def electrode_position(label: str) -> str:
     """
-    The electrode position a channel label names, or '' when it names none.
+    Return the electrode position a channel label names, or '' when it names none.
 
     ``'EEG Oz-REF'`` -> ``'Oz'``, ``'O1-A1'`` -> ``'O1'``, ``'Oz'`` -> ``'Oz'``,
     ``'EEG 1'`` / ``'Accelerometer X'`` -> ``''``.

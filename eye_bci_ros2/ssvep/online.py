@@ -233,7 +233,7 @@ class OnlineDecoder:
         self._build(self.rate)
 
     def _build(self, rate: float) -> None:
-        """Filters and buffer at ``rate`` (at start, and when the measured rate is adopted)."""
+        """Build filters and buffer at ``rate`` (at start; when the measured rate is adopted)."""
         self.rate = float(rate)
         bands, band, notch = self._filter_settings
         self._bank = StreamingFilterBank(self.rate, len(self.channels), bands, band, notch)
@@ -304,7 +304,7 @@ class OnlineDecoder:
 
     def _railed(self, raw: np.ndarray, nonfinite: np.ndarray) -> np.ndarray:
         """
-        Samples at the amplifier's rail, (n, C) bool.
+        Mark the samples at the amplifier's rail, (n, C) bool.
 
         At or beyond 99 % of ``rail_uv`` when the amplifier's range is known;
         else (``rail_uv`` 0) a clipped stretch: :data:`STUCK_SAMPLES` or more
@@ -388,7 +388,7 @@ class OnlineDecoder:
             return (f'the stream runs at {self.measured_rate:.2f} Hz by its sample times, not '
                     f'{self.rate:g} Hz as the TRCA model was fitted ({100 * error:+.1f} %, '
                     f'more than the {100 * self.rate_precision(frequencies):.2f} % these '
-                    'stimuli allow): fix the amplifier app\'s rate or calibrate again')
+                    "stimuli allow): fix the amplifier app's rate or calibrate again")
         adopted = round(self.measured_rate, RATE_DECIMALS)
         self.notes.append(f'the stream advertises {self.nominal_rate:g} Hz but its sample '
                           f'times show {adopted:g} Hz: decoding at {adopted:g} Hz')

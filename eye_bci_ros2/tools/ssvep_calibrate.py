@@ -59,7 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--rest-trials', type=int, default=-1,
                         help='rest trials (the stimuli shown, the person looks at a fixation '
                         'point): what the model learns "nobody attends" from (default: '
-                        '--trials; 0 = only the other options\' trials)')
+                        "--trials; 0 = only the other options' trials)")
     parser.add_argument('--trial-s', type=float, default=2.0)
     parser.add_argument('--rest-s', type=float, default=1.0)
     parser.add_argument('--onset-s', type=float, default=DEFAULT_ONSET_S,
@@ -173,7 +173,7 @@ def save_recording(path: str, times, samples, trials, rate: float, labels) -> No
 
 
 def load_recordings(paths: Sequence[str]):
-    """Read saved recordings of one set-up: (times list, samples list, trials list, rate, labels)."""
+    """Read saved recordings of one set-up: (times, samples, trials lists, rate, labels)."""
     times, samples, trials, rate, labels = [], [], [], None, None
     for path in paths:
         try:
