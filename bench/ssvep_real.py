@@ -51,8 +51,8 @@ import numpy as np
 
 from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
-from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EegRecording,
-                                         find_eeg_recordings, load_eeg)
+from eye_bci_ros2.recordings.eeg import (by_subject, EEG_DATA_ENV, eeg_data_dir,
+                                         EegRecording, find_eeg_recordings, load_eeg)
 from eye_bci_ros2.ssvep.decision import DecisionRule
 from eye_bci_ros2.ssvep.decoders import FbccaDecoder, TrcaModel
 from eye_bci_ros2.ssvep.filters import filter_recording
@@ -264,6 +264,15 @@ def _offline_row(hits: Dict[float, List[bool]], classes: int) -> Dict:
                                    1)
     row['trials'] = len(next(iter(hits.values()), []))
     return row
+
+
+def unavailable() -> Optional[str]:
+    """Say why the benchmark cannot run here (no recordings), or None (``bench.run_all``)."""
+    folder = eeg_data_dir()
+    if folder is None or not find_eeg_recordings(folder):
+        return (f'no real EEG recordings (set ${EEG_DATA_ENV} or put them in '
+                '../shared/data/real_eeg)')
+    return None
 
 
 def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str] = (),
