@@ -168,7 +168,7 @@ def session_statistics(eeg_uv: np.ndarray, rate: float, channel: int,
         the response's power above the noise 0-2 s after the cue of that 3-5 s
         after it (1 = at once, small = slow build-up); ``alpha_db`` the median
         power ratio of 8-12 Hz to 14-22 Hz in rest trials (how much the alpha
-        rhythm stands out where the decoys and stimuli are).
+        rhythm stands out where stimuli and their sidebands lie).
     """
     from scipy import signal  # noqa: I100 - only this statistic needs it
     x = signal.sosfiltfilt(signal.butter(4, (3.0, 45.0), btype='bandpass', fs=rate,

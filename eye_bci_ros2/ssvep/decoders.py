@@ -109,15 +109,18 @@ class FbccaDecoder:
 #: Frequencies at which the FBCCA null is measured on white noise, Hz (the statistic is
 #: a ratio to the option's own neighbourhood: its null hardly depends on the frequency).
 NULL_PROBES_HZ = (10.0, 14.0, 18.0, 22.0)
-#: White-noise windows per window length for the FBCCA null.
-NULL_WINDOWS = 60
+#: White-noise windows per window length for the FBCCA null (x 4 probes: its standard
+#: deviation within ~5 %).  The cost is FBCCA on these windows, once per stream set-up and
+#: count of usable channels: 0.1 s of CPU at 256 Hz x 8 channels, seconds at 1000 Hz x 32.
+NULL_WINDOWS = 50
 #: A calibration is refused when its left-out trials do not match their own template
 #: better than the null: their mean z (each trial against its stimulus's template made
 #: without it) is below this many standard errors (1 / sqrt(trials)), p ~ 3e-7: real
 #: recordings of free-running LEDs pass 3 standard errors in 3 of 32 calibrations.
 REPEAT_Z = 5.0
-#: Window lengths of a rest model are this far apart, s.
-NULL_STEP_S = 0.5
+#: Window lengths of a rest model are at most this far apart, s (its statistic changes
+#: slowly with the length: interpolated between).
+NULL_STEP_S = 1.0
 
 
 def sideband_hz(min_window_s: float) -> float:
@@ -170,17 +173,16 @@ def fbcca_null(rate: float, channels: int, bands: int, harmonics: int,
     spectrum or size: measured on real rest EEG it matches (docs/ssvep.md).
     """
     rng = np.random.default_rng(20161)
-    longest = int(round(max(windows_s) * rate))
-    start = int(round(5.0 * rate))  # past every filter's settle time
-    noise = rng.standard_normal((start + NULL_WINDOWS * longest, channels))
+    hop = int(round(max(windows_s) * rate / 2))  # windows overlap by half: less to filter
+    start = int(round(3.0 * rate))  # past the filters' settle time
+    noise = rng.standard_normal((start + (NULL_WINDOWS + 1) * hop, channels))
     filtered = filter_recording(noise, rate, bands, band, notch_hz)
     decoder = FbccaDecoder(with_sidebands(NULL_PROBES_HZ, delta), rate, bands, harmonics)
     samples = []
     for length in windows_s:
         n = int(round(length * rate))
         values = [sideband_statistic(decoder.scores(
-            filtered[:, start + i * longest:start + i * longest + n]))
-            for i in range(NULL_WINDOWS)]
+            filtered[:, start + i * hop:start + i * hop + n])) for i in range(NULL_WINDOWS)]
         samples.append(np.concatenate(values))
     return RestModel.measure(windows_s, samples, 'white noise')
 
