@@ -110,17 +110,17 @@ class FbccaDecoder:
 #: a ratio to the option's own neighbourhood: its null hardly depends on the frequency).
 NULL_PROBES_HZ = (10.0, 14.0, 18.0, 22.0)
 #: White-noise windows per window length for the FBCCA null (x 4 probes: its standard
-#: deviation within ~5 %).  The cost is FBCCA on these windows, once per stream set-up and
-#: count of usable channels: 0.1 s of CPU at 256 Hz x 8 channels, seconds at 1000 Hz x 32.
-NULL_WINDOWS = 50
+#: deviation within ~3 %).  The cost is FBCCA on these windows, once per stream set-up and
+#: count of usable channels: 0.4 s of CPU at 256 Hz x 8 channels, ~10 s at 1000 Hz x 32.
+NULL_WINDOWS = 100
 #: A calibration is refused when its left-out trials do not match their own template
 #: better than the null: their mean z (each trial against its stimulus's template made
 #: without it) is below this many standard errors (1 / sqrt(trials)), p ~ 3e-7: real
 #: recordings of free-running LEDs pass 3 standard errors in 3 of 32 calibrations.
 REPEAT_Z = 5.0
-#: Window lengths of a rest model are at most this far apart, s (its statistic changes
-#: slowly with the length: interpolated between).
-NULL_STEP_S = 1.0
+#: Window lengths of a rest model are at most this far apart, s (interpolated between:
+#: the FBCCA null's spread changes by ~10 % from 1 to 2 s, which moves the decisions).
+NULL_STEP_S = 0.5
 
 
 def sideband_hz(min_window_s: float) -> float:
