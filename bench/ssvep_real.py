@@ -51,7 +51,7 @@ import numpy as np
 
 from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
-from eye_bci_ros2.recordings.eeg import (by_subject, EEG_DATA_ENV, eeg_data_dir,
+from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EEG_DATA_ENV,
                                          EegRecording, find_eeg_recordings, load_eeg)
 from eye_bci_ros2.ssvep.decision import DecisionRule
 from eye_bci_ros2.ssvep.decoders import FbccaDecoder, TrcaModel

@@ -14,7 +14,7 @@ from eye_bci_ros2.ssvep.online import OnlineSettings
 
 @pytest.fixture(scope='module')
 def session():
-    """The first 8 trials of one real session (about 55 s of EEG)."""
+    """Load the first 8 trials of one real recording: about 55 s of EEG."""
     folder = eeg_data_dir()
     paths = find_eeg_recordings(folder) if folder else []
     if not paths:
