@@ -35,8 +35,8 @@ RULES = ('posterior', 'margin')
 DEFAULT_GAIN = 3.0
 #: z at which "nothing attended" is as likely as one option, in null standard deviations
 #: (a null option passes it in 0.6 % of windows): the value the leave-subject-out
-#: evaluation of ``python -m bench.ssvep_real`` picks from 1.5-4 for 7 of the 8 held-out
-#: subjects of the development recordings (docs/ssvep.md).
+#: evaluation of ``python -m bench.ssvep_real`` picks from 1.5-4 for every held-out
+#: subject of the development recordings (docs/ssvep.md).
 DEFAULT_REST_Z = 2.5
 
 

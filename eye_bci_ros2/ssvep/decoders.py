@@ -107,13 +107,14 @@ class FbccaDecoder:
 
 
 #: Frequencies at which the FBCCA null is measured on white noise, Hz (the statistic is
-#: a ratio to the option's own neighbourhood: its null hardly depends on the frequency).
-#: Many per window: the window's QR (n x C) is the cost, a probe only adds references.
-NULL_PROBES_HZ = tuple(float(f) for f in range(9, 41, 2))
-#: White-noise windows per window length for the FBCCA null (x 16 probes: its standard
-#: deviation within ~3 %).  The cost is FBCCA on these windows, once per stream set-up and
-#: count of usable channels: 0.1 s of CPU at 256 Hz x 8 channels, a few s at 1000 Hz x 32.
-NULL_WINDOWS = 25
+#: a ratio to the option's own neighbourhood: its null changes little over the stimulus
+#: range, more towards 40 Hz).  Several per window: the window's QR (n x C) is the cost,
+#: a probe only adds references.
+NULL_PROBES_HZ = tuple(float(f) for f in range(9, 24, 2))
+#: White-noise windows per window length for the FBCCA null (x 8 probes: its standard
+#: deviation within ~4 %).  The cost is FBCCA on these windows, once per stream set-up and
+#: count of usable channels: 0.1-0.4 s of CPU at 256 Hz x 8 channels, seconds at 1000 Hz x 32.
+NULL_WINDOWS = 50
 #: A calibration is refused when its left-out trials do not match their own template
 #: better than the null: their mean z (each trial against its stimulus's template made
 #: without it) is below this many standard errors (1 / sqrt(trials)), p ~ 3e-7: real
