@@ -5,7 +5,8 @@ Run the benchmarks, print a table and write ``bench_results.json``.
 with ``run(quick: bool = False) -> dict`` returning its section of the results
 (``{row: {metric: value}}``, e.g. ``{'1000': {'ms': 1.2}}``); :data:`REGISTRY`
 names them.  A module that does not exist yet (``bench.latency``,
-``bench.decision``) is reported as skipped; any other failure is recorded in the
+``bench.decision``), or whose ``unavailable() -> str`` gives a reason (its
+recordings are absent), is reported as skipped; any other failure is recorded in the
 JSON and makes the exit status 1, after the other benchmarks have run, as does a
 row whose ``agrees`` is false (fast path and reference disagree).  A module may
 name the metrics its table shows in ``TABLE_COLUMNS`` (default: all), or print
@@ -46,6 +47,7 @@ REGISTRY: Dict[str, str] = {
     'correction_fit': 'bench.correction_fit',
     'calibration': 'bench.calibration_protocol',
     'ssvep': 'bench.ssvep',
+    'ssvep_real': 'bench.ssvep_real',
 }
 
 #: Default output: bench_results.json at the repository root.
@@ -97,6 +99,11 @@ def run_benchmarks(names: Sequence[str], quick: bool = False,
         except Exception:  # report it and go on with the others
             outcome['errors'][name] = traceback.format_exc()
             print(f'{name}: cannot load\n{outcome["errors"][name]}', file=log)
+            continue
+        reason = getattr(module, 'unavailable', lambda: None)()
+        if reason:  # e.g. its recordings are not on this machine
+            outcome['skipped'][name] = reason
+            print(f'{name}: skipped ({reason})', file=log)
             continue
         print(f'{name}: running{" (quick)" if quick else ""} ...', file=log, flush=True)
         try:

@@ -50,12 +50,12 @@ from eye_bci_ros2.nodes.ssvep_messages import (msg_to_stimulus_map, scores_to_ms
 from eye_bci_ros2.nodes.topics import (EVENT_QOS, LATCHED_QOS, REGIONS_TOPIC, REQUEST_TOPIC,
                                        SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC,
                                        SSVEP_STIMULI_TOPIC)
-from eye_bci_ros2.ssvep.decision import RULES
+from eye_bci_ros2.ssvep.decision import DEFAULT_GAIN, DEFAULT_REST_Z, RULES
 from eye_bci_ros2.ssvep.decoders import DECODERS, TrcaModel
 from eye_bci_ros2.ssvep.eeg_stream import EegStreamProfile
 from eye_bci_ros2.ssvep.layouts import (ANY, LAYOUT_NAMES, LAYOUTS, parse_channels,
                                         resolve_channels)
-from eye_bci_ros2.ssvep.online import OnlineDecoder, OnlineSettings
+from eye_bci_ros2.ssvep.online import DEFAULT_ONSET_S, OnlineDecoder, OnlineSettings
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
 
 
@@ -94,17 +94,26 @@ PARAMETERS = (
               value_range=(0.1, 20.0)),
     ParamSpec('threshold', 0.95, 'evidence needed for a choice (posterior or margin)',
               value_range=(0.01, 1.0)),
-    ParamSpec('rule', 'posterior', 'evidence: posterior (softmax of relative scores, with '
-              "FBCCA's decoy 'nothing attended' class) or margin", choices=RULES),
-    ParamSpec('gain', 8.0, 'softmax gain of the posterior', value_range=(0.1, 1000.0)),
+    ParamSpec('rule', 'posterior', "evidence: posterior (each option's evidence against the "
+              "rest model, with a 'nothing attended' hypothesis) or margin", choices=RULES),
+    ParamSpec('gain', DEFAULT_GAIN, "the posterior's gain: expected evidence z (null standard "
+              'deviations) of an attended option', value_range=(0.1, 100.0)),
+    ParamSpec('rest_z', DEFAULT_REST_Z, "evidence z at which 'nothing attended' is as likely "
+              'as one option (higher: fewer choices when nobody attends, slower ones)',
+              value_range=(0.0, 20.0)),
+    ParamSpec('onset_s', DEFAULT_ONSET_S, "a round's EEG window starts this long after the "
+              'round (gaze shift and SSVEP build-up), s', value_range=(0.0, 10.0)),
     ParamSpec('notch_hz', 50.0, 'line frequency to notch (and its harmonics), Hz; 0 = none',
               value_range=(0.0, 1000.0)),
     ParamSpec('band', [6.0, 90.0], 'pass band before the filter bank, [low, high] Hz '
               '(high clipped to 0.45 x rate)', check=_band, array_type='double_array'),
     ParamSpec('bands', 5, 'FBCCA sub-bands (Chen 2015: 8 m .. 88 Hz)', value_range=(1, 10)),
     ParamSpec('harmonics', 5, 'FBCCA reference harmonics', value_range=(1, 10)),
-    ParamSpec('rail_uv', 0.0, "amplitude counted as railed, uV; 0 = the layout's",
+    ParamSpec('rail_uv', 0.0, "amplitude counted as railed, uV; 0 = the layout's (generic: "
+              'unknown, then clipping shows as a run of identical samples far from zero)',
               value_range=(0.0, 1e9)),
+    ParamSpec('settle_s', 0.0, 'how long filter output stays out after a start, a gap or a '
+              "bad sample, s; 0 = the filters' measured settle time", value_range=(0.0, 10.0)),
     ParamSpec('flat_uv', 0.1, 'filtered std below which a channel is flat, uV',
               value_range=(0.0, 1000.0)),
     ParamSpec('keep_scoring', False,
@@ -128,7 +137,8 @@ def _settings(values: Dict[str, Any]) -> OnlineSettings:
     return OnlineSettings(
         decoder=values['decoder'], window_s=values['window_s'],
         min_window_s=values['min_window_s'], threshold=values['threshold'],
-        rule=values['rule'], gain=values['gain'], bands=values['bands'],
+        rule=values['rule'], gain=values['gain'], rest_z=values['rest_z'],
+        onset_s=values['onset_s'], settle_s=values['settle_s'], bands=values['bands'],
         harmonics=values['harmonics'], band=tuple(values['band']),
         notch_hz=values['notch_hz'],
         rail_uv=values['rail_uv'] or LAYOUTS[values['layout']].rail_uv,
@@ -365,6 +375,9 @@ class SsvepDecoder(Node):
                 return
             done = not self._decoder.round_open
             result = self._decoder.step()
+            for note in self._decoder.notes:
+                self.get_logger().warning(note)
+            self._decoder.notes.clear()
             if result is None:
                 return
             if result.problem:
@@ -381,8 +394,9 @@ class SsvepDecoder(Node):
                 self._choice_pub.publish(String(data=result.choice))
                 self.choices_published += 1
                 self.get_logger().info(
-                    f"SSVEP choice '{result.choice}' after {result.window_s:.2f} s (posterior "
-                    f'{result.posterior.max():.3f})')
+                    f"SSVEP choice '{result.choice}' after a {result.window_s:.2f} s window "
+                    f'(posterior {result.posterior.max():.3f}, evidence z '
+                    f'{result.evidence.max():.1f})')
         except Exception as error:  # noqa: B902 - a node never dies on a timer
             self._warn('decide', f'SSVEP decoding failed: {error}')
 

@@ -7,11 +7,13 @@ Each channel, in uV, is the sum of
   phase-locked to the stimulus (``sin(h (2 pi f (t - epoch - latency) + phase)
   + psi_h)``), amplitude ``ssvep_uv x harmonic_ratios[h-1]`` at Oz scaled by
   the channel's occipital weight, with a small seeded phase offset per channel;
-  it starts ``latency_s`` after attention moves (none while nothing is
+  it starts ``delay_s + latency_s`` after attention is asked for, grows over
+  ``buildup_s`` and drifts slowly in size (``drift``) (none while nothing is
   attended);
 - background EEG: 1/f ("pink") noise, partly common to all channels, of RMS
   ``background_uv``, plus 8-12 Hz alpha of RMS ``alpha_uv`` over the back of
-  the head;
+  the head, in bursts (``alpha_bursts``) and smaller while attending
+  (``alpha_block``);
 - line noise at ``line_hz`` (50 or 60) of amplitude ``line_uv`` (varying per
   channel);
 - blinks (Poisson, ``blink_rate_hz``): 0.3 s bumps of ``blink_uv`` at Fp,
@@ -69,6 +71,14 @@ _REGION_WEIGHT = {'fp': (0.02, 0.1, 1.0), 'af': (0.03, 0.1, 0.8), 'f': (0.05, 0.
 #: Paul Kellet's pink-noise filter (1/f within 1 % from 0.0009 to 0.4 of the rate).
 _PINK_B = np.array([0.049922035, -0.095993537, 0.050612699, -0.004408786])
 _PINK_A = np.array([1.0, -2.494956002, 2.017265875, -0.522189400])
+#: Where a railed channel of a layout without a known range sticks, uV (a +-500 uV
+#: amplifier such as the g.Mobilab+).
+UNKNOWN_RAIL_UV = 500.0
+#: Time constants of the SSVEP's drift and of the alpha bursts, s.
+DRIFT_TAU_S = 2.0
+ALPHA_TAU_S = 0.5
+#: Longest extra rest between calibration trials, s (uniform from 0).
+REST_JITTER_S = 0.5
 #: Blink length, s.
 BLINK_S = 0.3
 
@@ -88,6 +98,16 @@ class EegSubject:
     :param line_uv: line noise amplitude, uV.
     :param blink_rate_hz: blinks per second.
     :param blink_uv: blink amplitude at Fp, uV.
+    :param buildup_s: the SSVEP grows from nothing to its full size over this
+        long after the latency (a raised-cosine ramp), s; 0 = at once.
+    :param delay_s: attention reaches the option this long after it is asked
+        for (a cue heard, the gaze moving), s.
+    :param drift: standard deviation of the slow random change of the SSVEP's
+        size (natural log of its amplitude, time constant :data:`DRIFT_TAU_S`):
+        attention waxes and wanes; 0 = a steady response.
+    :param alpha_bursts: the same for the alpha rhythm's envelope (time
+        constant :data:`ALPHA_TAU_S`): alpha comes in bursts.
+    :param alpha_block: alpha's size while an option is attended, relative to rest.
     """
 
     name: str
@@ -100,6 +120,11 @@ class EegSubject:
     line_uv: float = 15.0
     blink_rate_hz: float = 0.25
     blink_uv: float = 150.0
+    buildup_s: float = 0.0
+    delay_s: float = 0.0
+    drift: float = 0.0
+    alpha_bursts: float = 0.0
+    alpha_block: float = 1.0
 
 
 #: Seeded subjects from weak to strong responders (see the module doc).
@@ -113,6 +138,19 @@ SUBJECTS = (
     EegSubject('s7', 8.5, latency_s=0.15),
     EegSubject('s8', 10.0, alpha_uv=1.5),
 )
+
+#: Subjects like the people of real recordings (Kalunga et al. 2016, 256 Hz LEDs): a
+#: response 1-2 uV at Oz that builds up over ~1 s after a cue and drifts from trial to
+#: trial, alpha in bursts that competes with it.  Matched to the recordings'
+#: statistics (:func:`eye_bci_ros2.recordings.eeg.session_statistics`; the test
+#: ``test/sim/test_sim_eeg_real.py`` holds them within stated tolerances); the bench's
+#: simulated figures use them.
+REALISTIC_SUBJECTS = tuple(
+    EegSubject(f'r{index + 1}', uv, alpha_uv=alpha, alpha_hz=hz, buildup_s=0.8, delay_s=0.7,
+               drift=0.45, alpha_bursts=0.6, alpha_block=0.7)
+    for index, (uv, alpha, hz) in enumerate(
+        ((0.8, 4.0, 10.5), (0.95, 5.0, 9.5), (1.1, 3.5, 11.0), (1.3, 4.5, 10.0),
+         (1.5, 4.0, 10.5), (1.8, 5.5, 9.0), (2.1, 3.5, 11.5), (2.5, 4.5, 10.0))))
 
 
 def _weights(position: str) -> Tuple[float, float, float]:
@@ -182,6 +220,12 @@ class EegSimulator:
         self._noise_rng = np.random.default_rng(seeds[1])
         self._alpha_rng = np.random.default_rng(seeds[2])
         self._blink_seed = int(seeds[3].generate_state(1)[0])
+        # Slow log-normal modulations: the SSVEP's drift and the alpha bursts (AR(1)).
+        self._drift_rng = np.random.default_rng(seeds[4])
+        taus = np.array([DRIFT_TAU_S, ALPHA_TAU_S])
+        self._drift_a = np.exp(-1.0 / (taus * self.rate))
+        self._drift_sd = np.array([subject.drift, subject.alpha_bursts])
+        self._drift_state = self._drift_rng.standard_normal(2) * self._drift_sd
         # Pink noise: 60 % common, 40 % own, normalised to background_uv RMS.
         self._pink_sos = signal.tf2sos(_PINK_B, _PINK_A)
         self._pink_gain = subject.background_uv / self._pink_rms()
@@ -267,36 +311,61 @@ class EegSimulator:
         alpha, self._alpha_zi = signal.sosfilt(
             self._alpha_sos, self._alpha_rng.standard_normal((count, channels)), axis=0,
             zi=self._alpha_zi)
+        drift = self._modulation(count)
+        bursts = np.exp(drift[:, 1] - 0.5 * self.subject.alpha_bursts ** 2)  # unit mean power
+        attending = np.isfinite(self._attended_stimulus(t)[0])
+        alpha *= (bursts * np.where(attending, self.subject.alpha_block, 1.0))[:, None]
         out = background + self._alpha_gain * alpha * self._alpha_w
         out += self.subject.line_uv * self._line_gain * np.sin(
             2 * np.pi * self.line_hz * t[:, None] + self._line_phase)
-        out += self._ssvep_channels(t)
+        out += self._ssvep_channels(t) * np.exp(drift[:, :1])
         out += self._blink_wave(t)[:, None] * self._blink_w
         out[:, ~self._eeg] = 0.0
         out[:, self._flat] = 0.0
-        out[:, self._railed] = self.layout.rail_uv
+        out[:, self._railed] = self.layout.rail_uv or UNKNOWN_RAIL_UV
         return t, out
 
-    def _attended_stimulus(self, t: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-        """Frequency (NaN = none) and phase of the stimulus driving the EEG at t."""
+    def _modulation(self, count: int) -> np.ndarray:
+        """Log-amplitude of the SSVEP drift and the alpha envelope per sample, (n, 2)."""
+        noise = self._drift_rng.standard_normal((count, 2)) * self._drift_sd \
+            * np.sqrt(1 - self._drift_a ** 2)
+        out = np.empty((count, 2))
+        for column in range(2):
+            out[:, column], state = signal.lfilter(
+                [1.0], [1.0, -self._drift_a[column]], noise[:, column],
+                zi=[self._drift_a[column] * self._drift_state[column]])
+            self._drift_state[column] = out[-1, column] if count else self._drift_state[column]
+        return out
+
+    def _attended_stimulus(self, t: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """
+        Return the stimulus driving the EEG at t: frequency (NaN = none), phase, how long.
+
+        :returns: ``(frequency, phase, since)``, each (n,); ``since``: s since
+            the response to it began.
+        """
         frequency = np.full(t.shape, np.nan)
         phase = np.zeros(t.shape)
+        since = np.zeros(t.shape)
         if self._stimuli is None or not self._schedule:
-            return frequency, phase
+            return frequency, phase, since
         times = np.array([s[0] for s in self._schedule])
-        # The visual system answers latency_s after attention moves.
-        which = np.searchsorted(times, t - self.subject.latency_s, side='right') - 1
-        for row, (_, label) in enumerate(self._schedule):
+        # Attention reaches the option delay_s after it is asked for; the visual system
+        # answers latency_s later.
+        lagged = t - self.subject.latency_s - self.subject.delay_s
+        which = np.searchsorted(times, lagged, side='right') - 1
+        for row, (start, label) in enumerate(self._schedule):
             if label is None or label not in self._stimuli.labels:
                 continue
             mask = which == row
             if mask.any():
                 frequency[mask], phase[mask] = self._stimuli.stimulus(label)
-        return frequency, phase
+                since[mask] = lagged[mask] - start
+        return frequency, phase, since
 
     def _ssvep_channels(self, t: np.ndarray) -> np.ndarray:
         """SSVEP per channel, (n, C), uV."""
-        frequency, phase = self._attended_stimulus(t)
+        frequency, phase, since = self._attended_stimulus(t)
         on = np.isfinite(frequency)
         out = np.zeros((len(t), len(self.labels)))
         if not on.any():
@@ -308,7 +377,11 @@ class EegSimulator:
         for h, ratio in enumerate(self.subject.harmonic_ratios, start=1):
             wave += ratio * np.sin(h * (base[:, None] + self._channel_phase[None, :])
                                    + self._harmonic_phase[h - 1])
-        out[on] = self.subject.ssvep_uv * wave * self._ssvep_w
+        ramp = np.ones(int(on.sum()))
+        if self.subject.buildup_s > 0:
+            ramp = 0.5 * (1 - np.cos(np.pi * np.clip(since[on] / self.subject.buildup_s,
+                                                     0.0, 1.0)))
+        out[on] = self.subject.ssvep_uv * wave * self._ssvep_w * ramp[:, None]
         return out
 
     def _blink_wave(self, t: np.ndarray) -> np.ndarray:
@@ -353,19 +426,25 @@ def narrowband_snr_db(x: np.ndarray, rate: float, frequency: float,
 
 def calibration_session(simulator: EegSimulator, stimuli: StimulusMap, trials_per_option: int,
                         trial_s: float = 2.0, rest_s: float = 1.0, seed: int = 0,
-                        ) -> Tuple[np.ndarray, np.ndarray, List[Tuple[float, str]]]:
+                        rest_trials: int = 0, phase_locked: bool = True,
+                        ) -> Tuple[np.ndarray, np.ndarray, List[Tuple[float, Optional[str]]]]:
     """
     Record a cue-guided calibration: each option attended ``trials_per_option`` times.
 
     Trials come in a seeded random order; each starts its stimuli at the
     onset (the stimulus epoch of that trial), lasts ``trial_s`` and is
-    followed by ``rest_s`` with nothing attended.  The first trial starts
-    after ``rest_s``.
+    followed by ``rest_s`` (plus up to :data:`REST_JITTER_S`) with nothing
+    attended.  The first trial starts after ``rest_s``.  With ``phase_locked``
+    False the stimuli keep flickering from the session's start (LEDs): their
+    phase at an onset is whatever it is.  ``rest_trials`` more trials (label None) show the
+    stimuli while the person attends none of them (a fixation point).
 
-    :returns: ``(times (n,), samples (n, C), trials [(onset s, label)])``.
+    :returns: ``(times (n,), samples (n, C), trials [(onset s, label or None)])``.
     """
-    order = np.repeat(np.arange(len(stimuli.labels)), int(trials_per_option))
-    np.random.default_rng(seed).shuffle(order)
+    order = np.repeat(np.arange(len(stimuli.labels) + 1),
+                      [int(trials_per_option)] * len(stimuli.labels) + [int(rest_trials)])
+    rng = np.random.default_rng(seed)
+    rng.shuffle(order)
     simulator.start(0.0, None)
     times, chunks, trials = [], [], []
     now = float(rest_s)
@@ -373,15 +452,43 @@ def calibration_session(simulator: EegSimulator, stimuli: StimulusMap, trials_pe
     times.append(t)
     chunks.append(x)
     for target in order:
-        label = stimuli.labels[target]
+        label = stimuli.labels[target] if target < len(stimuli.labels) else None
         simulator.set_stimuli(StimulusMap(stimuli.labels, stimuli.frequencies, stimuli.phases,
-                                          now))
+                                          now if phase_locked else 0.0))
         simulator.set_attended(label, now)
         trials.append((now, label))
         end = now + trial_s
         simulator.set_attended(None, end)
-        now = end + rest_s
+        # A person takes a varying time to be ready for the next cue: trials are not
+        # locked to the mains (whose residue TRCA would otherwise learn as a response).
+        now = end + rest_s + rng.uniform(0.0, REST_JITTER_S)
         t, x = simulator.next_chunk(now - 0.5 / simulator.rate)
         times.append(t)
         chunks.append(x)
     return np.concatenate(times), np.concatenate(chunks), trials
+
+
+def cued_recording(subject: EegSubject, seed: int = 0, frequencies=(13.0, 17.0, 21.0),
+                   per_class: int = 8, rate: float = 256.0, trial_s: float = 5.0,
+                   rest_s: float = 1.5):
+    """
+    Simulate a session of the real recordings' protocol (Kalunga et al. 2016).
+
+    ``per_class`` cued trials of ``trial_s`` per stimulus and as many rest
+    trials (nothing attended), in a seeded order, on the generic layout's 8
+    occipital channels; the stimuli flicker freely (their phase at a cue is
+    whatever it is, as LEDs).
+
+    :returns: an :class:`eye_bci_ros2.recordings.eeg.EegRecording`.
+    """
+    from eye_bci_ros2.recordings.eeg import EegRecording  # noqa: I100 - sim -> loader form
+    labels = tuple(f'{f:g} Hz' for f in frequencies)
+    stimuli = StimulusMap(labels, tuple(frequencies), (0.0,) * len(labels))
+    simulator = EegSimulator(subject, rate=rate, seed=seed)
+    times, samples, trials = calibration_session(simulator, stimuli, per_class, trial_s,
+                                                 rest_s, seed, rest_trials=per_class,
+                                                 phase_locked=False)
+    cues = tuple((cue - times[0], None if label is None else frequencies[labels.index(label)])
+                 for cue, label in trials)
+    return EegRecording(f'sim_{subject.name}_{seed}', subject.name, samples, rate,
+                        tuple(simulator.labels), cues)

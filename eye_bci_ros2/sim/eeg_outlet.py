@@ -23,7 +23,7 @@ from typing import Callable, List, Optional, Sequence, Tuple
 import numpy as np
 import pylsl
 
-from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
+from eye_bci_ros2.sim.eeg import EegSimulator, REALISTIC_SUBJECTS, SUBJECTS
 from eye_bci_ros2.sim.lsl_outlet import OutletThread, stream_info
 from eye_bci_ros2.ssvep.layouts import ANY, LAYOUT_NAMES
 from eye_bci_ros2.ssvep.stimuli import assign_stimuli, StimulusMap
@@ -147,7 +147,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog='sim_eeg', description='Stream simulated SSVEP EEG over LSL in the layout of a '
         'real amplifier application (no ROS needed).')
     parser.add_argument('--layout', default='generic', choices=LAYOUT_NAMES)
-    parser.add_argument('--subject', default='s4', choices=[s.name for s in SUBJECTS])
+    parser.add_argument('--subject', default='s4',
+                        choices=[s.name for s in SUBJECTS + REALISTIC_SUBJECTS],
+                        help='s1-s8: clear responders; r1-r8: like real recordings (weak, '
+                        'building up after a cue, with alpha)')
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--rate', type=float, default=0.0, help='Hz (0 = the layout rate)')
     parser.add_argument('--options', default='option 1,option 2,option 3,option 4',
@@ -169,7 +172,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         options = [label.strip() for label in args.options.split(',') if label.strip()]
         schedule = parse_attend(args.attend)
-        subject = next(s for s in SUBJECTS if s.name == args.subject)
+        subject = next(s for s in SUBJECTS + REALISTIC_SUBJECTS if s.name == args.subject)
         railed = [label.strip() for label in args.railed.split(',') if label.strip()]
         simulator = EegSimulator(subject, args.layout, args.rate or None, seed=args.seed,
                                  railed=railed, line_hz=args.line_hz)

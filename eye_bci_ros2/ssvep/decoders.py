@@ -22,16 +22,18 @@ window that starts later is compared with the template from
 """
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Optional, Sequence, Tuple
 
 import numpy as np
 from scipy import linalg
 
-from eye_bci_ros2.ssvep.filters import filter_bank_weights
+from eye_bci_ros2.ssvep.decision import RestModel
+from eye_bci_ros2.ssvep.filters import filter_bank_weights, filter_recording
 from eye_bci_ros2.ssvep.references import sine_cosine_references
 
 #: Format version of saved TRCA models.
-MODEL_VERSION = 1
+MODEL_VERSION = 2
 DECODERS = ('fbcca', 'trca', 'ensemble_trca')
 
 
@@ -104,6 +106,89 @@ class FbccaDecoder:
         return filter_bank_weights(self.bands) @ (rho ** 2)
 
 
+#: Frequencies at which the FBCCA null is measured on white noise, Hz (the statistic is
+#: a ratio to the option's own neighbourhood: its null changes little over the stimulus
+#: range, more towards 40 Hz).  Several per window: the window's QR (n x C) is the cost,
+#: a probe only adds references.
+NULL_PROBES_HZ = tuple(float(f) for f in range(9, 24, 2))
+#: White-noise windows per window length for the FBCCA null (x 8 probes: its standard
+#: deviation within ~4 %).  The cost is FBCCA on these windows, once per stream set-up and
+#: count of usable channels: 0.1-0.4 s of CPU at 256 Hz x 8 channels, seconds at 1000 Hz x 32.
+NULL_WINDOWS = 50
+#: A calibration is refused when its left-out trials do not match their own template
+#: better than the null: their mean z (each trial against its stimulus's template made
+#: without it) is below this many standard errors (1 / sqrt(trials)), p ~ 3e-7: real
+#: recordings of free-running LEDs pass 3 standard errors in 3 of 32 calibrations.
+REPEAT_Z = 5.0
+#: Window lengths of a rest model are at most this far apart, s (interpolated between:
+#: the FBCCA null's spread changes by ~10 % from 1 to 2 s, which moves the decisions).
+NULL_STEP_S = 0.5
+
+
+def sideband_hz(min_window_s: float) -> float:
+    """
+    Distance of an option's sidebands from its frequency, Hz: ``1 / min_window_s``.
+
+    The first zero of the shortest window's spectral kernel, so even that
+    window's response to the option does not leak into its sidebands (a
+    sideband may fall on another option: attending that one then only lowers
+    this one's evidence).
+    """
+    return 1.0 / float(min_window_s)
+
+
+def with_sidebands(frequencies: Sequence[float], delta: float) -> np.ndarray:
+    """Return the K frequencies, then each minus ``delta``, then each plus it, (3K,), Hz."""
+    f = np.asarray(frequencies, dtype=float)
+    return np.concatenate([f, f - delta, f + delta])
+
+
+def sideband_statistic(scores: np.ndarray) -> np.ndarray:
+    """
+    FBCCA evidence statistic: log of each option's score over its sidebands' mean.
+
+    :param scores: FBCCA scores at :func:`with_sidebands` frequencies, (3K,).
+    :returns: (K,); about 0 where the spectrum is smooth (noise, the alpha
+        rhythm's flank), large at a narrow-band response.
+    """
+    scores = np.maximum(np.asarray(scores, dtype=float), 1e-12)
+    k = len(scores) // 3
+    return np.log(scores[:k] / (0.5 * (scores[k:2 * k] + scores[2 * k:])))
+
+
+def null_windows(min_window_s: float, window_s: float) -> Tuple[float, ...]:
+    """Window lengths a rest model is measured at, s."""
+    count = max(1, int(np.ceil((window_s - min_window_s) / NULL_STEP_S - 1e-9)))
+    return tuple(float(w) for w in np.linspace(min_window_s, window_s, count + 1))
+
+
+@lru_cache(maxsize=16)
+def fbcca_null(rate: float, channels: int, bands: int, harmonics: int,
+               band: Tuple[float, float], notch_hz: float, windows_s: Tuple[float, ...],
+               delta: float) -> RestModel:
+    """
+    Measure the FBCCA sideband statistic of an unattended option on white noise.
+
+    Seeded, so the same settings give the same null.  The statistic compares
+    an option with its own neighbourhood, so its null depends on the window
+    length, channels and harmonics (degrees of freedom), hardly on the EEG's
+    spectrum or size: measured on real rest EEG it matches (docs/ssvep.md).
+    """
+    rng = np.random.default_rng(20161)
+    hop = int(round(max(windows_s) * rate / 2))  # windows overlap by half: less to filter
+    start = int(round(3.0 * rate))  # past the filters' settle time
+    noise = rng.standard_normal((start + (NULL_WINDOWS + 1) * hop, channels))
+    filtered = filter_recording(noise, rate, bands, band, notch_hz)
+    decoder = FbccaDecoder(with_sidebands(NULL_PROBES_HZ, delta), rate, bands, harmonics)
+    samples = []
+    for length in windows_s:
+        n = int(round(length * rate))
+        values = [sideband_statistic(decoder.scores(
+            filtered[:, start + i * hop:start + i * hop + n])) for i in range(NULL_WINDOWS)]
+        samples.append(np.concatenate(values))
+    return RestModel.measure(windows_s, samples, 'white noise')
+
+
 def trca_filter(trials: np.ndarray) -> np.ndarray:
     """
     TRCA spatial filter of one stimulus in one sub-band.
@@ -148,6 +233,11 @@ class TrcaModel:
     :param channels: channel names the model was fitted on, (C,).
     :param band: preprocessing pass band, Hz; ``notch_hz`` line notch, Hz.
     :param ensemble: score with every stimulus's filter at once.
+    :param template_start_s: the templates start this long after the
+        stimulus epoch, s (the calibration left out the response's build-up).
+    :param rest: the score of an option nobody attends, by window length
+        (measured on the calibration's other options' and rest trials); a
+        model without it cannot decide (calibrate again).
     """
 
     labels: Tuple[str, ...]
@@ -160,6 +250,8 @@ class TrcaModel:
     band: Tuple[float, float] = (6.0, 90.0)
     notch_hz: float = 50.0
     ensemble: bool = True
+    template_start_s: float = 0.0
+    rest: Optional[RestModel] = None
     _weights: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -195,16 +287,24 @@ class TrcaModel:
     @classmethod
     def fit(cls, epochs: np.ndarray, targets: Sequence[int], labels: Sequence[str],
             frequencies: Sequence[float], phases: Sequence[float], rate: float,
-            channels: Sequence[str], ensemble: bool = True, **settings) -> 'TrcaModel':
+            channels: Sequence[str], ensemble: bool = True,
+            rest_epochs: Optional[np.ndarray] = None, min_window_s: float = 0.5,
+            require_repeat: bool = True, **settings) -> 'TrcaModel':
         """
-        Fit from calibration trials.
+        Fit from calibration trials, with the null of its scores.
 
-        :param epochs: filter-bank output of each trial from stimulus onset,
-            shape (T, B, L, C).
+        :param epochs: filter-bank output of each trial from ``template_start_s``
+            (in ``settings``) after the stimulus onset, shape (T, B, L, C).
         :param targets: index of the attended stimulus of each trial, (T,).
         :param labels: stimulus labels (K,); ``frequencies``, ``phases`` (K,).
+        :param rest_epochs: trials in which nothing was attended, (R, B, L, C).
+        :param min_window_s: shortest window the null is measured at, s.
+        :param require_repeat: refuse trials that do not repeat (False: only
+            for showing what such a model does).
         :param settings: ``band``, ``notch_hz`` used for the filtering.
-        :raises ValueError: when a stimulus has fewer than 2 trials.
+        :raises ValueError: when a stimulus has fewer than 2 trials, or when the
+            trials of the stimuli do not repeat (the response is not phase-locked
+            to the onsets: TRCA cannot learn it), with why.
         """
         epochs = np.asarray(epochs, dtype=float)
         targets = np.asarray(targets, dtype=int)
@@ -223,14 +323,71 @@ class TrcaModel:
             templates[target] = chosen.mean(axis=0)
             for band in range(bands):
                 filters[band, target] = trca_filter(chosen[:, band])
-        return cls(tuple(labels), np.asarray(frequencies, float), np.asarray(phases, float),
-                   float(rate), filters, templates, tuple(channels), ensemble=ensemble,
-                   **settings)
+        model = cls(tuple(labels), np.asarray(frequencies, float), np.asarray(phases, float),
+                    float(rate), filters, templates, tuple(channels), ensemble=ensemble,
+                    **settings)
+        windows = null_windows(min(min_window_s, model.template_s), model.template_s)
+        null, repeat = model._calibration_scores(epochs, targets, rest_epochs, windows)
+        rest = RestModel.measure(windows, null, 'calibration')
+        z = rest.z(repeat, windows[-1])
+        if require_repeat and z.mean() * np.sqrt(len(z)) < REPEAT_Z:
+            raise ValueError(
+                'the calibration trials do not repeat: left-out trials match their own '
+                "stimulus's template no better than the others' (mean z "
+                f'{z.mean():.2f} over {len(z)} trials, need '
+                f'{REPEAT_Z / np.sqrt(len(z)):.2f}).  TRCA needs stimuli whose phase is the '
+                'same at every trial onset (a screen stimulus drawn frame by frame from the '
+                'onset); with '
+                'free-running flicker (LEDs) use the fbcca decoder')
+        return cls(model.labels, model.frequencies, model.phases, model.rate, filters,
+                   templates, model.channels, ensemble=ensemble, rest=rest, **settings)
+
+    def _calibration_scores(self, epochs: np.ndarray, targets: np.ndarray,
+                            rest_epochs: Optional[np.ndarray], windows: Sequence[float]):
+        """
+        Scores of unattended templates by window length, and left-out own-template scores.
+
+        :returns: ``(null, repeat)``: per window length the scores of each trial
+            against the other stimuli's templates (and of each rest trial against
+            all), and each trial's score against its own stimulus's template
+            made without it, at the longest window, (T,).
+        """
+        null = []
+        for length in windows:
+            n = int(round(length * self.rate))
+            start = self.template_start_s
+            values = [np.delete(self.scores(trial[:, :n], start), target)
+                      for trial, target in zip(epochs, targets)]
+            values += [self.scores(trial[:, :n], start) for trial in
+                       (rest_epochs if rest_epochs is not None else [])]
+            null.append(np.concatenate(values))
+        repeat = np.zeros(len(epochs))
+        for index, (trial, target) in enumerate(zip(epochs, targets)):
+            # Template and spatial filter both made without the trial: a filter fitted on
+            # it would find chance alignments of random-phase trials and look like repetition.
+            others = epochs[(targets == target) & (np.arange(len(epochs)) != index)]
+            filters = self.filters.copy()
+            for band in range(self.bands if len(others) >= 2 else 0):  # 2 trials: keep it
+                filters[band, target] = trca_filter(others[:, band])
+            repeat[index] = self._score(trial, others.mean(axis=0), target, filters)
+        return null, repeat
+
+    def _score(self, window: np.ndarray, template: np.ndarray, target: int,
+               filters: Optional[np.ndarray] = None) -> float:
+        """Score of a window (B, n, C) against one template (B, m, C) of ``target``."""
+        filters = self.filters if filters is None else filters
+        part = window[:, :template.shape[1]]
+        rho = np.zeros(self.bands)
+        for band in range(self.bands):
+            w = (filters[band].T if self.ensemble else filters[band, target][:, None])
+            rho[band] = _correlation(part[band] @ w, template[band, :part.shape[1]] @ w)
+        return float(self._weights @ rho)
 
     def _template(self, target: int, start_s: float, samples: int) -> np.ndarray:
         """Template of ``target`` from ``start_s`` after onset, (B, m, C), m <= samples."""
         period = 1.0 / self.frequencies[target]
-        offset_s = start_s - np.floor(start_s / period) * period
+        since = start_s - self.template_start_s
+        offset_s = since - np.floor(since / period) * period
         offset = int(round(offset_s * self.rate))
         length = self.templates.shape[2]
         if offset >= length:
@@ -247,17 +404,8 @@ class TrcaModel:
         if window.shape[2] != self.filters.shape[2]:
             raise ValueError(f'the model was fitted on {self.filters.shape[2]} channels '
                              f'({", ".join(self.channels)}), the window has {window.shape[2]}')
-        k = len(self.labels)
-        rho = np.zeros((self.bands, k))
-        for target in range(k):
-            template = self._template(target, start_s, window.shape[1])
-            part = window[:, :template.shape[1]]
-            for band in range(self.bands):
-                # (C, K) for the ensemble, (C, 1) for the stimulus's own filter.
-                w = (self.filters[band].T if self.ensemble
-                     else self.filters[band, target][:, None])
-                rho[band, target] = _correlation(part[band] @ w, template[band] @ w)
-        return self._weights @ rho
+        return np.array([self._score(window, self._template(target, start_s, window.shape[1]),
+                                     target) for target in range(len(self.labels))])
 
     def save(self, path: str) -> None:
         """Write the model to ``path`` (.npz, no pickles)."""
@@ -266,7 +414,8 @@ class TrcaModel:
                  filters=self.filters, templates=self.templates,
                  channels=np.array(self.channels, dtype=str),
                  band=np.array(self.band, dtype=float), notch_hz=self.notch_hz,
-                 ensemble=self.ensemble)
+                 ensemble=self.ensemble, template_start_s=self.template_start_s,
+                 **(self.rest.as_arrays() if self.rest else {}))
 
     @classmethod
     def load(cls, path: str, ensemble: Optional[bool] = None) -> 'TrcaModel':
@@ -286,7 +435,10 @@ class TrcaModel:
                             data['templates'], tuple(data['channels'].tolist()),
                             band=tuple(data['band'].tolist()),
                             notch_hz=float(data['notch_hz']),
-                            ensemble=bool(data['ensemble']) if ensemble is None else ensemble)
+                            ensemble=bool(data['ensemble']) if ensemble is None else ensemble,
+                            template_start_s=float(data['template_start_s']),
+                            rest=(RestModel.from_arrays(data) if 'rest_mean' in data
+                                  else None))
         except (OSError, KeyError, ValueError, EOFError) as error:
             raise ValueError(f"cannot read TRCA model '{path}': {error}") from None
         return model

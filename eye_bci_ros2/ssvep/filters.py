@@ -21,6 +21,11 @@ from scipy import signal
 #: Chen 2015 sub-band weights w(m) = m^-a + b.
 FB_WEIGHT_A = 1.25
 FB_WEIGHT_B = 0.25
+#: A filter has settled when the energy of its impulse response still to come is below
+#: this share of the whole (-40 dB): a step or a gap's transient no longer shows in a score.
+SETTLE_ENERGY = 1e-4
+#: Longest impulse response looked at, s.
+SETTLE_HORIZON_S = 10.0
 #: Lower edge step of the sub-bands, Hz, and their common upper edge.
 FB_STEP_HZ = 8.0
 FB_UPPER_HZ = 88.0
@@ -87,6 +92,26 @@ def filter_bank_sos(rate: float, bands: int = 5) -> Tuple[np.ndarray, ...]:
     return tuple(result)
 
 
+def settle_time(sos: np.ndarray, rate: float) -> float:
+    """
+    Measured settle time of a causal filter, s.
+
+    The time after which less than :data:`SETTLE_ENERGY` of the energy of
+    the impulse response is still to come: started from rest (or restarted
+    after a gap) the filter's output before then still carries the start-up
+    transient.
+
+    :param sos: second-order sections, (S, 6).
+    """
+    count = int(SETTLE_HORIZON_S * rate)
+    impulse = np.zeros(count)
+    impulse[0] = 1.0
+    energy = signal.sosfilt(sos, impulse) ** 2
+    remaining = np.cumsum(energy[::-1])[::-1]
+    settled = np.flatnonzero(remaining <= SETTLE_ENERGY * remaining[0])
+    return (settled[0] if len(settled) else count) / rate
+
+
 def filter_bank_weights(bands: int) -> np.ndarray:
     """Chen 2015 sub-band weights ``m ** -1.25 + 0.25``, m = 1..bands, shape (bands,)."""
     m = np.arange(1, int(bands) + 1, dtype=float)
@@ -114,6 +139,9 @@ class StreamingFilterBank:
         self._pre = preprocess_sos(rate, band, notch_hz)
         self._bank = filter_bank_sos(rate, bands) if bands else ()
         self.bands = max(1, len(self._bank))
+        #: Measured settle time of the slowest path (preprocessing + a sub-band), s.
+        self.settle_s = max([settle_time(np.concatenate([self._pre, sos]), self.rate)
+                             for sos in self._bank] or [settle_time(self._pre, self.rate)])
         self.reset()
 
     def reset(self) -> None:

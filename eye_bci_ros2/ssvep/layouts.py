@@ -28,10 +28,17 @@ Layouts (what the applications send; units microvolts):
 """
 
 from dataclasses import dataclass
+import re
 from typing import List, Optional, Sequence, Tuple
 
 #: Channels an SSVEP decoder reads by default, the ones found are used.
 DEFAULT_OCCIPITAL = ('O1', 'Oz', 'O2', 'POz', 'PO3', 'PO4', 'PO7', 'PO8')
+
+#: A channel label that names an electrode in the common styles: ``Oz``, ``EEG Oz``,
+#: ``EEG Oz-REF`` / ``Oz-A1`` / ``Oz:Ref`` (EDF and many amplifier applications write the
+#: signal type before and the reference after the position); group 1 is the position.
+_POSITION_LABEL = re.compile(r'(?:eeg[\s_:]*)?([a-z]{1,3}(?:z|\d{1,2}))(?:\s*[-:/]\s*\w+)?',
+                             re.IGNORECASE)
 
 #: Selection wildcard for stream type or name.
 ANY = '*'
@@ -56,7 +63,10 @@ class EegLayout:
     :param eeg_positions: electrode position (10-20 label) of each channel
         that carries EEG, in channel order; None = the label itself.
     :param labelled: whether the stream's description carries the labels.
-    :param rail_uv: amplitude at which the amplifier saturates, uV.
+    :param rail_uv: amplitude at which the amplifier saturates, uV; 0 =
+        unknown (the decoder then spots clipping as a run of identical
+        samples far from zero: set ``rail_uv`` when the amplifier's range is known,
+        e.g. 500 for a g.Mobilab+'s +-500 uV).
     """
 
     name: str
@@ -100,11 +110,22 @@ LAYOUTS = {
     'liveamp': EegLayout(
         'liveamp', 'EEG', 'LiveAmpSN-', 500.0, ACTICAP_32, name_is_prefix=True,
         rail_uv=341000.0),
-    'generic': EegLayout('generic', 'EEG', ANY, 250.0, ()),
+    'generic': EegLayout('generic', 'EEG', ANY, 250.0, (), rail_uv=0.0),
 }
 
 #: Layout names, for parameter choices.
 LAYOUT_NAMES = tuple(LAYOUTS)
+
+
+def electrode_position(label: str) -> str:
+    """
+    Return the electrode position a channel label names, or '' when it names none.
+
+    ``'EEG Oz-REF'`` -> ``'Oz'``, ``'O1-A1'`` -> ``'O1'``, ``'Oz'`` -> ``'Oz'``,
+    ``'EEG 1'`` / ``'Accelerometer X'`` -> ``''``.
+    """
+    match = _POSITION_LABEL.fullmatch(str(label).strip())
+    return match.group(1) if match else ''
 
 
 def stream_name_matches(layout: EegLayout, name: str, wanted: str = '') -> bool:
@@ -143,7 +164,8 @@ def resolve_channels(layout: EegLayout, labels: Sequence[str], channel_count: in
     :param labels: the stream's channel labels ('' or missing where none).
     :param channel_count: channels the stream carries.
     :param wanted: labels (case-insensitive, matched against the electrode
-        positions and the raw labels) or 0-based indices; empty = every
+        positions, the raw labels and the position a label such as
+        ``EEG Oz-REF`` names, :func:`electrode_position`) or 0-based indices; empty = every
         channel of :data:`DEFAULT_OCCIPITAL` the stream has.
     :returns: ``(indices, names)``: 0-based channel indices and their names.
     :raises ValueError: with what is missing and what the stream has.
@@ -153,7 +175,7 @@ def resolve_channels(layout: EegLayout, labels: Sequence[str], channel_count: in
     positions = layout.positions(labels)
     lookup = {}
     for index, (raw, position) in enumerate(zip(labels, positions)):
-        for key in (raw, position):
+        for key in (raw, position, electrode_position(raw)):
             if key:
                 lookup.setdefault(key.lower(), index)
     known = ', '.join(f'{i}:{p or r or "?"}' for i, (r, p) in enumerate(zip(labels, positions)))
@@ -182,5 +204,6 @@ def resolve_channels(layout: EegLayout, labels: Sequence[str], channel_count: in
                              f'(its channels: {known or "no labels"})')
     if len(set(indices)) != len(indices):
         raise ValueError(f'channels {list(wanted)} name the same channel twice')
-    names = [positions[i] or labels[i] or str(i) for i in indices]
+    names = [electrode_position(positions[i]) or positions[i] or labels[i] or str(i)
+             for i in indices]
     return indices, names

@@ -1,9 +1,18 @@
 """
 ``ssvep_calibrate``: record a cue-guided SSVEP calibration and fit a TRCA model.
 
-The person attends each option ``--trials`` times in a seeded random order;
-each trial starts its stimuli at the onset (frame 0 at the onset, the map's
-phases), lasts ``--trial-s`` and is followed by ``--rest-s`` of rest.  The
+The person attends each option ``--trials`` times in a seeded random order,
+mixed with ``--rest-trials`` rest trials (the stimuli shown, the person looks
+at a fixation point): each trial starts its stimuli at the onset (frame 0 at
+the onset, the map's phases), lasts ``--onset-s`` (the gaze reaching the
+option, the response building up: not learnt, as the decoder leaves it out
+of its windows) plus ``--trial-s`` (the template) and is followed by
+``--rest-s`` of rest.  The model keeps a rest model (its scores when nobody
+attends an option) against which the decoder weighs the evidence, and the
+tool refuses a calibration whose trials do not repeat: TRCA needs stimuli
+whose phase is the same at each onset (a screen stimulus drawn frame by
+frame from the onset, as ``ssvep_stimulus`` draws them), not free-running
+flicker such as LEDs (use ``decoder:=fbcca`` for those).  The
 model (.npz) is what ``ssvep_decoder`` loads with ``decoder:=ensemble_trca
 model_file:=...``; it remembers the options, their stimuli, the rate, the
 channels and the filter settings, and the decoder refuses a stream or a
@@ -36,6 +45,7 @@ import numpy as np
 
 from eye_bci_ros2.sim.eeg import calibration_session, EegSimulator, SUBJECTS
 from eye_bci_ros2.ssvep.layouts import LAYOUT_NAMES, LAYOUTS, parse_channels, resolve_channels
+from eye_bci_ros2.ssvep.online import DEFAULT_ONSET_S
 from eye_bci_ros2.ssvep.stimuli import assign_stimuli, StimulusMap
 from eye_bci_ros2.ssvep.training import fit_trca
 
@@ -46,8 +56,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--options', required=True, help='option labels, comma separated '
                         '(stimuli assigned in order, as the task assigns them)')
     parser.add_argument('--trials', type=int, default=5, help='trials per option (>= 2)')
+    parser.add_argument('--rest-trials', type=int, default=-1,
+                        help='rest trials (the stimuli shown, the person looks at a fixation '
+                        'point): what the model learns "nobody attends" from (default: '
+                        "--trials; 0 = only the other options' trials)")
     parser.add_argument('--trial-s', type=float, default=2.0)
     parser.add_argument('--rest-s', type=float, default=1.0)
+    parser.add_argument('--onset-s', type=float, default=DEFAULT_ONSET_S,
+                        help="time from each onset the template leaves out, s (the decoder's "
+                        'onset_s)')
     parser.add_argument('--output', required=True, help='model file (.npz)')
     parser.add_argument('--source', choices=('sim', 'lsl'), default='sim')
     parser.add_argument('--layout', choices=LAYOUT_NAMES, default='generic')
@@ -60,6 +77,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--drive-sim', action='store_true',
                         help='lsl: start a simulated outlet and make it attend the cues')
     parser.add_argument('--notch-hz', type=float, default=50.0)
+    parser.add_argument('--save-recording', default='',
+                        help='also save the raw calibration recording here (.npz)')
+    parser.add_argument('--recordings', default='',
+                        help='fit from these saved recordings (comma separated, from '
+                        '--save-recording of earlier sessions) instead of recording now')
     parser.add_argument('--single', action='store_true',
                         help='save for plain TRCA scoring (default ensemble)')
     return parser
@@ -70,7 +92,9 @@ def record_simulated(args, stimuli: StimulusMap):
     subject = next(s for s in SUBJECTS if s.name == args.subject)
     simulator = EegSimulator(subject, args.layout, seed=args.seed)
     times, samples, trials = calibration_session(simulator, stimuli, args.trials,
-                                                 args.trial_s, args.rest_s, args.seed)
+                                                 args.onset_s + args.trial_s, args.rest_s,
+                                                 args.seed,
+                                                 rest_trials=args.rest_trials)
     return times, samples, trials, simulator.rate, list(simulator.labels)
 
 
@@ -104,11 +128,12 @@ def record_lsl(args, stimuli: StimulusMap):
         labels += [''] * (info.channel_count() - len(labels))
         layout.positions(labels)
         offset = inlet.time_correction(timeout=5.0)
-        order = np.repeat(np.arange(len(stimuli.labels)), args.trials)
+        order = np.repeat(np.arange(len(stimuli.labels) + 1),
+                          [args.trials] * len(stimuli.labels) + [args.rest_trials])
         np.random.default_rng(args.seed).shuffle(order)
         times: List[np.ndarray] = []
         chunks: List[np.ndarray] = []
-        trials: List[Tuple[float, str]] = []
+        trials: List[Tuple[float, Optional[str]]] = []
 
         def pull_until(deadline: float) -> None:
             while pylsl.local_clock() < deadline:
@@ -119,15 +144,16 @@ def record_lsl(args, stimuli: StimulusMap):
 
         pull_until(pylsl.local_clock() + args.rest_s)
         for target in order:
-            label = stimuli.labels[target]
+            label = stimuli.labels[target] if target < len(stimuli.labels) else None
             onset = pylsl.local_clock()
-            print(f'attend {label}', flush=True)
+            print(f'attend {label}' if label else 'rest: look at the fixation point, at no '
+                  'option', flush=True)
             if streamer is not None:
                 streamer.show(StimulusMap(stimuli.labels, stimuli.frequencies,
                                           stimuli.phases, onset))
                 streamer.attend(label, onset)
             trials.append((onset, label))
-            pull_until(onset + args.trial_s)
+            pull_until(onset + args.onset_s + args.trial_s)
             if streamer is not None:
                 streamer.attend(None)
             pull_until(pylsl.local_clock() + args.rest_s)
@@ -138,6 +164,35 @@ def record_lsl(args, stimuli: StimulusMap):
             streamer.stop()
 
 
+def save_recording(path: str, times, samples, trials, rate: float, labels) -> None:
+    """Write a calibration recording (.npz, no pickles); rest trials have label ''."""
+    np.savez(path, times=np.asarray(times, float), samples=np.asarray(samples, float),
+             onsets=np.array([t for t, _ in trials], float),
+             labels=np.array([label or '' for _, label in trials], dtype=str),
+             rate=float(rate), channels=np.array(labels, dtype=str))
+
+
+def load_recordings(paths: Sequence[str]):
+    """Read saved recordings of one set-up: (times, samples, trials lists, rate, labels)."""
+    times, samples, trials, rate, labels = [], [], [], None, None
+    for path in paths:
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                times.append(data['times'])
+                samples.append(data['samples'])
+                trials.append([(float(t), str(label) or None)
+                               for t, label in zip(data['onsets'], data['labels'])])
+                these = (float(data['rate']), data['channels'].tolist())
+        except (OSError, KeyError, ValueError, EOFError) as error:
+            raise ValueError(f"cannot read calibration recording '{path}': {error}") from None
+        if rate is not None and these != (rate, labels):
+            raise ValueError(f"'{path}' was recorded at {these[0]:g} Hz from channels "
+                             f"{', '.join(these[1])}, the first at {rate:g} Hz from "
+                             f"{', '.join(labels)}: one model needs one set-up")
+        rate, labels = these
+    return times, samples, trials, rate, labels
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run the calibration; 0 on success, 2 on a user error (with the reason)."""
     args = build_parser().parse_args(argv)
@@ -145,21 +200,33 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         options = [label.strip() for label in args.options.split(',') if label.strip()]
         if args.trials < 2:
             raise ValueError('--trials must be at least 2 (TRCA needs 2 trials per option)')
+        if args.rest_trials < 0:
+            args.rest_trials = args.trials
         stimuli = assign_stimuli(options)
         print('stimuli: ' + ', '.join(f'{lb} {f:g} Hz {p:.2f} rad' for lb, f, p in zip(
             stimuli.labels, stimuli.frequencies, stimuli.phases)), flush=True)
-        record = record_simulated if args.source == 'sim' else record_lsl
-        times, samples, trials, rate, labels = record(args, stimuli)
-        indices, names = resolve_channels(LAYOUTS[args.layout], labels, samples.shape[1],
+        if args.recordings:
+            times, samples, trials, rate, labels = load_recordings(
+                [p.strip() for p in args.recordings.split(',') if p.strip()])
+        else:
+            record = record_simulated if args.source == 'sim' else record_lsl
+            times, samples, trials, rate, labels = record(args, stimuli)
+            if args.save_recording:
+                save_recording(args.save_recording, times, samples, trials, rate, labels)
+            times, samples, trials = [times], [samples], [trials]
+        indices, names = resolve_channels(LAYOUTS[args.layout], labels, samples[0].shape[1],
                                           parse_channels(args.channels))
-        model = fit_trca(samples[:, indices], times, trials, stimuli, rate, names,
-                         args.trial_s, notch_hz=args.notch_hz, ensemble=not args.single)
+        model = fit_trca([x[:, indices] for x in samples], times, trials, stimuli, rate,
+                         names, args.trial_s, notch_hz=args.notch_hz, onset_s=args.onset_s,
+                         ensemble=not args.single)
         model.save(args.output)
     except ValueError as error:
         print(f'ssvep_calibrate: {error}', file=sys.stderr)
         return 2
-    print(f'saved TRCA model of {len(options)} options x {args.trials} trials '
-          f"({args.trial_s:g} s, channels {', '.join(names)}, {rate:g} Hz) to {args.output}")
+    count = sum(label is not None for listed in trials for _, label in listed)
+    print(f'saved TRCA model of {len(options)} options, {count} trials from {len(trials)} '
+          f"recording(s) ({args.trial_s:g} s, channels {', '.join(names)}, {rate:g} Hz) to "
+          f'{args.output}')
     return 0
 
 

@@ -119,3 +119,47 @@ def test_trca_agrees_with_meegkit():
     assert np.mean(predicted_ours == predicted_theirs) >= 0.95
     # One band, 1 s, a weak subject: both well above chance (0.25), not perfect.
     assert np.mean(predicted_ours == y_test) >= 0.6
+
+
+def test_trca_refuses_a_calibration_whose_trials_do_not_repeat():
+    """Free-running flicker (LEDs): each trial's phase is random, the templates average out."""
+    simulator = EegSimulator(SUBJECTS[6], seed=21)
+    rng = np.random.default_rng(21)
+    simulator.start(0.0, None)
+    times, chunks, trials, now = [], [], [], 1.0
+    for label in np.repeat(LABELS, 5):
+        # The flicker's epoch is not the trial onset: its phase there is random.
+        epoch = now - rng.uniform(0.0, 1.0)
+        simulator.set_stimuli(STIMULI.__class__(STIMULI.labels, STIMULI.frequencies,
+                                                STIMULI.phases, epoch))
+        simulator.set_attended(str(label), now)
+        trials.append((now, str(label)))
+        simulator.set_attended(None, now + 2.0)
+        now += 3.0 + rng.uniform(0.0, 0.5)  # trials not locked to the mains either
+        t, x = simulator.next_chunk(now)
+        times.append(t)
+        chunks.append(x)
+    times, samples = np.concatenate(times), np.concatenate(chunks)
+    with pytest.raises(ValueError, match='do not repeat.*phase-locked|do not repeat.*fbcca'):
+        fit_trca(samples, times, trials, STIMULI, simulator.rate, simulator.labels)
+    # The same recording with phase-locked stimuli (the calibration session) is accepted.
+    _, times, samples, trials = _session(SUBJECTS[6], 21, 5)
+    model = fit_trca(samples, times, trials, STIMULI, simulator.rate, simulator.labels)
+    assert model.rest is not None and model.rest.source == 'calibration'
+
+
+def test_trca_evidence_of_rest_stays_in_its_null(trca_model):
+    """A rest trial's scores are near the model's null; an attended trial's far above it."""
+    simulator = EegSimulator(SUBJECTS[1], seed=77)
+    times, samples, trials = calibration_session(simulator, STIMULI, 2, seed=77,
+                                                 rest_trials=6)
+    filtered = filter_recording(samples, simulator.rate)
+    rest_z, attended_z = [], []
+    for onset, label in trials:
+        start = np.searchsorted(times, onset)
+        z = trca_model.rest.z(trca_model.scores(filtered[:, start:start + 500]), 2.0)
+        if label is None:
+            rest_z.append(z.max())
+        else:
+            attended_z.append(z[LABELS.index(label)])
+    assert max(rest_z) < 3.0 < np.median(attended_z)

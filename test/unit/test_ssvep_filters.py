@@ -64,3 +64,15 @@ def test_references_are_the_stimulus_harmonics():
     # Whole cycles: the columns are orthogonal.
     gram = refs[0].T @ refs[0] / 125.0
     np.testing.assert_allclose(gram, np.eye(4), atol=1e-9)
+
+
+def test_the_settle_time_is_where_the_start_up_transient_has_died_out():
+    """A step at the start (an electrode offset) rings no longer than the measured time."""
+    rate = 250.0
+    bank = StreamingFilterBank(rate, 1)
+    out = bank.process(np.full((int(6 * rate), 1), 100.0))  # a 100 uV offset from rest
+    settled = int(bank.settle_s * rate)
+    assert 0.5 < bank.settle_s < 3.0
+    # Before it the transient is large, after it tiny against EEG's few uV.
+    assert np.abs(out[:, :int(0.3 * rate)]).max() > 1.0
+    assert np.abs(out[:, settled:]).max() < 0.5

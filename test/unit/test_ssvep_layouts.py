@@ -2,8 +2,8 @@
 
 import pytest
 
-from eye_bci_ros2.ssvep.layouts import (LAYOUTS, parse_channels, resolve_channels,
-                                        stream_name_matches)
+from eye_bci_ros2.ssvep.layouts import (electrode_position, LAYOUTS, parse_channels,
+                                        resolve_channels, stream_name_matches)
 
 
 def test_openbci_gui_without_labels_uses_the_ultracortex_positions():
@@ -46,3 +46,14 @@ def test_channel_parameter_and_stream_names():
     assert not stream_name_matches(LAYOUTS['openbci_gui'], 'obci_eeg2')
     assert stream_name_matches(LAYOUTS['openbci_gui'], 'mine', 'mine')
     assert stream_name_matches(LAYOUTS['generic'], 'anything')
+
+
+def test_edf_style_labels_resolve_to_their_electrode():
+    """``EEG Oz-REF`` (EDF, many amplifier apps), ``O1-A1``, ``EEG PO3`` name positions."""
+    labels = ['EEG Fp1-REF', 'EEG O1-A1', 'EEG Oz-REF', 'O2:Ref', 'EEG POz', 'ECG',
+              'Accelerometer X', 'EEG 1']
+    indices, names = resolve_channels(LAYOUTS['generic'], labels, len(labels))
+    assert names == ['O1', 'Oz', 'O2', 'POz'] and indices == [1, 2, 3, 4]
+    indices, names = resolve_channels(LAYOUTS['generic'], labels, len(labels), ['oz', 'Fp1'])
+    assert indices == [2, 0] and names == ['Oz', 'Fp1']
+    assert electrode_position('EEG 1') == '' and electrode_position('Counter') == ''

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from eye_bci_ros2.sim.eeg import calibration_session, EegSimulator, SUBJECTS
+from eye_bci_ros2.sim.eeg import calibration_session, EegSimulator, EegSubject, SUBJECTS
 from eye_bci_ros2.ssvep.online import OnlineDecoder, OnlineSettings
 from eye_bci_ros2.ssvep.stimuli import assign_stimuli, StimulusMap
 from eye_bci_ros2.ssvep.training import fit_trca
@@ -107,17 +107,79 @@ def test_a_stimulus_map_that_misses_an_option_gives_no_choice():
 
 
 def test_ensemble_trca_online_and_its_checks():
-    calibration = EegSimulator(SUBJECTS[1], seed=8)
-    times, samples, trials = calibration_session(calibration, STIMULI, 5)
+    calibration = EegSimulator(SUBJECTS[4], seed=8)
+    times, samples, trials = calibration_session(calibration, STIMULI, 5, rest_trials=5)
     model = fit_trca(samples, times, trials, STIMULI, calibration.rate, calibration.labels)
     settings = OnlineSettings(decoder='ensemble_trca', min_window_s=0.5)
-    simulator, decoder = _setup(SUBJECTS[1], 'bathroom', settings, model)
+    simulator, decoder = _setup(SUBJECTS[4], 'bathroom', settings, model)
     assert _choices(_run(decoder, simulator, 3.0)) == ['bathroom']
+    # Nobody attending: the model's rest model keeps it from choosing.
+    simulator, decoder = _setup(SUBJECTS[4], None, settings, model)
+    assert _choices(_run(decoder, simulator, 6.0)) == []
     moved = StimulusMap(LABELS, (8.0, 9.0, 11.0), STIMULI.phases, 1.0)
-    simulator, decoder = _setup(SUBJECTS[1], 'bathroom', settings, model)
+    simulator, decoder = _setup(SUBJECTS[4], 'bathroom', settings, model)
     decoder.start_round(1.0, LABELS, moved)
     assert 'model learnt it at 10 Hz' in _run(decoder, simulator, 2.0)[-1].problem
     with pytest.raises(ValueError, match='needs a TRCA model'):
         OnlineDecoder(250.0, calibration.labels, settings)
     with pytest.raises(ValueError, match='fitted on channels'):
         OnlineDecoder(250.0, calibration.labels[:4], settings, model)
+
+
+def test_a_stream_faster_than_advertised_is_decoded_at_its_true_rate():
+    """256 Hz advertised as 250 Hz (2.4 %): measured from the sample times and used."""
+    simulator = EegSimulator(SUBJECTS[5], seed=4, rate=256.0)
+    simulator.start(0.0, STIMULI)
+    simulator.set_attended('bedroom', 0.0)
+    decoder = OnlineDecoder(250.0, simulator.labels, OnlineSettings())
+    decoder.start_round(0.0, LABELS, STIMULI)
+    results = _run(decoder, simulator, 6.0, start=0.0)
+    assert _choices(results) in ([], ['bedroom'])
+    assert decoder.measured_rate == pytest.approx(256.0, abs=0.05)
+    assert decoder.rate == pytest.approx(256.0, abs=0.01)
+    assert any('advertises 250 Hz' in note and 'decoding at 256' in note
+               for note in decoder.notes)
+    decoder.start_round(6.0, LABELS, STIMULI)
+    assert _choices(_run(decoder, simulator, 4.0, start=6.0)) == ['bedroom']
+
+
+def test_a_trca_model_refuses_a_stream_at_another_true_rate():
+    calibration = EegSimulator(SUBJECTS[4], seed=8)
+    times, samples, trials = calibration_session(calibration, STIMULI, 4)
+    model = fit_trca(samples, times, trials, STIMULI, calibration.rate, calibration.labels)
+    simulator = EegSimulator(SUBJECTS[4], seed=9, rate=256.0)
+    simulator.start(0.0, STIMULI)
+    simulator.set_attended('bedroom', 0.0)
+    decoder = OnlineDecoder(250.0, simulator.labels,
+                            OnlineSettings(decoder='ensemble_trca'), model)
+    decoder.start_round(0.0, LABELS, STIMULI)
+    results = _run(decoder, simulator, 7.0, start=0.0)
+    assert _choices(results) in ([], ['bedroom'])  # before the rate is known precisely
+    assert 'not 250 Hz as the TRCA model was fitted' in results[-1].problem
+
+
+def test_the_filters_settle_time_is_measured_and_kept_out():
+    simulator, decoder = _setup()
+    assert decoder.settle_s > 1.0  # the Chebyshev sub-bands ring longer than the old 1 s
+    fresh = OnlineDecoder(250.0, simulator.labels)
+    fresh.start_round(0.0, LABELS, STIMULI)
+    simulator = EegSimulator(SUBJECTS[5], seed=3)
+    simulator.start(0.0, STIMULI)
+    results = _run(fresh, simulator, fresh.settle_s + 1.5, start=0.0)
+    scored = [r for r in results if len(r.scores)]
+    assert scored and all(r.end_s - r.window_s >= fresh.settle_s - 0.005 for r in scored)
+
+
+def test_a_round_window_starts_after_the_onset():
+    simulator, decoder = _setup(settings=OnlineSettings(onset_s=0.5))
+    results = [r for r in _run(decoder, simulator, 2.0) if r.window_s]
+    # The round starts at 1.0 s: its window holds nothing before 1.5 s.
+    assert results and all(r.end_s - r.window_s >= 1.5 - 0.005 for r in results)
+
+
+def test_strong_alpha_with_nobody_attending_never_chooses():
+    """Alpha bursts near the options (8-10 Hz) are not an attended stimulus."""
+    alpha = EegSubject('alpha', 5.0, alpha_uv=12.0, alpha_hz=10.0)
+    for seed in range(2):
+        simulator, decoder = _setup(alpha, None, seed=seed)
+        assert _choices(_run(decoder, simulator, 8.0)) == []

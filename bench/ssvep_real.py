@@ -1,0 +1,378 @@
+"""
+SSVEP decoders on real EEG: offline accuracy / ITR, and the online decoder as the node runs it.
+
+Reads recordings of :mod:`eye_bci_ros2.recordings.eeg` (e.g. Kalunga et al.
+2016 "SSVEP Exo": 256 Hz, 8 occipital channels, LEDs at 13/17/21 Hz, and
+rest trials: a fixation point, nothing attended) from ``--data DIR``
+(default: ``$EYE_BCI_REAL_EEG`` or ``../shared/data/real_eeg`` beside the
+clone).
+
+1. ``offline``: each decoder forced to choose among the session's stimuli on
+   windows of 0.5-3 s starting :data:`OFFLINE_START_S` after the cue (the
+   response has built up), accuracy and Wolpaw ITR (selection time = window
+   + :data:`~eye_bci_ros2.experiments.metrics.GAZE_SHIFT_S`).
+2. ``online``: each session streamed through
+   :class:`~eye_bci_ros2.ssvep.online.OnlineDecoder` with a decision step
+   every 0.1 s (the node's; its samples fed at once, which filters exactly as
+   the node's 0.02 s chunks), one round per trial from its cue for
+   :data:`ROUND_S` s, the decoder's default settings: right / wrong / no
+   choice of the stimulus trials, choices in rest trials, median decision
+   time after the cue; and leave-subject-out: each subject decided with the
+   ``rest_z`` (:data:`REST_Z_GRID`) that does best on the *other* subjects
+   within the goals' limits (FBCCA, replayed from the recorded evidence).
+3. ``hybrid``: the same rounds through the hybrid fusion
+   (:class:`~eye_bci_ros2.fusion.ChoiceFusion`, default settings) with the
+   gaze resting on an option from :data:`GAZE_AT_S` after the cue: in rest
+   trials on each option in turn (looking without attending: must not
+   choose), in stimulus trials on the attended one (must be confirmed).
+
+Decoders: ``fbcca`` (no training) and ``trca`` / ``ensemble_trca`` calibrated
+as the README says (``ssvep_calibrate``: the subject's *other* sessions, their
+stimulus and rest trials, 2 s from each cue + ``onset_s``).  A calibration
+the model refuses (trials that do not repeat: stimuli not phase-locked to the
+trials) is reported as refused; ``--force-trca`` fits it anyway, to show what
+the rest model does with such a model.  Nothing here is tuned on the
+recordings: the decision's constants come from the white-noise null
+(:func:`eye_bci_ros2.ssvep.decoders.fbcca_null`) and the module defaults.
+Results per subject and overall.
+
+Usage::
+
+    python -m bench.ssvep_real [--data DIR] [--subjects s01,s02] [--json PATH]
+"""
+
+import argparse
+import json
+import sys
+import time
+from typing import Dict, List, Optional, Sequence
+
+import numpy as np
+
+from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
+from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
+from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EEG_DATA_ENV,
+                                         EegRecording, find_eeg_recordings, load_eeg)
+from eye_bci_ros2.ssvep.decision import DecisionRule
+from eye_bci_ros2.ssvep.decoders import FbccaDecoder, TrcaModel
+from eye_bci_ros2.ssvep.filters import filter_recording
+from eye_bci_ros2.ssvep.online import OnlineDecoder, OnlineSettings
+from eye_bci_ros2.ssvep.stimuli import StimulusMap
+from eye_bci_ros2.ssvep.training import fit_trca
+
+#: Length of a round from the cue, s (the recordings' trials last 5 s).
+ROUND_S = 5.0
+#: Online decision step, s (the node's decide period).
+STEP_S = 0.1
+#: Offline windows, s, and where they start after the cue, s.
+WINDOWS_S = (0.5, 1.0, 1.5, 2.0, 3.0)
+OFFLINE_START_S = 1.5
+#: The goals' limits: wrong choices per stimulus trial, choices per rest trial.
+GOAL_WRONG = 0.01
+GOAL_REST = 0.02
+#: ``rest_z`` values the leave-subject-out evaluation chooses from.
+REST_Z_GRID = (1.5, 2.0, 2.5, 3.0, 3.5, 4.0)
+#: When the gaze reaches the option in the hybrid rounds, after the cue, s.
+GAZE_AT_S = 1.0
+#: Calibration trial length, s.
+TRIAL_S = 2.0
+DECODERS = ('fbcca', 'trca', 'ensemble_trca')
+
+TABLE_COLUMNS = None
+
+
+def _labels(frequencies: Sequence[float]) -> tuple:
+    return tuple(f'{f:g} Hz' for f in frequencies)
+
+
+def _stimuli(recording: EegRecording, epoch_s: float = 0.0) -> StimulusMap:
+    frequencies = recording.frequencies
+    return StimulusMap(_labels(frequencies), frequencies, (0.0,) * len(frequencies), epoch_s)
+
+
+def _calibrate(others: List[EegRecording], decoder: str, settings: OnlineSettings,
+               force: bool) -> TrcaModel:
+    """Fit a TRCA model on other sessions of the subject, as ssvep_calibrate fits one."""
+    stimuli = _stimuli(others[0])
+    trials = [[(cue, None if hz is None else f'{hz:g} Hz')
+               for cue, hz in recording.trials] for recording in others]
+    return fit_trca([r.eeg_uv for r in others], [r.times for r in others], trials, stimuli,
+                    others[0].rate, others[0].channels, trial_s=TRIAL_S,
+                    ensemble=decoder == 'ensemble_trca', min_window_s=settings.min_window_s,
+                    require_repeat=not force, onset_s=settings.onset_s)
+
+
+def _offline(recording: EegRecording, model: Optional[TrcaModel]) -> Dict[float, List[bool]]:
+    """Score the forced choice of each stimulus trial by window length."""
+    frequencies = np.array(recording.frequencies)
+    filtered = filter_recording(recording.eeg_uv, recording.rate)
+    fbcca = FbccaDecoder(frequencies, recording.rate)
+    hits = {w: [] for w in WINDOWS_S}
+    for cue, hz in recording.trials:
+        if hz is None:
+            continue
+        start = int(round((cue + OFFLINE_START_S) * recording.rate))
+        for w in WINDOWS_S:
+            window = filtered[:, start:start + int(round(w * recording.rate))]
+            scores = (fbcca.scores(window) if model is None
+                      else model.scores(window, OFFLINE_START_S))  # the cue is the epoch
+            hits[w].append(bool(frequencies[np.argmax(scores)] == hz))
+    return hits
+
+
+def _online(recording: EegRecording, settings: OnlineSettings,
+            model: Optional[TrcaModel]) -> List[Dict]:
+    """Stream a session through the online decoder; one round per trial."""
+    decoder = OnlineDecoder(recording.rate, recording.channels, settings, model)
+    times, samples = recording.times, recording.eeg_uv
+    # Fed a step's samples at a time: the filters give the same output in any chunking
+    # (test_ssvep_filters) and the steps fall at the same times as with 0.02 s chunks.
+    chunk = int(round(STEP_S * recording.rate))
+    per_step = 1
+    cues = iter(recording.trials)
+    upcoming = next(cues, None)
+    outcome: List[Dict] = []
+    trial = None
+    for k, first in enumerate(range(0, len(times), chunk)):
+        decoder.add(times[first:first + chunk], samples[first:first + chunk])
+        now = times[min(first + chunk, len(times)) - 1]
+        if upcoming is not None and now >= upcoming[0]:
+            cue, hz = upcoming
+            decoder.start_round(cue, _stimuli(recording).labels, _stimuli(recording, cue))
+            trial = {'target': None if hz is None else f'{hz:g} Hz', 'choice': None,
+                     'after_s': None, 'cue': cue, 'labels': _stimuli(recording).labels,
+                     'steps': []}
+            outcome.append(trial)
+            upcoming = next(cues, None)
+        if trial is None or now > trial['cue'] + ROUND_S or k % per_step:
+            continue
+        result = decoder.step()
+        if result is None:
+            continue
+        if len(result.posterior):
+            trial['steps'].append((float(now), result.labels, result.posterior.tolist(),
+                                   result.evidence.tolist(), result.window_s))
+        if result.choice is not None and trial['choice'] is None:
+            trial['choice'], trial['after_s'] = result.choice, float(now - trial['cue'])
+    return outcome
+
+
+def _hybrid(trials: List[Dict]) -> Dict:
+    """
+    Run the hybrid fusion on these rounds: the gaze rests on an option from ``GAZE_AT_S``.
+
+    Rest trials: the gaze rests on each option in turn (the person looks at it
+    without attending it: the EEG says nothing is attended); a choice is a
+    false one.  Stimulus trials: the gaze rests on the attended option.
+    """
+    rest = confirmed = 0
+    rest_rounds = stimulus_rounds = 0
+    for trial in trials:
+        labels = trial['labels']
+        candidates = labels if trial['target'] is None else (trial['target'],)
+        for candidate in candidates:
+            fusion = ChoiceFusion(FusionSettings('hybrid'))
+            fusion.new_round(labels)
+            got = None
+            gazed = False
+            for t, step_labels, posterior, _, _ in trial['steps']:
+                if not gazed and t >= trial['cue'] + GAZE_AT_S:
+                    got = fusion.gaze(candidate, t, 1.0) or got
+                    gazed = True
+                got = fusion.ssvep_scores(step_labels, posterior, t) or got
+            if trial['target'] is None:
+                rest_rounds += 1
+                rest += got is not None
+            else:
+                stimulus_rounds += 1
+                confirmed += got == candidate
+    return {'rest_rounds': rest_rounds, 'rest_choices': rest,
+            'rest_no_choice_share': round(1 - rest / rest_rounds, 4) if rest_rounds else None,
+            'intent_rounds': stimulus_rounds, 'intent_confirmed': confirmed,
+            'intent_share': round(confirmed / stimulus_rounds, 3) if stimulus_rounds else None}
+
+
+def _replay(trials: List[Dict], rule: DecisionRule) -> List[Dict]:
+    """
+    Decide the rounds again under another rule, from their recorded evidence.
+
+    The rule is a pure function of each step's evidence z and window, and a
+    round takes its first choice, so this equals streaming them again.
+    """
+    replayed = []
+    for trial in trials:
+        choice = after = None
+        for t, labels, _, z, window_s in trial['steps']:
+            index = rule.decide(np.array(z), window_s)
+            if index is not None:
+                choice, after = labels[index], t - trial['cue']
+                break
+        replayed.append(dict(trial, choice=choice, after_s=after))
+    return replayed
+
+
+def _acceptable(row: Dict) -> bool:
+    """Tell whether a row keeps the goals' limits: <= 1 % wrong, <= 2 % rest choices."""
+    return (row['wrong'] <= GOAL_WRONG * row['stimulus_trials']
+            and row['rest_choices'] <= GOAL_REST * row['rest_trials'])
+
+
+def _leave_subjects_out(per_subject: Dict[str, List[Dict]]) -> Dict[str, Dict]:
+    """
+    ``rest_z`` chosen on the other subjects, evaluated on each one.
+
+    For every subject, the :data:`REST_Z_GRID` value that gives the most right
+    choices on the *other* subjects within the goals' limits (the largest
+    value if none does) decides that subject's rounds.
+    """
+    rows, pooled = {}, []
+    for subject, trials in per_subject.items():
+        others = [t for s, listed in per_subject.items() if s != subject for t in listed]
+        best, best_right = REST_Z_GRID[-1], -1
+        for rest_z in REST_Z_GRID:
+            row = _online_row(_replay(others, DecisionRule(rest_z=rest_z)))
+            if _acceptable(row) and row['right'] > best_right:
+                best, best_right = rest_z, row['right']
+        held_out = _replay(trials, DecisionRule(rest_z=best))
+        rows[subject] = dict(_online_row(held_out), rest_z=best)
+        pooled += held_out
+    rows['all'] = _online_row(pooled)
+    return rows
+
+
+def _online_row(trials: List[Dict]) -> Dict:
+    stimulus = [t for t in trials if t['target'] is not None]
+    rest = [t for t in trials if t['target'] is None]
+    right = sum(t['choice'] == t['target'] for t in stimulus)
+    wrong = sum(t['choice'] is not None and t['choice'] != t['target'] for t in stimulus)
+    times = [t['after_s'] for t in stimulus if t['choice'] is not None]
+    return {'stimulus_trials': len(stimulus), 'right': right, 'wrong': wrong,
+            'no_choice': len(stimulus) - right - wrong,
+            'right_share': round(right / len(stimulus), 3) if stimulus else None,
+            'wrong_share': round(wrong / len(stimulus), 3) if stimulus else None,
+            'rest_trials': len(rest),
+            'rest_choices': sum(t['choice'] is not None for t in rest),
+            'median_decision_s': round(float(np.median(times)), 2) if times else None}
+
+
+def _offline_row(hits: Dict[float, List[bool]], classes: int) -> Dict:
+    row = {}
+    for w, values in hits.items():
+        accuracy = float(np.mean(values)) if values else 0.0
+        row[f'acc_{w:g}s'] = round(accuracy, 3)
+        row[f'itr_{w:g}s'] = round(wolpaw_bits(classes, accuracy) * 60.0 / (w + GAZE_SHIFT_S),
+                                   1)
+    row['trials'] = len(next(iter(hits.values()), []))
+    return row
+
+
+def unavailable() -> Optional[str]:
+    """Say why the benchmark cannot run here (no recordings), or None (``bench.run_all``)."""
+    folder = eeg_data_dir()
+    if folder is None or not find_eeg_recordings(folder):
+        return (f'no real EEG recordings (set ${EEG_DATA_ENV} or put them in '
+                '../shared/data/real_eeg)')
+    return None
+
+
+def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str] = (),
+        decoders: Sequence[str] = DECODERS, force_trca: bool = False,
+        log=sys.stderr) -> Dict[str, Dict]:
+    """
+    Run on every subject of ``data``; ``quick`` = the first two subjects, FBCCA only.
+
+    :raises FileNotFoundError: when there are no recordings.
+    """
+    folder = data or eeg_data_dir()
+    paths = find_eeg_recordings(folder) if folder else []
+    if not paths:
+        raise FileNotFoundError(f'no real EEG recordings in {folder or "(not found)"}; '
+                                'give --data DIR')
+    groups = by_subject(load_eeg(path) for path in paths)
+    if subjects:
+        groups = {s: groups[s] for s in subjects if s in groups}
+    if quick:
+        groups = dict(list(groups.items())[:2])
+        decoders = ('fbcca',)
+    settings = OnlineSettings()
+    results: Dict[str, Dict] = {}
+    for decoder in decoders:
+        online_all, offline_all, refused = [], {w: [] for w in WINDOWS_S}, []
+        per_subject: Dict[str, List[Dict]] = {}
+        for subject, recordings in groups.items():
+            online, offline = [], {w: [] for w in WINDOWS_S}
+            for index, recording in enumerate(recordings):
+                model = None
+                if decoder != 'fbcca':
+                    others = recordings[:index] + recordings[index + 1:]
+                    if not others:
+                        refused.append(f'{subject}: one session, nothing to calibrate on')
+                        continue
+                    try:
+                        model = _calibrate(others, decoder, settings, force_trca)
+                    except ValueError as error:
+                        refused.append(f'{subject}: {str(error)[:90]}')
+                        continue
+                hits = _offline(recording, model)
+                for w in WINDOWS_S:
+                    offline[w] += hits[w]
+                online += _online(recording, OnlineSettings(decoder=decoder,
+                                                            keep_scoring=True), model)
+            print(f'{decoder} {subject}: {_online_row(online)}', file=log, flush=True)
+            if online:
+                classes = len(recordings[0].frequencies)
+                results[f'{decoder} online {subject}'] = _online_row(online)
+                results[f'{decoder} offline {subject}'] = _offline_row(offline, classes)
+                online_all += online
+                per_subject[subject] = online
+                for w in WINDOWS_S:
+                    offline_all[w] += offline[w]
+        if online_all:
+            results[f'{decoder} online all'] = _online_row(online_all)
+            results[f'{decoder} hybrid all'] = _hybrid(online_all)
+            if decoder == 'fbcca' and len(per_subject) > 1:
+                for subject, row in _leave_subjects_out(per_subject).items():
+                    results[f'{decoder} online leave-subject-out {subject}'] = row
+            results[f'{decoder} offline all'] = _offline_row(offline_all, 3)
+        if refused:
+            results[f'{decoder} calibration refused'] = {
+                'sessions': len(refused), 'first': refused[0]}
+    return results
+
+
+def format_lines(section: Dict[str, Dict]) -> List[str]:
+    """One line per row."""
+    return [f'{name:<32} ' + ', '.join(f'{k} {v}' for k, v in row.items())
+            for name, row in section.items()]
+
+
+def main(argv=None) -> int:
+    """Run and print; ``--json PATH`` to save."""
+    parser = argparse.ArgumentParser(prog='bench.ssvep_real',
+                                     description=__doc__.split('\n')[1])
+    parser.add_argument('--data', default='', help='folder of recordings (*.npz)')
+    parser.add_argument('--subjects', default='', help='comma-separated, e.g. s01,s02')
+    parser.add_argument('--decoders', default=','.join(DECODERS))
+    parser.add_argument('--force-trca', action='store_true',
+                        help='fit TRCA even when the calibration trials do not repeat')
+    parser.add_argument('--quick', action='store_true', help='two subjects, FBCCA only')
+    parser.add_argument('--json', default='', help='write the results here')
+    args = parser.parse_args(argv)
+    started = time.perf_counter()
+    try:
+        results = run(args.quick, args.data or None,
+                      [s for s in args.subjects.split(',') if s],
+                      [d for d in args.decoders.split(',') if d], args.force_trca)
+    except FileNotFoundError as error:
+        print(f'bench.ssvep_real: {error}', file=sys.stderr)
+        return 2
+    print('\n'.join(format_lines(results)))
+    print(f'({time.perf_counter() - started:.0f} s)')
+    if args.json:
+        with open(args.json, 'w') as stream:
+            json.dump(results, stream, indent=1)
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
