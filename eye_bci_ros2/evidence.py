@@ -162,6 +162,9 @@ class Decision:
     :param round_start: the round's start, s (the clock of the stamps); the
         samples used are those stamped from it to ``round_start +
         time_to_decision``.  NaN when not known (batch functions).
+    :param weighed_stamps: the fixation rule: the stamps of the fixation that
+        decided (or was judged at the window end), s; () for the count rules
+        (they weigh every sample of the round).
     """
 
     label: Optional[str]
@@ -176,6 +179,7 @@ class Decision:
     reason: str = ''
     fresh_samples: int = -1
     round_start: float = math.nan
+    weighed_stamps: Tuple[float, ...] = ()
 
     def summary(self) -> str:
         """One line for a log: the choice and how it was reached."""

@@ -202,8 +202,8 @@ class FixationEvidence:
         if not sigma_gaze_deg > 0:
             raise ValueError(f'the gaze error must be > 0 deg, got {sigma_gaze_deg}')
         self.start = float(start)
-        self.shown_since = self.start if shown_since is None else min(float(shown_since),
-                                                                       self.start)
+        shown_since = self.start if shown_since is None else float(shown_since)
+        self.shown_since = min(shown_since, self.start)
         self.screen = screen
         self.sigma_gaze_deg = float(sigma_gaze_deg)
         self.dwell_s = float(dwell_s)
@@ -344,9 +344,12 @@ class FixationEvidence:
             # their answer (the resting gaze they moved away from, a transient landing).
             fixation, region_set = settled[-1]
             label, posterior, margin, inside = self._judge(fixation.centre, region_set)
-            if label is None or posterior < confidence:
-                reason = (f'the fixation at ({fixation.centre[0]:.0f}, {fixation.centre[1]:.0f})'
-                          f' px is not clearly on one option (posterior {posterior:.2f})')
+            where = f'the fixation at ({fixation.centre[0]:.0f}, {fixation.centre[1]:.0f}) px'
+            if label is None:
+                reason = f'{where} is on no option'
+            elif posterior < confidence:
+                reason = (f"{where} is not clearly on one option ('{label}' posterior "
+                          f'{posterior:.2f})')
             elif not fixation.fresh:
                 reason = (f"the gaze rested {'on' if inside else 'near'} '{label}' from the "
                           'round start: look away and back to choose it')
@@ -521,4 +524,5 @@ class FixationEvidence:
                         time_to_decision=elapsed, counts=dict(self._counts),
                         mean_point=mean_point, reason=reason,
                         fresh_samples=used if fixation is not None and fixation.fresh else 0,
-                        round_start=self.start)
+                        round_start=self.start,
+                        weighed_stamps=() if fixation is None else tuple(fixation.stamps))

@@ -278,6 +278,12 @@ class ArbiterSettings:
 
     def describe(self) -> str:
         """Name the rule in one line (logs, the demo's pictures)."""
+        if self.method == 'fixation':
+            when = 'as soon as one does' if self.early_decision else \
+                f'at the end of a {float(self.window_s):g} s window'
+            return (f'fixation rule: a still fixation of {float(self.dwell_s):g} s clearly on '
+                    f'one option ({self.sigma_gaze_deg:.2f} deg gaze error, confidence '
+                    f'{float(self.confidence):g}), {when}')
         if self.classification == 'tolerant':
             where = (f"tolerant ({'size-aware, ' if self.size_aware else ''}"
                      f'{self.error_model.tolerance_deg:.2f} deg gaze error, ratio '

@@ -147,7 +147,7 @@ class DemoOptions:
     :ivar ask: 'on-arrival' (the menu's protocol: ask once the camera has
         arrived) or 'on-change' (the menu's ``ask_on_arrival`` false).
     :ivar transition_s: duration of the simulated RViz camera moves, s.
-    :ivar timeout_s: longest wait for one decision, s.
+    :ivar timeout_s: longest wait for one decision, s (twice that for SSVEP input).
     :ivar stream_timeout_s: longest wait for the first gaze over LSL, s.
     :ivar pictures: write a PNG per selection.
     :ivar verbose: show the nodes' INFO log lines (else warnings and errors only).
@@ -539,9 +539,12 @@ class ExperimentDriver(Node):
                 self._no_choice += 1
         if not self._answers:
             elapsed = self.now_s() - self.shown_at
-            if elapsed > self.options.timeout_s:
+            # SSVEP waits for the response to build up (the decoder's onset_s) and a
+            # window of EEG each time it is asked: twice the time.
+            timeout = self.options.timeout_s * (1 if self.options.input_mode == 'gaze' else 2)
+            if elapsed > timeout:
                 raise DemoError(
-                    f'no answer within {self.options.timeout_s:g} s of the options '
+                    f'no answer within {timeout:g} s of the options '
                     f'appearing (round {self.round_index + 1}, {self.step}; menu state '
                     f"'{self.menu_state()}'; {self._no_choice} rounds without a choice); gaze "
                     f'samples received so far: {len(self.gaze_stamps)}')
@@ -614,6 +617,9 @@ class ExperimentDriver(Node):
         settings = self.arbiter.settings
         inside = classify_against_history(stamps, points, self.region_history,
                                           settings.regions)
+        if decision.weighed_stamps:
+            # The fixation rule weighs one fixation: its samples are what counted.
+            inside = np.isin(stamps, decision.weighed_stamps)
         # The outlines shown at the last sample used (the menu may have moved on since).
         shown = [r for r in self.region_history if r.stamp <= end] or self.region_history[:1]
         latest = shown[-1] if shown else RegionSet([], [])

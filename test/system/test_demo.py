@@ -92,7 +92,7 @@ def test_quick_demo_finishes_with_every_choice_right(quick_run):
     code, printed, _, summary = quick_run
     assert code == 0
     # The node's default rule, named as the pictures' legend names it.
-    assert 'decision rule: gaze counted tolerant (size-aware' in printed
+    assert 'decision rule: fixation rule: a still fixation of 0.15 s' in printed
     assert 'summary: 2 selections, 2 correct: accuracy 100.0 %' in printed
     assert 'ITR' in printed
     for row in summary['selections']:
@@ -104,11 +104,12 @@ def test_quick_demo_finishes_with_every_choice_right(quick_run):
     assert summary['accuracy'] == 1.0
     assert summary['itr_bits_per_min'] > 0
     for selection in selections:
-        # The original rule over a 1 s window on an 87 Hz tracker.
-        assert selection['method'] == 'mean'
-        assert 70 <= selection['samples_used'] <= 95
-        assert 0.9 <= selection['time_to_decision_s'] <= 1.0
-        assert selection['in_region_samples'] > selection['samples_used'] / 2
+        # The node's default: a still fixation of dwell_s (0.15 s: 13 samples or more at
+        # 87 Hz) decides early, before the 1 s window ends.
+        assert selection['method'] == 'early'
+        assert selection['in_region_samples'] >= 12
+        assert selection['time_to_decision_s'] < 1.0
+        assert selection['samples_used'] >= selection['in_region_samples']
 
 
 @pytest.mark.ros

@@ -261,7 +261,7 @@ def test_topic_echo_choice_while_the_tracker_looks_at_an_option(ros2, env, tmp_p
             node = rclpy.create_node('task', context=context)
             node.create_publisher(MarkerArray, CHOICES_TOPIC, LATCHED_QOS).publish(menu())
             request = node.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
-            assert pipeline.wait_for('connected to LSL stream'), pipeline.output()
+            assert pipeline.wait_for('connected to gaze LSL stream'), pipeline.output()
             end = time.monotonic() + WAIT_S
             pushed = 0
             while echo.process.poll() is None and time.monotonic() < end:
