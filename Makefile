@@ -21,8 +21,9 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 demo: $(STAMP)
 	$(PY) -m eye_bci_ros2.experiments.demo $(ARGS)
 
+# Two workers (pytest-xdist), one test file each: most tests wait on ROS 2 graphs and LSL.
 test: $(STAMP)
-	$(PY) -m pytest test $(ARGS)
+	$(PY) -m pytest test -n 2 --dist loadfile $(ARGS)
 
 bench: $(STAMP)
 	$(PY) -m bench.run_all $(ARGS)

@@ -324,8 +324,16 @@ def test_launch_ctrl_c_twice_and_during_start_up(ros2, env, tmp_path):
         twice = launch(ros2, env, domain, tmp_path, 'experiment.launch.py', 'rviz:=false',
                        name='twice')
         assert twice.wait_for('waiting for camera/pose'), twice.output()
-        twice.interrupt(times=2)
-        assert_clean_stop(twice, twice.finish(), 5)
+        # Ctrl-C, and again once launch has taken the first (as a person presses it again
+        # when the stop seems slow; a busy machine may take longer than a fixed gap).
+        twice.interrupt()
+        twice.wait_for('user interrupted with ctrl-c', timeout=5.0)
+        twice.interrupt()
+        status = twice.finish()
+        # Every node stops cleanly; launch's own process may end on the second SIGINT when
+        # it lands after the nodes have gone (launch's behaviour, not the nodes').
+        assert twice.output().count('process has finished cleanly') == 5, twice.output()
+        assert_clean_stop(twice, 0 if status == -signal.SIGINT else status, 5)
         # While the nodes still import (rclpy is loaded, no node exists yet).  Earlier, in
         # Python's own start-up, only Python itself could keep quiet.
         early = launch(ros2, env, domain, tmp_path, 'pipeline.launch.py', name='early')
