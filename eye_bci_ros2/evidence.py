@@ -234,6 +234,23 @@ def check_min_reaction(min_reaction_s: float) -> None:
                          'to a new display (about 0.1 s)')
 
 
+def checked_batch(points, stamps, confidence: Optional[float]
+                  ) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Check a batch for a round's evidence (every rule's ``add``).
+
+    :returns: points (N, 2) and stamps (N,) as float arrays.
+    :raises ValueError: mismatched lengths, or a confidence outside (0.5, 1).
+    """
+    points = points_array(points)
+    stamps = np.asarray(stamps, dtype=float).reshape(-1)
+    if len(stamps) != len(points):
+        raise ValueError(f'{len(points)} gaze points but {len(stamps)} stamps')
+    if confidence is not None and not 0.5 < confidence < 1.0:
+        raise ValueError(f'confidence must be in (0.5, 1), got {confidence}')
+    return points, stamps
+
+
 def check_min_share(min_share: float) -> None:
     """Raise ValueError unless 0 <= min_share <= 1."""
     if not (isinstance(min_share, (int, float)) and 0.0 <= min_share <= 1.0):
@@ -464,12 +481,7 @@ class RoundEvidence:
         """
         if self.decision is not None:
             return self.decision
-        points = points_array(points)
-        stamps = np.asarray(stamps, dtype=float).reshape(-1)
-        if len(stamps) != len(points):
-            raise ValueError(f'{len(points)} gaze points but {len(stamps)} stamps')
-        if confidence is not None and not 0.5 < confidence < 1.0:
-            raise ValueError(f'confidence must be in (0.5, 1), got {confidence}')
+        points, stamps = checked_batch(points, stamps, confidence)
         region_set = self.regions_for(region_set)
         ids, label_centroids = self._label_ids(region_set)
         if self._latest is None or region_set.stamp >= self._latest.stamp:

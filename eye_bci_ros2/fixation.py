@@ -73,8 +73,8 @@ from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.evidence import Decision, options_moved
-from eye_bci_ros2.regions import points_array, RegionSet
+from eye_bci_ros2.evidence import checked_batch, Decision, options_moved
+from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.visual_angle import px_per_degree_at, ScreenGeometry
 
 #: Samples within this of a fixation's mean belong to it, degrees: above the noise of
@@ -282,12 +282,7 @@ class FixationEvidence:
         """
         if self.decision is not None:
             return self.decision
-        points = points_array(points)
-        stamps = np.asarray(stamps, dtype=float).reshape(-1)
-        if len(stamps) != len(points):
-            raise ValueError(f'{len(points)} gaze points but {len(stamps)} stamps')
-        if confidence is not None and not 0.5 < confidence < 1.0:
-            raise ValueError(f'confidence must be in (0.5, 1), got {confidence}')
+        points, stamps = checked_batch(points, stamps, confidence)
         if self._latest is None or region_set.stamp >= self._latest.stamp:
             if self._latest is not None and options_moved(self._latest, region_set):
                 self._moved_at = max(self._moved_at, region_set.stamp)
