@@ -10,6 +10,7 @@ traffic, and tears down executor -> nodes -> context.
 """
 
 import contextlib
+import time
 from typing import Any, Callable, Dict, List, Optional, Tuple
 
 from domain_coordinator import domain_id
@@ -28,6 +29,9 @@ from eye_bci_ros2.nodes.topics import GAZE_QOS, GAZE_SAMPLES_TOPIC
 #: Samples per gaze/samples message the test publishers send (20 ms at 1200 Hz; the
 #: bridge sends what it pulls each poll, a few samples at its default 2 ms).
 GAZE_CHUNK = 24
+
+#: A parameter read with no answer after this long is sent again (get_parameters), s.
+RETRY_S = 4.0
 
 
 class RosGraph:
@@ -78,10 +82,24 @@ class RosGraph:
         return list(response.results)
 
     def get_parameters(self, node_name: str, names: List[str], timeout: float = 5.0) -> list:
-        """Read parameters over the parameter services (``ros2 param get``)."""
+        """
+        Read parameters over the parameter services (``ros2 param get``).
+
+        A node just started in another process may answer its first request to a
+        reply reader it has not matched yet (DDS discovery): the reply is lost, so a
+        read that gets no answer within a few seconds is sent again (reading twice is
+        harmless), until ``timeout``.
+        """
         client = self._param_client(node_name, timeout)
-        response = self.wait_future(client.get_parameters(names), timeout)
-        return [parameter_value_to_python(value) for value in response.values]
+        end = time.monotonic() + timeout
+        while True:
+            future = client.get_parameters(names)
+            self.executor.spin_until_future_complete(
+                future, timeout_sec=max(min(RETRY_S, end - time.monotonic()), 0.0))
+            if future.done() or time.monotonic() >= end:
+                break
+        assert future.done(), 'timed out waiting for a ROS future'
+        return [parameter_value_to_python(value) for value in future.result().values]
 
     def _param_client(self, node_name: str, timeout: float) -> AsyncParameterClient:
         helper = getattr(self, '_param_helper', None)
