@@ -23,12 +23,13 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+from eye_bci_ros2.recordings import find_data
+
 PathLike = Union[str, os.PathLike]
 
 #: Kalunga 2016 class codes: 1 = rest, 2 = 13 Hz, 3 = 21 Hz, 4 = 17 Hz.
 KALUNGA_CLASSES: Dict[int, Optional[float]] = {1: None, 2: 13.0, 3: 21.0, 4: 17.0}
 #: Where the shared recordings live beside a clone: ``<parent>/shared/data/<kind>``.
-SHARED_DATA = ('shared', 'data')
 #: Environment variable naming the folder of real EEG recordings.
 EEG_DATA_ENV = 'EYE_BCI_REAL_EEG'
 
@@ -108,30 +109,12 @@ def by_subject(recordings: Sequence[EegRecording]) -> Dict[str, List[EegRecordin
     return groups
 
 
-def find_shared_data(kind: str, start: Optional[PathLike] = None) -> Optional[Path]:
-    """
-    Find ``shared/data/<kind>`` beside a clone (``../shared`` in CI) or above a worktree.
-
-    :param kind: e.g. 'real_eeg'.
-    :param start: where to begin (default: this package's folder); every
-        parent is tried, so a clone at ``X/repo`` and a worktree at
-        ``X/wt/name`` both find ``X/shared``.
-    :returns: the folder, or None when no parent has it.
-    """
-    here = Path(start or Path(__file__).resolve().parent).resolve()
-    for parent in [here] + list(here.parents):
-        candidate = parent.joinpath(*SHARED_DATA, kind)
-        if candidate.is_dir():
-            return candidate
-    return None
-
-
 def eeg_data_dir() -> Optional[Path]:
-    """Return the real-EEG folder: ``$EYE_BCI_REAL_EEG`` if set, else :func:`find_shared_data`."""
+    """Return the real-EEG folder: ``$EYE_BCI_REAL_EEG`` if set, else :func:`find_data`."""
     named = os.environ.get(EEG_DATA_ENV, '')
     if named:
         return Path(named) if Path(named).is_dir() else None
-    return find_shared_data('real_eeg')
+    return find_data('real_eeg')
 
 
 #: Neighbours of a frequency whose amplitudes make the noise floor, Hz away (both sides).

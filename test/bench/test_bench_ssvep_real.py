@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bench import run_all, ssvep_real
-from eye_bci_ros2.recordings.eeg import (eeg_data_dir, find_eeg_recordings, find_shared_data,
+from eye_bci_ros2.recordings.eeg import (eeg_data_dir, find_eeg_recordings,
                                          load_eeg)
 from eye_bci_ros2.ssvep.decision import DecisionRule
 from eye_bci_ros2.ssvep.online import OnlineSettings
@@ -49,7 +49,6 @@ def test_the_loader_reads_the_recordings_and_says_why_it_cannot(tmp_path, sessio
              events=np.zeros((0, 2), int))
     with pytest.raises(ValueError, match='does not match 1 channels'):
         load_eeg(bad)
-    assert find_shared_data('real_eeg', tmp_path) in (None, eeg_data_dir())
 
 
 def test_run_all_skips_the_real_bench_without_recordings(monkeypatch, tmp_path):
