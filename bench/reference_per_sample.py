@@ -4,7 +4,7 @@ Reference for bench.gaze_rate: the gaze path before batching, one message per sa
 What the bridge and the arbiter did before ``gaze/samples``: the bridge pulled
 LSL chunks on a 2 ms timer and published one geometry_msgs/PointStamped per
 sample; the arbiter took one message per sample and fed it to the same
-:class:`eye_bci_ros2.rounds.RoundScheduler`, both on rclpy's Python
+:class:`eye_bci_ros2.decision.rounds.RoundScheduler`, both on rclpy's Python
 ``SingleThreadedExecutor``.  Run as a process by the benchmark::
 
     python -m bench.reference_per_sample bridge STREAM_NAME
@@ -23,10 +23,10 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
+from eye_bci_ros2.decision.regions import RegionSet
+from eye_bci_ros2.decision.rounds import ArbiterSettings, RoundScheduler
 from eye_bci_ros2.nodes.conversions import gaze_point, marker_array_to_regions
 from eye_bci_ros2.nodes.topics import GAZE_QOS, LATCHED_QOS, REGIONS_TOPIC
-from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, RoundScheduler
 
 #: The reference's own gaze topic (the pipeline's nodes do not listen to it).
 TOPIC = 'reference/gaze'

@@ -52,7 +52,6 @@ from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from bench.timing import machine_info
-from eye_bci_ros2.camera_model import RvizCamera
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import cube_marker
@@ -61,6 +60,7 @@ from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.runner import executor_kind, make_executor, spin_until
 from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, GAZE_QOS,
                                        GAZE_SAMPLES_TOPIC, LATCHED_QOS)
+from eye_bci_ros2.projection.camera_model import RvizCamera
 from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
 
 #: Static RViz view of the soak (world frame ``map``, m).

@@ -21,7 +21,7 @@ clone).
    ``rest_z`` (:data:`REST_Z_GRID`) that does best on the *other* subjects
    within the goals' limits (FBCCA, replayed from the recorded evidence).
 3. ``hybrid``: the same rounds through the hybrid fusion
-   (:class:`~eye_bci_ros2.fusion.ChoiceFusion`, default settings) with the
+   (:class:`~eye_bci_ros2.decision.fusion.ChoiceFusion`, default settings) with the
    gaze resting on an option from :data:`GAZE_AT_S` after the cue: in rest
    trials on each option in turn (looking without attending: must not
    choose), in stimulus trials on the attended one (must be confirmed).
@@ -49,10 +49,10 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from eye_bci_ros2.decision.fusion import ChoiceFusion, FusionSettings
 from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
-from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
-from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EEG_DATA_ENV,
-                                         EegRecording, find_eeg_recordings, load_eeg)
+from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EEG_DATA_ENV, EegRecording,
+                                         find_eeg_recordings, load_eeg)
 from eye_bci_ros2.ssvep.decision import DecisionRule
 from eye_bci_ros2.ssvep.decoders import FbccaDecoder, TrcaModel
 from eye_bci_ros2.ssvep.filters import filter_recording

@@ -27,7 +27,7 @@ scripted table is not on the screen: the person then looks at the table with
 the same number in the room shown; if it picks ``back``, the rooms come again
 and the person looks at the scripted room again.
 
-The protocol is the shipped nodes' (:mod:`eye_bci_ros2.menu`): the
+The protocol is the shipped nodes' (:mod:`eye_bci_ros2.task.menu`): the
 ``choice_menu`` asks (``choice/request``) only once the camera has arrived
 at the view of the new options (from ``camera/pose``) and the gaze has left
 the option just chosen (or ``look_away_s`` passed), and acts only on a choice
@@ -70,12 +70,11 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET,
-                                       optical_pose_from_ogre, RVIZ_FOV_Y_DEG, RvizCamera)
-from eye_bci_ros2.evidence import Decision
+from eye_bci_ros2.decision.evidence import Decision
+from eye_bci_ros2.decision.regions import RegionSet
+from eye_bci_ros2.decision.rounds import ArbiterSettings, METHODS
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
-from eye_bci_ros2.menu import BACK_LABEL
 from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
                                             pose_to_arrays)
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
@@ -89,15 +88,17 @@ from eye_bci_ros2.nodes.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, F
                                        GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
                                        MENU_ANSWER_TOPIC, MENU_RESULT_TOPIC, REGIONS_TOPIC,
                                        REQUEST_TOPIC, RVIZ_CAMERA_POSE_TOPIC, SSVEP_STIMULI_TOPIC)
-from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, METHODS
-from eye_bci_ros2.scene import load_scene, Scene
+from eye_bci_ros2.projection.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET,
+                                                  optical_pose_from_ogre, RVIZ_FOV_Y_DEG,
+                                                  RvizCamera)
+from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
 from eye_bci_ros2.sim.eeg_outlet import EegStreamer
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
 from eye_bci_ros2.sim.person import GazeParams, ORIGINAL_TOBII_4C, PRESETS
 from eye_bci_ros2.sim.rviz_view import SimRvizView
-from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
+from eye_bci_ros2.task.menu import BACK_LABEL
+from eye_bci_ros2.task.scene import load_scene, Scene
 
 #: The person's screen, px (the Linux machine of the original report).
 SCREEN_SIZE = (DEFAULT_VIEWING.width_px, DEFAULT_VIEWING.height_px)

@@ -11,8 +11,8 @@ round ended without a choice; input mode gaze), so a menu can ask again.
 
 The rounds (when they start and end, which samples and regions they weigh,
 when a decision is final, what is dropped as implausible) are
-:class:`eye_bci_ros2.rounds.RoundScheduler`, the rules
-:mod:`eye_bci_ros2.evidence`: this node converts messages and keeps the
+:class:`eye_bci_ros2.decision.rounds.RoundScheduler`, the rules
+:mod:`eye_bci_ros2.decision.evidence`: this node converts messages and keeps the
 clock.  Each gaze batch is weighed in its own callback, so ``choice`` is
 published from the callback of the batch that completes the decision; a
 50 Hz timer only closes rounds whose gaze stream went quiet and releases
@@ -20,7 +20,7 @@ decisions held by ``reorder_s``.  Bad input is counted
 (:attr:`ChoiceArbiter.samples_from_future`, ``samples_too_old``,
 ``samples_not_finite``) and logged at most once per 5 s of each kind.
 
-Rule (``classification`` and the share test ``min_share``; eye_bci_ros2.rounds
+Rule (``classification`` and the share test ``min_share``; eye_bci_ros2.decision.rounds
 ArbiterSettings).  Default: the size-aware tolerant rule (a sample near an option counts
 for it when it is clearly nearer to it than to any other, by a gaze-error model in
 degrees on the person's screen, ``accuracy_deg``, ``precision_deg``, ``k_sigma``,
@@ -32,12 +32,12 @@ Feedback.  Subscribes ``choices`` (the options, visualization_msgs/MarkerArray, 
 reads them) and publishes ``choices/feedback`` (MarkerArray, one halo per option with its
 ns and id, :mod:`eye_bci_ros2.nodes.feedback_markers`): the option the newest gaze sample
 counts for under the round's rule highlighted ('gazed'), the progress of the decision
-(:meth:`eye_bci_ros2.rounds.RoundScheduler.progress`) as the halo's growth, and the option
+(:meth:`eye_bci_ros2.decision.rounds.RoundScheduler.progress`) as the halo's growth, and the option
 just chosen (the published ``choice``) green for ``feedback_confirm_s``; at most
 ``feedback_rate_hz`` messages per second, only when something changed
-(:class:`eye_bci_ros2.feedback.FeedbackThrottle`; 0 = off).
+(:class:`eye_bci_ros2.decision.feedback.FeedbackThrottle`; 0 = off).
 
-Input modes (parameter ``input_mode``, :mod:`eye_bci_ros2.fusion`).  ``gaze``
+Input modes (parameter ``input_mode``, :mod:`eye_bci_ros2.decision.fusion`).  ``gaze``
 (default): as above.  ``ssvep``: ``choice`` is the ``ssvep/choice`` of the
 ssvep_decoder (std_msgs/String) when it names an offered option, once per
 round; the gaze decision is not published.  ``hybrid``: gaze alone never
@@ -55,9 +55,12 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.evidence import Decision, MAX_REACTION_S
-from eye_bci_ros2.feedback import build_feedback, Feedback, FeedbackThrottle
-from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
+from eye_bci_ros2.decision.evidence import Decision, MAX_REACTION_S
+from eye_bci_ros2.decision.feedback import build_feedback, Feedback, FeedbackThrottle
+from eye_bci_ros2.decision.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
+from eye_bci_ros2.decision.regions import RegionSet
+from eye_bci_ros2.decision.rounds import ArbiterSettings, MAX_FUTURE_S, METHODS, RoundScheduler
+from eye_bci_ros2.decision.tolerance import CLASSIFICATIONS
 from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
 from eye_bci_ros2.nodes.feedback_markers import FeedbackMarkers, option_label, OptionMarkers
 from eye_bci_ros2.nodes.graph_watch import GraphWatch
@@ -69,9 +72,6 @@ from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, CHOICES_TOPIC,
                                        FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC,
                                        LATCHED_QOS, NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC,
                                        SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
-from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, METHODS, RoundScheduler
-from eye_bci_ros2.tolerance import CLASSIFICATIONS
 
 #: choices/feedback shows at most this many options (one halo each, ~30 times a second).
 MAX_FEEDBACK_OPTIONS = 256
@@ -153,7 +153,7 @@ PARAMETERS = (
               'only a corrupt stamp or a wrong clock does that, and one such sample would '
               'end the round at once; raise it only for a tracker clock known to run ahead',
               value_range=(0.0, MAX_FUTURE_S)),
-    # The rule (eye_bci_ros2.rounds ArbiterSettings; a change applies from the next round).
+    # The rule (decision.rounds.ArbiterSettings; a change applies from the next round).
     ParamSpec('classification', DEFAULTS.classification,
               'Which option a gaze sample counts for: tolerant = inside it, or near it (by the '
               'gaze-error model below) when clearly nearer to it than to any other option; '
@@ -205,7 +205,7 @@ FUSION_PARAMETERS = (
     ParamSpec('input_mode', 'gaze',
               'What chooses: gaze (the gaze decision), ssvep (ssvep/choice of the '
               'ssvep_decoder) or hybrid (a gaze decision is only a candidate; it is chosen '
-              'when SSVEP confirms it, see eye_bci_ros2.fusion)', choices=INPUT_MODES),
+              'when SSVEP confirms it, see eye_bci_ros2.decision.fusion)', choices=INPUT_MODES),
     ParamSpec('confirm_threshold', 0.9,
               'hybrid: SSVEP posterior (ssvep/scores) of the gaze candidate that confirms it',
               value_range=(0.01, 1.0)),
@@ -380,7 +380,7 @@ class ChoiceArbiter(Node):
             return
         self._warnings.warn(key, text)
 
-    # -- input modes: gaze / ssvep / hybrid (issue 11; eye_bci_ros2.fusion) -------------------
+    # -- input modes: gaze / ssvep / hybrid (eye_bci_ros2.decision.fusion) ------------------------
 
     def _init_fusion(self) -> None:
         """Declare the input-mode parameters and subscribe the SSVEP decoder's output."""
@@ -440,7 +440,7 @@ class ChoiceArbiter(Node):
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'ssvep_error', f'SSVEP scores ignored: {error}')
 
-    # -- feedback: choices/feedback (eye_bci_ros2.feedback, nodes/feedback_markers) --------
+    # -- feedback: choices/feedback (decision.feedback, nodes/feedback_markers) -------------------
 
     def _init_feedback(self) -> None:
         """Declare the feedback parameters, subscribe the options, start the feedback timer."""

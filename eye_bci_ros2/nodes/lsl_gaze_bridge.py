@@ -3,13 +3,13 @@ Node ``lsl_gaze_bridge``: eye-tracker gaze from an LSL stream to ROS 2.
 
 Finds the LSL stream of an eye-tracker application (profile + stream type /
 name / source_id), pulls its samples in chunks, converts them to points on
-the ``screen`` (px, top-left origin; :mod:`eye_bci_ros2.gaze_profiles`) and
+the ``screen`` (px, top-left origin; :mod:`eye_bci_ros2.gaze.profiles`) and
 publishes
 
 * every valid sample on ``gaze/samples`` (sensor_msgs/PointCloud2), one
   message per pulled chunk, each sample with its own acquisition time on the
   ROS clock (:mod:`eye_bci_ros2.nodes.conversions`, "Gaze batches";
-  :mod:`eye_bci_ros2.lsl_connection` for the stamps): the cost follows the poll
+  :mod:`eye_bci_ros2.streams.lsl_connection` for the stamps): the cost follows the poll
   rate, not the tracker rate;
 * the newest sample on ``gaze/point`` (geometry_msgs/PointStamped) at most
   ``point_rate_hz`` times a second, for people and simple tools;
@@ -21,19 +21,19 @@ publishes
   stale (nothing for ``stale_timeout_s``) or is lost.
 
 ``gaze_correction`` (6 doubles, row-major 2 x 3 affine on screen px, or
-12: those, then second-order terms; :func:`eye_bci_ros2.validation.as_matrix`;
-:data:`eye_bci_ros2.validation.IDENTITY` = none) is applied to every sample
+12: those, then second-order terms; :func:`eye_bci_ros2.gaze.validation.as_matrix`;
+:data:`eye_bci_ros2.gaze.validation.IDENTITY` = none) is applied to every sample
 after the screen scaling and before the off-screen check
-(:func:`eye_bci_ros2.validation.apply_correction`); ``gaze_validation``
+(:func:`eye_bci_ros2.gaze.validation.apply_correction`); ``gaze_validation``
 fits it and sets it through the parameter service, and saves it as a
 parameter file for ``--params-file``.  An implausible correction (scale,
 rotation or shift anywhere on the screen beyond
-:func:`eye_bci_ros2.validation.implausibility`'s limits) is refused with the reason.
+:func:`eye_bci_ros2.gaze.validation.implausibility`'s limits) is refused with the reason.
 
 The stream is found, kept or switched, and its samples stamped, by
-:class:`eye_bci_ros2.lsl_connection.StreamConnection` (the same connection
+:class:`eye_bci_ros2.streams.lsl_connection.StreamConnection` (the same connection
 the SSVEP decoder uses; its module doc gives the rules) with the gaze profile
-of :mod:`eye_bci_ros2.gaze_stream`: a stream is taken only when its channels
+of :mod:`eye_bci_ros2.gaze.stream`: a stream is taken only when its channels
 fit the profile (a Pupil Capture stream under ``xy_pixels`` is refused, with
 ``profile:=pupil_capture`` named), and of several fitting streams from
 different sources none is taken until ``source_id`` or ``stream_name``
@@ -43,9 +43,9 @@ waits are reading a stream's full description once (at most 0.2 s).
 
 Bursts: a backlog (a sender that stalled and then pushed seconds of gaze at
 once) waits in the inlet's buffer, which liblsl fills without loss up to
-:data:`eye_bci_ros2.lsl_connection.INLET_BUFFER_S` of gaze, and is published
+:data:`eye_bci_ros2.streams.lsl_connection.INLET_BUFFER_S` of gaze, and is published
 in chunks of ``max_chunk`` samples, at most
-:data:`eye_bci_ros2.lsl_connection.MAX_PULLS_PER_POLL` chunks per poll.
+:data:`eye_bci_ros2.streams.lsl_connection.MAX_PULLS_PER_POLL` chunks per poll.
 Stamps stay acquisition times, so a drained backlog is exactly as old as it
 is.  A quiet stream is kept while it is advertised (Tobii Stream Engine
 sends nothing while it sees no eyes) and ``gaze/on_screen`` turns false.
@@ -62,12 +62,12 @@ from rclpy.node import Node
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Bool
 
-from eye_bci_ros2.gaze_profiles import (
-    ANY, build_config, convert, DEFAULT_PROFILE, DROP_REASONS, GazeConfig, GazeMapping,
-    NO_CONFIDENCE, ORIGINS, PROFILE_NAMES, resolve_mapping, UNITS)
-from eye_bci_ros2.gaze_stream import GazeStreamProfile
-from eye_bci_ros2.lsl_connection import (Chunk, ConnectionSettings, StreamConnection,
-                                         StreamDescription)
+from eye_bci_ros2.gaze.profiles import (ANY, build_config, convert, DEFAULT_PROFILE, DROP_REASONS,
+                                        GazeConfig, GazeMapping, NO_CONFIDENCE, ORIGINS,
+                                        PROFILE_NAMES, resolve_mapping, UNITS)
+from eye_bci_ros2.gaze.stream import GazeStreamProfile
+from eye_bci_ros2.gaze.validation import (as_matrix, correction_values, IDENTITY, implausibility,
+                                          is_identity, PARAMETER as CORRECTION_PARAMETER)
 from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_point
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
@@ -75,9 +75,9 @@ from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import (GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC, GAZE_QOS,
                                        GAZE_SAMPLES_TOPIC, LATCHED_QOS, VIEW_QOS)
-from eye_bci_ros2.validation import (as_matrix, correction_values, IDENTITY, implausibility,
-                                     is_identity, PARAMETER as CORRECTION_PARAMETER)
-from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
+from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
+from eye_bci_ros2.streams.lsl_connection import (Chunk, ConnectionSettings, StreamConnection,
+                                                 StreamDescription)
 
 #: Counters kept and logged by the bridge.
 COUNTERS = ('received', 'published') + DROP_REASONS + ('layout', 'bad_stamp')

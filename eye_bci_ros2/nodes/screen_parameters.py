@@ -5,7 +5,7 @@ The person's screen, as node parameters: one table for every node that needs it.
 ``gaze_validation`` (accuracy in degrees) both describe the screen the gaze
 is in (frame ``screen``, docs/DESIGN.md) and how far the person sits from
 it.  They declare it from :func:`person_screen_parameters`, so names,
-defaults (:data:`eye_bci_ros2.visual_angle.DEFAULT_VIEWING`), ranges and
+defaults (:data:`eye_bci_ros2.projection.visual_angle.DEFAULT_VIEWING`), ranges and
 descriptions are the same, and a params file with a ``/**:`` section sets
 both at once.
 """
@@ -13,7 +13,7 @@ both at once.
 from typing import Any, Dict, Tuple
 
 from eye_bci_ros2.nodes.parameters import ParamSpec
-from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, ScreenGeometry
+from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, ScreenGeometry
 
 #: Largest screen side, px (16K).
 MAX_SIDE_PX = 16384

@@ -17,7 +17,7 @@ the regions' stamp, the stimulus epoch and the request (node clock), and
 ends with its choice (:mod:`eye_bci_ros2.ssvep.online`).
 
 The stream is found, kept or switched and its samples stamped on the ROS
-clock by :class:`eye_bci_ros2.lsl_connection.StreamConnection`, the same
+clock by :class:`eye_bci_ros2.streams.lsl_connection.StreamConnection`, the same
 connection (and the same time rule) as the gaze bridge's, with the EEG
 profile of :mod:`eye_bci_ros2.ssvep.eeg_stream`; a timer lets it look for
 the stream, a second one pulls with a zero timeout, so nothing blocks the
@@ -39,24 +39,23 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.lsl_connection import ConnectionSettings, StreamConnection, StreamDescription
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.ssvep_messages import (msg_to_stimulus_map, scores_to_msg,
-                                               time_to_seconds)
+from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map, scores_to_msg, time_to_seconds
 from eye_bci_ros2.nodes.topics import (EVENT_QOS, LATCHED_QOS, REGIONS_TOPIC, REQUEST_TOPIC,
                                        SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC,
                                        SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.ssvep.decision import DEFAULT_GAIN, DEFAULT_REST_Z, RULES
 from eye_bci_ros2.ssvep.decoders import DECODERS, TrcaModel
 from eye_bci_ros2.ssvep.eeg_stream import EegStreamProfile
-from eye_bci_ros2.ssvep.layouts import (ANY, LAYOUT_NAMES, LAYOUTS, parse_channels,
-                                        resolve_channels)
+from eye_bci_ros2.ssvep.layouts import ANY, LAYOUT_NAMES, LAYOUTS, parse_channels, resolve_channels
 from eye_bci_ros2.ssvep.online import DEFAULT_ONSET_S, OnlineDecoder, OnlineSettings
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
+from eye_bci_ros2.streams.lsl_connection import (ConnectionSettings, StreamConnection,
+                                                 StreamDescription)
 
 
 def _channels_text(value) -> Optional[str]:

@@ -55,7 +55,7 @@ GAZE_ON_SCREEN_TOPIC = 'gaze/on_screen'
 #: geometry_msgs/PointStamped, frame ``screen``, NaN = none; LATCHED_QOS: the simulated
 #: person follows it), its RViz markers (visualization_msgs/MarkerArray, world frame,
 #: LATCHED_QOS), a request to run (std_msgs/Empty, EVENT_QOS) and the outcome (std_msgs/String,
-#: one JSON line of eye_bci_ros2.validation.ValidationOutcome, EVENT_QOS).
+#: one JSON line of eye_bci_ros2.gaze.validation.ValidationOutcome, EVENT_QOS).
 VALIDATION_TARGET_TOPIC = 'validation/target'
 VALIDATION_TARGETS_TOPIC = 'validation/targets'
 VALIDATION_START_TOPIC = 'validation/start'

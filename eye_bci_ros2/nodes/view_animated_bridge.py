@@ -33,7 +33,7 @@ from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import CAMERA_GOAL_TOPIC, LATCHED_QOS
-from eye_bci_ros2.view_animation import view_from_optical_pose
+from eye_bci_ros2.projection.view_animation import view_from_optical_pose
 
 #: The port's speed profiles (ViewMovement.msg constants), by name.
 SPEED_PROFILES = ('DECLINING', 'RISING', 'WAVE', 'FULL', 'QUADRATIC', 'EXPONENTIAL')

@@ -90,8 +90,8 @@ from typing import Callable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+from eye_bci_ros2.projection.visual_angle import ScreenGeometry
 from eye_bci_ros2.recordings import gaze as recorded
-from eye_bci_ros2.visual_angle import ScreenGeometry
 
 #: A target: screen px (x, y), or None when there is nothing to look at.
 Target = Optional[Sequence[float]]

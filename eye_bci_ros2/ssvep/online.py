@@ -48,8 +48,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.ssvep.decision import (DecisionRule, DEFAULT_GAIN, DEFAULT_REST_Z,
-                                         RestModel)
+from eye_bci_ros2.ssvep.decision import DecisionRule, DEFAULT_GAIN, DEFAULT_REST_Z, RestModel
 from eye_bci_ros2.ssvep.decoders import (DECODERS, fbcca_null, FbccaDecoder, null_windows,
                                          sideband_hz, sideband_statistic, TrcaModel,
                                          with_sidebands)

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from bench import decision, run_all
+from eye_bci_ros2.decision.rounds import ArbiterSettings, RoundScheduler
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
-from eye_bci_ros2.rounds import ArbiterSettings, RoundScheduler
 
 METRIC_KEYS = {'accuracy', 'wrong', 'no_choice', 'median_samples', 'median_ms', 'mean_ms',
                'itr_bits_per_min', 'trials', 'not_landed'}

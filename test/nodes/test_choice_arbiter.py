@@ -9,9 +9,9 @@ from rclpy.parameter import Parameter
 from ros_harness import gaze_messages
 from visualization_msgs.msg import Marker
 
+from eye_bci_ros2.decision.rounds import ArbiterSettings, COUNT_RULE
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import regions_to_marker_array
-from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE
 
 pytestmark = pytest.mark.ros
 

@@ -9,12 +9,12 @@ import os
 import numpy as np
 import pytest
 
+from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.experiments import demo
 from eye_bci_ros2.experiments.render import png_size
-from eye_bci_ros2.menu import BACK_LABEL
 from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.scene import load_scene
+from eye_bci_ros2.task.menu import BACK_LABEL
+from eye_bci_ros2.task.scene import load_scene
 
 SCENE = load_scene(default_scene_path())
 
