@@ -23,37 +23,40 @@ At most one choice per round; a round starts with :meth:`ChoiceFusion.new_round`
 from dataclasses import dataclass
 from typing import Dict, Optional, Sequence, Tuple
 
+from eye_bci_ros2.settings import check_settings, Setting
+from eye_bci_ros2.validators import Interval
+
+#: The input modes, the one place they are named (the ``input_mode`` parameter's choices).
 INPUT_MODES = ('gaze', 'ssvep', 'hybrid')
 
 
 @dataclass(frozen=True)
 class FusionSettings:
     """
-    How gaze and SSVEP combine.
+    How gaze and SSVEP combine: the choice_arbiter's input-mode parameters.
 
-    :param mode: one of :data:`INPUT_MODES`.
-    :param confirm_threshold: SSVEP posterior of the gaze candidate that confirms it.
-    :param max_lag_s: longest time between the gaze candidate and the SSVEP
-        evidence that confirms it, s.
-    :param min_gaze_margin: gaze margin a decision needs to be a candidate.
+    Each field is declared once (:class:`eye_bci_ros2.settings.Setting`);
+    ``input_mode`` is one of :data:`INPUT_MODES`.
     """
 
-    mode: str = 'gaze'
-    confirm_threshold: float = 0.9
-    max_lag_s: float = 5.0
-    min_gaze_margin: float = 0.5
+    input_mode: str = Setting(
+        'gaze', 'What chooses: gaze (the gaze decision), ssvep (ssvep/choice of the '
+        'ssvep_decoder) or hybrid (a gaze decision is only a candidate; it is chosen '
+        'when SSVEP confirms it, see eye_bci_ros2.fusion)', choices=INPUT_MODES).field()
+    confirm_threshold: float = Setting(
+        0.9, 'hybrid: SSVEP posterior (ssvep/scores) of the gaze candidate that confirms it',
+        interval=Interval(0.01, 1.0)).field()
+    max_lag_s: float = Setting(
+        5.0, 'hybrid: longest time between the gaze candidate and the SSVEP evidence that '
+        'confirms it, s', interval=Interval(0.0, 60.0), unit='s').field()
+    min_gaze_margin: float = Setting(
+        0.5, 'hybrid: a gaze decision is a candidate only with at least this margin (share '
+        "of in-region gaze on it minus the runner-up's): the gaze stayed on it",
+        interval=Interval(0.0, 1.0)).field()
 
     def __post_init__(self):
-        """Reject settings that cannot work, with a reason."""
-        if self.mode not in INPUT_MODES:
-            raise ValueError(f"input mode '{self.mode}' is not one of {', '.join(INPUT_MODES)}")
-        if not 0.0 < self.confirm_threshold <= 1.0:
-            raise ValueError(f'confirm_threshold must be in (0, 1], got '
-                             f'{self.confirm_threshold}')
-        if self.max_lag_s < 0:
-            raise ValueError(f'max_lag_s must be >= 0, got {self.max_lag_s}')
-        if not 0.0 <= self.min_gaze_margin <= 1.0:
-            raise ValueError(f'min_gaze_margin must be in [0, 1], got {self.min_gaze_margin}')
+        """Reject settings that cannot work, with a reason (each field's declaration)."""
+        check_settings(self)
 
 
 class ChoiceFusion:
@@ -99,7 +102,7 @@ class ChoiceFusion:
         :param margin: the decision's gaze margin (hybrid: below
             ``min_gaze_margin`` it nominates no candidate).
         """
-        mode = self.settings.mode
+        mode = self.settings.input_mode
         if mode == 'gaze':
             return self._choose(label)
         if mode == 'ssvep' or self._chosen:
@@ -112,9 +115,9 @@ class ChoiceFusion:
         """Take the SSVEP decoder's choice at time ``t``."""
         if label not in self._options or self._chosen:
             return None
-        if self.settings.mode == 'ssvep':
+        if self.settings.input_mode == 'ssvep':
             return self._choose(label)
-        if self.settings.mode == 'hybrid':
+        if self.settings.input_mode == 'hybrid':
             self._ssvep_choice = (label, t)
             return self._confirm()
         return None
@@ -122,7 +125,7 @@ class ChoiceFusion:
     def ssvep_scores(self, labels: Sequence[str], posterior: Sequence[float],
                      t: float) -> Optional[str]:
         """Take one SSVEP scoring step (posterior per label) at time ``t``."""
-        if self.settings.mode != 'hybrid' or self._chosen:
+        if self.settings.input_mode != 'hybrid' or self._chosen:
             return None
         for label, probability in zip(labels, posterior):
             if label in self._options:
@@ -151,6 +154,6 @@ class ChoiceFusion:
     def _choose(self, label: Optional[str]) -> Optional[str]:
         if label is None or self._chosen:
             return None
-        if self.settings.mode != 'gaze':
+        if self.settings.input_mode != 'gaze':
             self._chosen = True
         return label

@@ -72,7 +72,7 @@ def test_hybrid_a_wandering_gaze_nominates_no_candidate():
 
 
 def test_bad_settings_say_why():
-    with pytest.raises(ValueError, match='input mode'):
+    with pytest.raises(ValueError, match='input_mode'):
         FusionSettings('eeg')
     with pytest.raises(ValueError, match='confirm_threshold'):
         FusionSettings('hybrid', confirm_threshold=0.0)
