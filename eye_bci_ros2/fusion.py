@@ -21,13 +21,35 @@ At most one choice per round; a round starts with :meth:`ChoiceFusion.new_round`
 """
 
 from dataclasses import dataclass
-from typing import Dict, Optional, Sequence, Tuple
+from typing import Dict, NamedTuple, Optional, Sequence, Tuple
 
 from eye_bci_ros2.settings import check_settings, Setting
 from eye_bci_ros2.validators import Interval
 
 #: The input modes, the one place they are named (the ``input_mode`` parameter's choices).
 INPUT_MODES = ('gaze', 'ssvep', 'hybrid')
+GAZE, SSVEP, HYBRID = INPUT_MODES
+
+
+class Timed(NamedTuple):
+    """A label and when it came, s (the node clock)."""
+
+    label: str
+    t: float
+
+
+@dataclass(frozen=True)
+class FusionOutcome:
+    """
+    What a gaze decision leads to (:meth:`ChoiceFusion.gaze_outcome`).
+
+    :param choice: the label to publish as the choice, or None.
+    :param no_choice: why the round can lead to no choice (for ``choice/none``:
+        a menu may ask again), or None while a choice may still come.
+    """
+
+    choice: Optional[str] = None
+    no_choice: Optional[str] = None
 
 
 @dataclass(frozen=True)
@@ -79,7 +101,7 @@ class ChoiceFusion:
     @property
     def candidate(self) -> Optional[str]:
         """Return the gaze candidate waiting for SSVEP confirmation (hybrid), or None."""
-        return self._candidate[0] if self._candidate else None
+        return self._candidate.label if self._candidate else None
 
     @property
     def chosen(self) -> bool:
@@ -90,8 +112,8 @@ class ChoiceFusion:
         """Start a round (with new ``options``, or the same ones when None)."""
         if options is not None:
             self._options = tuple(options)
-        self._candidate: Optional[Tuple[str, float]] = None
-        self._ssvep_choice: Optional[Tuple[str, float]] = None
+        self._candidate: Optional[Timed] = None
+        self._ssvep_choice: Optional[Timed] = None
         self._posterior: Dict[str, Tuple[float, float]] = {}
         self._chosen = False
 
@@ -103,29 +125,50 @@ class ChoiceFusion:
             ``min_gaze_margin`` it nominates no candidate).
         """
         mode = self.settings.input_mode
-        if mode == 'gaze':
+        if mode == GAZE:
             return self._choose(label)
-        if mode == 'ssvep' or self._chosen:
+        if mode == SSVEP or self._chosen:
             return None
         steady = margin >= self.settings.min_gaze_margin
-        self._candidate = (label, t) if label in self._options and steady else None
+        self._candidate = Timed(label, t) if label in self._options and steady else None
         return self._confirm()
+
+    def gaze_outcome(self, label: Optional[str], t: float, margin: float = 1.0,
+                     reason: Optional[str] = None) -> FusionOutcome:
+        """
+        Take the gaze decision of a round (:meth:`gaze`) and say what it leads to.
+
+        No choice can come of the round when gaze chose nothing (mode gaze) or
+        nominated no candidate while none was chosen (hybrid); mode ssvep never
+        ends a round on gaze.
+
+        :param reason: why the decision chose nothing (its ``reason``), if it did not.
+        """
+        choice = self.gaze(label, t, margin)
+        if choice is not None:
+            return FusionOutcome(choice=choice)
+        mode = self.settings.input_mode
+        if (mode == GAZE and label is None) or (
+                mode == HYBRID and self._candidate is None and not self._chosen):
+            return FusionOutcome(
+                no_choice=reason or f"gaze on '{label}' too unsteady for a candidate")
+        return FusionOutcome()
 
     def ssvep_choice(self, label: str, t: float) -> Optional[str]:
         """Take the SSVEP decoder's choice at time ``t``."""
         if label not in self._options or self._chosen:
             return None
-        if self.settings.input_mode == 'ssvep':
+        if self.settings.input_mode == SSVEP:
             return self._choose(label)
-        if self.settings.input_mode == 'hybrid':
-            self._ssvep_choice = (label, t)
+        if self.settings.input_mode == HYBRID:
+            self._ssvep_choice = Timed(label, t)
             return self._confirm()
         return None
 
     def ssvep_scores(self, labels: Sequence[str], posterior: Sequence[float],
                      t: float) -> Optional[str]:
         """Take one SSVEP scoring step (posterior per label) at time ``t``."""
-        if self.settings.input_mode != 'hybrid' or self._chosen:
+        if self.settings.input_mode != HYBRID or self._chosen:
             return None
         for label, probability in zip(labels, posterior):
             if label in self._options:
@@ -154,6 +197,6 @@ class ChoiceFusion:
     def _choose(self, label: Optional[str]) -> Optional[str]:
         if label is None or self._chosen:
             return None
-        if self.settings.input_mode != 'gaze':
+        if self.settings.input_mode != GAZE:
             self._chosen = True
         return label

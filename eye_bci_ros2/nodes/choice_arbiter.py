@@ -28,69 +28,50 @@ degrees on the person's screen, ``accuracy_deg``, ``precision_deg``, ``k_sigma``
 ``classification:=inside min_share:=0.0`` (with ``method:=mean``) is the original rule.
 A change of the rule applies from the next round on.
 
-Feedback.  Subscribes ``choices`` (the options, visualization_msgs/MarkerArray, as RViz
-reads them) and publishes ``choices/feedback`` (MarkerArray, one halo per option with its
-ns and id, :mod:`eye_bci_ros2.nodes.feedback_markers`): the option the newest gaze sample
-counts for under the round's rule highlighted ('gazed'), the progress of the decision
-(:meth:`eye_bci_ros2.rounds.RoundScheduler.progress`) as the halo's growth, and the option
-just chosen (the published ``choice``) green for ``feedback_confirm_s``; at most
-``feedback_rate_hz`` messages per second, only when something changed
-(:class:`eye_bci_ros2.feedback.FeedbackThrottle`; 0 = off).
-
-Input modes (parameter ``input_mode``, :mod:`eye_bci_ros2.fusion`).  ``gaze``
-(default): as above.  ``ssvep``: ``choice`` is the ``ssvep/choice`` of the
-ssvep_decoder (std_msgs/String) when it names an offered option, once per
-round; the gaze decision is not published.  ``hybrid``: gaze alone never
-chooses: a round's gaze decision with a margin of at least
-``min_gaze_margin`` is a candidate, published as ``choice`` only when SSVEP
-confirms it within ``max_lag_s`` (``ssvep/choice`` of the same label, or
-``ssvep/scores`` (sensor_msgs/JointState, position = posterior) of at least
-``confirm_threshold`` for it).
+The node is composed of two adapters that take it and own their part
+(parameters, topics, state): :class:`~eye_bci_ros2.nodes.arbiter_feedback.FeedbackPublisher`
+(``choices`` -> ``choices/feedback``: the gazed option, the progress, the choice
+confirmed) and :class:`~eye_bci_ros2.nodes.arbiter_fusion.FusionInput` (parameter
+``input_mode`` and the ssvep_decoder's ``ssvep/choice`` and ``ssvep/scores``,
+:mod:`eye_bci_ros2.fusion`).  Input modes: ``gaze`` (default): as above.
+``ssvep``: ``choice`` is the ``ssvep/choice`` of the ssvep_decoder
+(std_msgs/String) when it names an offered option, once per round; the gaze
+decision is not published.  ``hybrid``: gaze alone never chooses: a round's
+gaze decision with a margin of at least ``min_gaze_margin`` is a candidate,
+published as ``choice`` only when SSVEP confirms it within ``max_lag_s``
+(``ssvep/choice`` of the same label, or ``ssvep/scores`` (sensor_msgs/JointState,
+position = posterior) of at least ``confirm_threshold`` for it).
 """
 
 from typing import Optional
 
 from rclpy.node import Node
-from sensor_msgs.msg import JointState, PointCloud2
+from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.evidence import Decision
-from eye_bci_ros2.feedback import build_feedback, Feedback, FeedbackSettings, FeedbackThrottle
-from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
+from eye_bci_ros2.fusion import FusionOutcome
+from eye_bci_ros2.nodes.arbiter_feedback import FEEDBACK_PARAMETERS, FeedbackPublisher
+from eye_bci_ros2.nodes.arbiter_fusion import FUSION_PARAMETERS, FusionInput
 from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
-from eye_bci_ros2.nodes.feedback_markers import FeedbackMarkers, option_label, OptionMarkers
 from eye_bci_ros2.nodes.graph_watch import GraphWatch
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings, QuietRepeats
 from eye_bci_ros2.nodes.parameters import param_specs, SettingsParameters
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, CHOICES_TOPIC, EVENT_QOS,
-                                       FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC,
-                                       LATCHED_QOS, NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC,
-                                       SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
+                                       LATCHED_QOS, NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, RoundScheduler
-
-#: choices/feedback shows at most this many options (one halo each, ~30 times a second).
-MAX_FEEDBACK_OPTIONS = 256
 
 #: Period of the timer that closes quiet rounds and releases held decisions, s.
 TICK_S = 0.02
 
-
 #: The decision's parameters: one per ArbiterSettings field, declared there (one home).
 DECISION_PARAMETERS = param_specs(ArbiterSettings)
 
-#: A gaze sample older than this (node clock) no longer highlights an option, s.
-GAZED_STALE_S = 0.25
-
-#: What the person is shown (choices/feedback), declared apart from the decision's settings.
-FEEDBACK_PARAMETERS = param_specs(FeedbackSettings)
-
-#: Input modes (eye_bci_ros2.fusion), declared apart from the gaze parameters.
-FUSION_PARAMETERS = param_specs(FusionSettings)
-
-#: Every parameter of the node, in declaration order (help text, tools).
+#: Every parameter of the node, in declaration order (help text, tools): the decision's,
+#: then those of its adapters (input modes, feedback).
 PARAMETERS = DECISION_PARAMETERS + FUSION_PARAMETERS + FEEDBACK_PARAMETERS
 
 
@@ -118,8 +99,8 @@ class ChoiceArbiter(Node):
         self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
         self._timer = self.create_timer(TICK_S, self._on_tick)
-        self._init_fusion()
-        self._init_feedback()
+        self._fusion = FusionInput(self, self._on_outcome, self._log, self._now)
+        self._feedback = FeedbackPublisher(self, self._tracker, self._log, self._now)
         config = self._decision.settings
         self.get_logger().info(
             f'choice_arbiter: method {config.method}, window {config.window_s} s, '
@@ -189,7 +170,7 @@ class ChoiceArbiter(Node):
             if not (msg.header.stamp.sec or msg.header.stamp.nanosec):
                 stamps = stamps + now   # unstamped: taken as arriving now (offsets kept)
             if len(points):
-                self._newest = (float(points[-1, 0]), float(points[-1, 1]), now)
+                self._feedback.gaze_at(float(points[-1, 0]), float(points[-1, 1]), now)
             self._tracker.add_samples(stamps, points, now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'gaze_error', f'gaze batch ignored: {error}')
@@ -207,7 +188,7 @@ class ChoiceArbiter(Node):
             self._tracker.add_regions(region_set, now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'regions_error', f'failed to apply regions: {error}')
-        self._fusion_options(labels)
+        self._fusion.offered(labels)
 
     def _on_request(self, msg: Empty) -> None:
         self._fusion.new_round()
@@ -225,24 +206,20 @@ class ChoiceArbiter(Node):
     # -- outputs ----------------------------------------------------------------------------
 
     def _publish(self, decision: Decision) -> None:
-        # Input mode 'gaze' (default): the decision's label, as before.
-        label = self._fusion.gaze(decision.label, self._now(), decision.margin)
-        if label is not None:
-            self._choose(label)
-            return
-        # A round that cannot lead to a choice: no gaze choice (gaze), no candidate (hybrid).
-        mode = self._fusion.settings.input_mode
-        if (mode == 'gaze' and decision.label is None) or (
-                mode == 'hybrid' and self._fusion.candidate is None
-                and not self._fusion.chosen):
-            reason = decision.reason or f"gaze on '{decision.label}' too unsteady for a candidate"
-            self._none_publisher.publish(String(data=reason))
+        """Hand a round's gaze decision to the input modes (they choose, or end the round)."""
+        self._fusion.gaze(decision)
 
-    def _choose(self, label: str) -> None:
-        """Publish ``choice`` and show it confirmed on choices/feedback."""
-        self._publisher.publish(String(data=label))
-        self._chosen = (label, self._now() + self._feedback_parameters.settings.feedback_confirm_s,
-                        self._options.get(label))
+    def _on_outcome(self, outcome: FusionOutcome) -> None:
+        """Publish what the input modes decided: ``choice``, or why none (``choice/none``)."""
+        if outcome.choice is not None:
+            self._publisher.publish(String(data=outcome.choice))
+            self._feedback.confirm(outcome.choice, self._now())
+        elif outcome.no_choice is not None:
+            self._none_publisher.publish(String(data=outcome.no_choice))
+
+    def current_feedback(self, now: float) -> tuple:
+        """Return what choices/feedback shows at ``now`` (node clock, s): (Feedback, options)."""
+        return self._feedback.current(now)
 
     def _log(self, level: str, key: str, text: str) -> None:
         """Log ``text``; warnings of one ``key`` at most once per WARN_PERIOD_S."""
@@ -252,144 +229,6 @@ class ChoiceArbiter(Node):
             self._quiet.info(text)
             return
         self._warnings.warn(key, text)
-
-    # -- input modes: gaze / ssvep / hybrid (issue 11; eye_bci_ros2.fusion) -------------------
-
-    def _init_fusion(self) -> None:
-        """Declare the input-mode parameters and subscribe the SSVEP decoder's output."""
-        self._fusion_parameters = SettingsParameters(self, FusionSettings,
-                                                     self._on_fusion_parameters)
-        settings = self._fusion_parameters.settings
-        self._fusion = ChoiceFusion(settings)
-        self._fusion_labels = None
-        self.create_subscription(String, SSVEP_CHOICE_TOPIC, self._on_ssvep_choice, EVENT_QOS)
-        self.create_subscription(JointState, SSVEP_SCORES_TOPIC, self._on_ssvep_scores,
-                                 SCORES_QOS)
-        if settings.input_mode != 'gaze':
-            self.get_logger().info(f'input mode {settings.input_mode}: '
-                                   + ('the SSVEP choice chooses' if settings.input_mode ==
-                                      'ssvep' else 'gaze candidates need SSVEP confirmation'))
-
-    def _on_fusion_parameters(self, settings: FusionSettings, changed: dict) -> None:
-        self._fusion.configure(settings)
-
-    def _fusion_options(self, labels) -> None:
-        """Start a new fusion round when the set of offered labels changes."""
-        labels = tuple(labels)
-        if labels != self._fusion_labels:
-            self._fusion_labels = labels
-            self._fusion.new_round(labels)
-
-    def _on_ssvep_choice(self, msg: String) -> None:
-        try:
-            label = self._fusion.ssvep_choice(msg.data, self._now())
-            if label is not None:
-                self._choose(label)
-        except Exception as error:  # noqa: B902 - a node never dies on a message
-            self._log('warning', 'ssvep_error', f'SSVEP choice ignored: {error}')
-
-    def _on_ssvep_scores(self, msg: JointState) -> None:
-        try:
-            if len(msg.name) != len(msg.position):
-                self._log('warning', 'ssvep_scores', 'ssvep/scores ignored: name and '
-                          'position (posterior) differ in length')
-                return
-            label = self._fusion.ssvep_scores(list(msg.name), list(msg.position), self._now())
-            if label is not None:
-                self._choose(label)
-        except Exception as error:  # noqa: B902 - a node never dies on a message
-            self._log('warning', 'ssvep_error', f'SSVEP scores ignored: {error}')
-
-    # -- feedback: choices/feedback (eye_bci_ros2.feedback, nodes/feedback_markers) --------
-
-    def _init_feedback(self) -> None:
-        """Declare the feedback parameters, subscribe the options, start the feedback timer."""
-        self._feedback_parameters = SettingsParameters(self, FeedbackSettings,
-                                                       self._on_feedback_parameters)
-        self._options = OptionMarkers()
-        self._halos = FeedbackMarkers()
-        self._newest: Optional[tuple] = None     # (x, y, arrival s) of the newest sample
-        self._chosen: Optional[tuple] = None     # (label, shown until s, option marker)
-        self._options_changed = False
-        self._feedback_pub = self.create_publisher(MarkerArray, FEEDBACK_TOPIC, FEEDBACK_QOS)
-        self.create_subscription(MarkerArray, CHOICES_TOPIC, self._on_choices, CHOICES_QOS)
-        self._feedback_timer = None
-        self._throttle = FeedbackThrottle()
-        self._start_feedback(self._feedback_parameters.settings.feedback_rate_hz)
-
-    def _start_feedback(self, rate_hz: float) -> None:
-        """(Re)start the feedback timer at ``rate_hz`` (0: stop, withdraw the halos)."""
-        if self._feedback_timer is not None:
-            self.destroy_timer(self._feedback_timer)
-            self._feedback_timer = None
-        if rate_hz > 0:
-            # The timer sets the rate; the throttle's own period is shorter, so its timer
-            # jitter never halves it, and the throttle decides only whether anything changed.
-            self._throttle = FeedbackThrottle(max_rate_hz=2.0 * rate_hz)
-            self._feedback_timer = self.create_timer(1.0 / rate_hz, self._on_feedback_timer)
-        elif self._halos.shown:
-            withdrawn = self._halos.update(Feedback(()), [], self.get_clock().now().to_msg())
-            if withdrawn is not None:
-                self._feedback_pub.publish(withdrawn)
-
-    def _on_feedback_parameters(self, settings: FeedbackSettings, changed: dict) -> None:
-        if 'feedback_rate_hz' in changed:
-            self._start_feedback(settings.feedback_rate_hz)
-
-    def _on_choices(self, msg: MarkerArray) -> None:
-        try:
-            problems = self._options.apply(msg)
-        except Exception as error:  # noqa: B902 - a node never dies on a message
-            problems = [f'choices message ignored: {error}']
-        if problems:
-            self._log('warning', 'choices_bad', 'choices: ' + '; '.join(problems[:5]))
-        self._options_changed = True
-
-    def current_feedback(self, now: float) -> tuple:
-        """
-        Return what choices/feedback shows at ``now`` (node clock, s): (Feedback, options).
-
-        The options are the ``choices`` markers, plus the option just chosen while it is
-        shown confirmed even if the menu has withdrawn it.
-        """
-        options = self._options.options
-        chosen = None
-        if self._chosen is not None:
-            label, until, marker = self._chosen
-            if now < until:
-                chosen = label
-                keys = {(m.ns, m.id) for m in options}
-                if marker is not None and (marker.ns, marker.id) not in keys:
-                    options = options + [marker]
-            else:
-                self._chosen = None
-        gazed = None
-        if self._newest is not None and now - self._newest[2] <= GAZED_STALE_S:
-            gazed = self._tracker.label_at(self._newest[0], self._newest[1])
-        feedback = build_feedback([option_label(m) for m in options], gazed=gazed,
-                                  chosen=chosen, progress=self._tracker.progress(),
-                                  stamp=now)
-        return feedback, options
-
-    def _on_feedback_timer(self) -> None:
-        try:
-            count = len(self._options.options)
-            if count > MAX_FEEDBACK_OPTIONS:
-                # No menu a person chooses from by gaze has that many: do not flood RViz.
-                self._log('warning', 'feedback_options',
-                          f'choices/feedback paused: {count} options offered, more than '
-                          f'{MAX_FEEDBACK_OPTIONS}')
-                return
-            now = self._now()
-            feedback, options = self.current_feedback(now)
-            if not (self._throttle.due(feedback, now) or self._options_changed):
-                return
-            self._options_changed = False
-            message = self._halos.update(feedback, options, self.get_clock().now().to_msg())
-            if message is not None:
-                self._feedback_pub.publish(message)
-        except Exception as error:  # noqa: B902 - a node never dies on a timer
-            self._log('warning', 'feedback_error', f'feedback not sent: {error}')
 
 
 def main(args=None):
