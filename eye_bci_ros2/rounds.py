@@ -12,7 +12,7 @@ from collections import deque
 import dataclasses
 from dataclasses import dataclass, fields
 import math
-from typing import Callable, Deque, Dict, List, Optional, Tuple
+from typing import Callable, Deque, Dict, List, NamedTuple, Optional, Tuple
 
 import numpy as np
 
@@ -359,6 +359,14 @@ class _Round:
         self.deadline = math.inf
 
 
+class _Classifier(NamedTuple):
+    """A region set, the settings, and the classifier they make of it (kept between rounds)."""
+
+    regions: RegionSet
+    settings: ArbiterSettings
+    classifier: RegionSet
+
+
 #: ``on_log(level, key, text)``: level 'info' or 'warning'; key names the kind of message.
 LogCallback = Callable[[str, str, str], None]
 
@@ -436,8 +444,8 @@ class RoundScheduler:
         # (stamp, x, y) of recent samples, arrival order, for rounds starting in the past.
         self._recent: Deque[Tuple[float, float, float]] = deque(maxlen=MAX_RECENT_SAMPLES)
         self._round: Optional[_Round] = None
-        # (newest region set, settings, its classifier) for classifier between rounds.
-        self._classifier: Optional[tuple] = None
+        # The newest region set's classifier under the settings, between rounds.
+        self._classifier: Optional[_Classifier] = None
         # Stamp of the last sample the last finished decision used.
         self._final_stamp = -math.inf
         #: The outcome of the last finished round.
@@ -488,9 +496,10 @@ class RoundScheduler:
         if self._round is not None:
             return self._round.evidence.regions_for(newest)
         cached = self._classifier
-        if cached is None or cached[0] is not newest or cached[1] != self.settings:
-            cached = self._classifier = (newest, self.settings, self.settings.regions(newest))
-        return cached[2]
+        if cached is None or cached.regions is not newest or cached.settings != self.settings:
+            cached = self._classifier = _Classifier(newest, self.settings,
+                                                    self.settings.regions(newest))
+        return cached.classifier
 
     def label_at(self, x: float, y: float) -> Optional[str]:
         """

@@ -90,7 +90,7 @@ class ChoiceArbiter(Node):
         self._warnings = KeyedWarnings(self.get_logger())
         # Rounds that end without a choice, again and again, are not logged each (log_throttle).
         self._quiet = QuietRepeats(self.get_logger())
-        self._tracker = RoundScheduler(self._decision.settings, self._publish, self._log)
+        self._rounds = RoundScheduler(self._decision.settings, self._publish, self._log)
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
         self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
@@ -100,7 +100,7 @@ class ChoiceArbiter(Node):
         self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
         self._timer = self.create_timer(TICK_S, self._on_tick)
         self._fusion = FusionInput(self, self._on_outcome, self._log, self._now)
-        self._feedback = FeedbackPublisher(self, self._tracker, self._log, self._now)
+        self._feedback = FeedbackPublisher(self, self._rounds, self._log, self._now)
         config = self._decision.settings
         self.get_logger().info(
             f'choice_arbiter: method {config.method}, window {config.window_s} s, '
@@ -112,47 +112,47 @@ class ChoiceArbiter(Node):
     @property
     def last_decision(self) -> Optional[Decision]:
         """Return the outcome of the last finished round."""
-        return self._tracker.last_decision
+        return self._rounds.last_decision
 
     @property
     def settings(self) -> ArbiterSettings:
         """Return the decision settings in use (the rule; read them, never change them)."""
-        return self._tracker.settings
+        return self._rounds.settings
 
     @property
     def rounds_started(self) -> int:
         """Return the number of rounds started since the node started."""
-        return self._tracker.rounds_started
+        return self._rounds.rounds_started
 
     @property
     def samples_received(self) -> int:
         """Return the number of gaze samples taken since the node started."""
-        return self._tracker.samples_received
+        return self._rounds.samples_received
 
     @property
     def round_start(self) -> Optional[float]:
         """Return the open round's start, s on the node clock (None when none is open)."""
-        return self._tracker.round_start
+        return self._rounds.round_start
 
     @property
     def samples_from_future(self) -> int:
         """Return the number of gaze samples dropped for a stamp after max_future_s."""
-        return self._tracker.samples_from_future
+        return self._rounds.samples_from_future
 
     @property
     def samples_too_old(self) -> int:
         """Return the number of gaze samples dropped for a stamp too old for any round."""
-        return self._tracker.samples_too_old
+        return self._rounds.samples_too_old
 
     @property
     def samples_not_finite(self) -> int:
         """Return the number of NaN or infinite gaze samples (taken as in no region)."""
-        return self._tracker.samples_not_finite
+        return self._rounds.samples_not_finite
 
     # -- parameters -------------------------------------------------------------------------
 
     def _on_parameters(self, settings: ArbiterSettings, changed: dict) -> None:
-        self._tracker.configure(**changed)
+        self._rounds.configure(**changed)
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
@@ -171,7 +171,7 @@ class ChoiceArbiter(Node):
                 stamps = stamps + now   # unstamped: taken as arriving now (offsets kept)
             if len(points):
                 self._feedback.gaze_at(float(points[-1, 0]), float(points[-1, 1]), now)
-            self._tracker.add_samples(stamps, points, now)
+            self._rounds.add_samples(stamps, points, now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'gaze_error', f'gaze batch ignored: {error}')
 
@@ -185,7 +185,7 @@ class ChoiceArbiter(Node):
             self._log('warning', 'regions_bad', f'regions message ignored: {error}')
             return
         try:
-            self._tracker.add_regions(region_set, now)
+            self._rounds.add_regions(region_set, now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'regions_error', f'failed to apply regions: {error}')
         self._fusion.offered(labels)
@@ -193,13 +193,13 @@ class ChoiceArbiter(Node):
     def _on_request(self, msg: Empty) -> None:
         self._fusion.new_round()
         try:
-            self._tracker.request(self._now())
+            self._rounds.request(self._now())
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'request_error', f'failed to start a round: {error}')
 
     def _on_tick(self) -> None:
         try:
-            self._tracker.tick(self._now())
+            self._rounds.tick(self._now())
         except Exception as error:  # noqa: B902 - a node never dies on a timer
             self._log('warning', 'tick_error', f'failed to close a round: {error}')
 
