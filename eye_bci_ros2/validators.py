@@ -125,3 +125,9 @@ def require(name: str, reason: Optional[str]) -> None:
     """Raise ``ValueError('<name> <reason>')`` when there is a reason."""
     if reason:
         raise ValueError(f'{name} {reason}')
+
+
+def ensure(condition: bool, message: str) -> None:
+    """Raise ``ValueError(message)`` unless ``condition`` holds."""
+    if not condition:
+        raise ValueError(message)

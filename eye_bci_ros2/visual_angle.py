@@ -29,16 +29,10 @@ from typing import Tuple
 import numpy as np
 
 from eye_bci_ros2.settings import Setting
-from eye_bci_ros2.validators import Interval
+from eye_bci_ros2.validators import ensure, Interval
 
 #: One inch, mm.
 MM_PER_INCH = 25.4
-
-
-def _check(condition: bool, message: str) -> None:
-    """Raise ValueError(message) unless condition holds."""
-    if not condition:
-        raise ValueError(message)
 
 
 @dataclass(frozen=True)
@@ -66,7 +60,7 @@ class ScreenGeometry:
         """Reject sizes that cannot be a screen."""
         for name in ('width_px', 'height_px', 'width_mm', 'height_mm', 'distance_mm'):
             value = getattr(self, name)
-            _check(isinstance(value, Real) and math.isfinite(value) and value > 0,
+            ensure(isinstance(value, Real) and math.isfinite(value) and value > 0,
                    f'screen {name} must be a positive number, got {value!r}')
 
     @property
@@ -104,7 +98,7 @@ class ScreenGeometry:
         :returns: px, same shape as ``deg``.
         """
         deg = np.asarray(deg, dtype=float)
-        _check(bool(np.all((deg >= 0) & (deg < 180))),
+        ensure(bool(np.all((deg >= 0) & (deg < 180))),
                f'visual angle must be in [0, 180) degrees, got {deg}')
         return 2.0 * self.distance_mm * np.tan(np.radians(deg) / 2.0) * self.px_per_mm[axis]
 
