@@ -127,11 +127,13 @@ MAX_REACTION_S = 2.0
 # eye_bci_ros2.rounds.ArbiterSettings and the choice_arbiter's parameters, checked here
 # too when a rule's evidence is made without them.
 
+#: A probability more likely than not, short of certainty: (0.5, 1).
+MORE_LIKELY_THAN_NOT = Interval(0.5, 1.0, low_open=True, high_open=True)
 #: ``confidence``: posterior probability of the leading option a choice needs.
 CONFIDENCE = Setting(
     0.9, 'Posterior probability of the leading option a choice needs (fixation: early '
     'and at the window end; mean/vote: the early decision)',
-    interval=Interval(0.5, 1.0, low_open=True, high_open=True), name='confidence',
+    interval=MORE_LIKELY_THAN_NOT, name='confidence',
     why='a choice needs the leader more likely than all the others together')
 #: ``min_samples``: samples a deciding fixation or an early run must hold.
 MIN_SAMPLES = Setting(
@@ -158,7 +160,7 @@ MIN_REACTION = Setting(
 HIT_RATE = Setting(
     DEFAULT_HIT_RATE,
     'Evidence model: probability that an in-region sample is on the looked-at region',
-    interval=Interval(0.5, 1.0, low_open=True, high_open=True), name='hit_rate',
+    interval=MORE_LIKELY_THAN_NOT, name='hit_rate',
     why='an in-region sample must be more likely on the looked-at region than elsewhere')
 #: ``min_share``: the share test (module doc).
 MIN_SHARE = Setting(
