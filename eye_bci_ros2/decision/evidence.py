@@ -96,6 +96,8 @@ from typing import Callable, Dict, Optional, Tuple
 
 import numpy as np
 
+from eye_bci_ros2.base.settings import Setting
+from eye_bci_ros2.base.validators import Interval
 from eye_bci_ros2.decision.feedback import early_progress, window_progress
 from eye_bci_ros2.decision.regions import points_array, RegionSet
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, px_per_degree_at
@@ -120,6 +122,52 @@ MOVED_PX = 2.0
 
 #: Largest accepted ``min_reaction_s``, s.
 MAX_REACTION_S = 2.0
+
+# The evidence settings, declared once (eye_bci_ros2.base.settings): the fields of
+# eye_bci_ros2.decision.rounds.ArbiterSettings and the choice_arbiter's parameters, checked here
+# too when a rule's evidence is made without them.
+
+#: A probability more likely than not, short of certainty: (0.5, 1).
+MORE_LIKELY_THAN_NOT = Interval(0.5, 1.0, low_open=True, high_open=True)
+#: ``confidence``: posterior probability of the leading option a choice needs.
+CONFIDENCE = Setting(
+    0.9, 'Posterior probability of the leading option a choice needs (fixation: early '
+    'and at the window end; mean/vote: the early decision)',
+    interval=MORE_LIKELY_THAN_NOT, name='confidence',
+    why='a choice needs the leader more likely than all the others together')
+#: ``min_samples``: samples a deciding fixation or an early run must hold.
+MIN_SAMPLES = Setting(
+    2, 'Samples a deciding fixation must hold (fixation); fresh in-region samples an '
+    'early decision needs, the most recent ones on the leader without interruption '
+    '(mean/vote)', interval=Interval(1, 100000), name='min_samples')
+#: ``dwell_s``: time a deciding fixation (or early run) must last, s.  A fixation must
+#: outlast the transient landing of a saccade before its corrective saccade (mostly
+#: < 150 ms; bench/real_gaze.py).
+DWELL_S = Setting(
+    0.15, 'Time a fixation must last before it decides (fixation: longer than the '
+    'transient landing before a corrective saccade), or the early run on the leader '
+    'must span (mean/vote), s', interval=Interval(0.0, 10.0), unit='s', name='dwell_s')
+#: ``min_reaction_s``: shortest reaction to a new display, s.
+MIN_REACTION = Setting(
+    DEFAULT_MIN_REACTION_S,
+    'Shortest reaction to a new display, s: gaze resting on or near an option from '
+    'before round start + min_reaction_s is not a reaction and counts only after '
+    'the gaze has moved away (fixation: never chooses; mean/vote: the early '
+    'decision only, the window end uses every sample); 0 = off',
+    interval=Interval(0.0, MAX_REACTION_S), unit='s', name='min_reaction_s',
+    why='it is the shortest time a person takes to react to a new display (about 0.1 s)')
+#: ``hit_rate``: the evidence model's h.
+HIT_RATE = Setting(
+    DEFAULT_HIT_RATE,
+    'Evidence model: probability that an in-region sample is on the looked-at region',
+    interval=MORE_LIKELY_THAN_NOT, name='hit_rate',
+    why='an in-region sample must be more likely on the looked-at region than elsewhere')
+#: ``min_share``: the share test (module doc).
+MIN_SHARE = Setting(
+    0.5, "Share test: a choice at the window end needs this fraction of the window's "
+    'valid gaze samples on it, an early choice 0.8 of the samples of the last 0.1 s; '
+    '0 = off (the original rule)', interval=Interval(0.0, 1.0), name='min_share',
+    why="the share of all the window's samples a choice needs (0 = off, the original rule)")
 
 #: Share test of the early decision (module doc): the samples of the last EARLY_SHARE_S s ...
 EARLY_SHARE_S = 0.1
@@ -204,17 +252,10 @@ def log_odds(hit_rate: float, region_count: int) -> float:
     :param region_count: R, the number of offered labels (>= 1).
     :returns: log(h (R - 1) / (1 - h)); +inf when R == 1.
     """
-    check_hit_rate(hit_rate)
+    HIT_RATE.check(hit_rate)
     if region_count <= 1:
         return math.inf
     return math.log(hit_rate * (region_count - 1) / (1 - hit_rate))
-
-
-def check_hit_rate(hit_rate: float) -> None:
-    """Raise ValueError unless 0.5 < hit_rate < 1."""
-    if not 0.5 < hit_rate < 1.0:
-        raise ValueError(f'hit_rate must be in (0.5, 1), got {hit_rate}: an in-region sample '
-                         'must be more likely on the looked-at region than elsewhere')
 
 
 def options_moved(old: RegionSet, new: RegionSet) -> bool:
@@ -224,14 +265,6 @@ def options_moved(old: RegionSet, new: RegionSet) -> bool:
     with np.errstate(invalid='ignore'):
         shift = np.abs(new.polygons - old.polygons)
     return bool(np.nanmax(shift, initial=0.0) > MOVED_PX)
-
-
-def check_min_reaction(min_reaction_s: float) -> None:
-    """Raise ValueError unless 0 <= min_reaction_s <= MAX_REACTION_S."""
-    if not 0.0 <= min_reaction_s <= MAX_REACTION_S:
-        raise ValueError(f'min_reaction_s must be in [0, {MAX_REACTION_S}] s, got '
-                         f'{min_reaction_s}: it is the shortest time a person takes to react '
-                         'to a new display (about 0.1 s)')
 
 
 def checked_batch(points, stamps, confidence: Optional[float]
@@ -246,16 +279,9 @@ def checked_batch(points, stamps, confidence: Optional[float]
     stamps = np.asarray(stamps, dtype=float).reshape(-1)
     if len(stamps) != len(points):
         raise ValueError(f'{len(points)} gaze points but {len(stamps)} stamps')
-    if confidence is not None and not 0.5 < confidence < 1.0:
-        raise ValueError(f'confidence must be in (0.5, 1), got {confidence}')
+    if confidence is not None:
+        CONFIDENCE.check(confidence)
     return points, stamps
-
-
-def check_min_share(min_share: float) -> None:
-    """Raise ValueError unless 0 <= min_share <= 1."""
-    if not (isinstance(min_share, (int, float)) and 0.0 <= min_share <= 1.0):
-        raise ValueError(f'min_share must be in [0, 1], got {min_share!r}: the share of all '
-                         "the window's samples a choice needs (0 = off, the original rule)")
 
 
 def posterior_from_counts(counts, hit_rate: float = DEFAULT_HIT_RATE) -> np.ndarray:
@@ -326,13 +352,10 @@ class RoundEvidence:
                  classifier: Optional[Callable[[RegionSet], RegionSet]] = None,
                  screen_px: Optional[Tuple[float, float]] = None):
         """Start an empty round."""
-        check_hit_rate(hit_rate)
-        check_min_share(min_share)
-        if int(min_samples) < 1:
-            raise ValueError(f'min_samples must be at least 1, got {min_samples}')
-        if not dwell_s >= 0:
-            raise ValueError(f'dwell_s must be >= 0, got {dwell_s}')
-        check_min_reaction(min_reaction_s)
+        for setting, value in ((HIT_RATE, hit_rate), (MIN_SHARE, min_share),
+                               (MIN_SAMPLES, min_samples), (DWELL_S, dwell_s),
+                               (MIN_REACTION, min_reaction_s)):
+            setting.check(value)
         self.start = float(start)
         self.hit_rate = float(hit_rate)
         self.min_samples = int(min_samples)

@@ -31,6 +31,9 @@ from typing import Dict, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from eye_bci_ros2.base.settings import check_settings, Setting
+from eye_bci_ros2.base.validators import Interval
+
 #: Highlight states.
 NONE = 'none'
 GAZED = 'gazed'
@@ -93,6 +96,23 @@ class Feedback:
     def labels(self) -> Tuple[str, ...]:
         """Return the offered labels."""
         return tuple(option.label for option in self.options)
+
+
+@dataclass(frozen=True)
+class FeedbackSettings:
+    """What the person is shown: the choice_arbiter's feedback parameters (declared once)."""
+
+    feedback_rate_hz: float = Setting(
+        30.0, 'choices/feedback: most messages per second (sent only when the highlight or '
+        'the progress changed, and once a second); 0 = no feedback',
+        interval=Interval(0.0, 240.0), unit='Hz').field()
+    feedback_confirm_s: float = Setting(
+        1.0, 'choices/feedback: how long the chosen option is shown confirmed (green), s',
+        interval=Interval(0.0, 60.0), unit='s').field()
+
+    def __post_init__(self):
+        """Reject values the feedback cannot run with (each field's declaration)."""
+        check_settings(self)
 
 
 def _clip01(value: float) -> float:

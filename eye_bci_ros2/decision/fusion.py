@@ -21,39 +21,64 @@ At most one choice per round; a round starts with :meth:`ChoiceFusion.new_round`
 """
 
 from dataclasses import dataclass
-from typing import Dict, Optional, Sequence, Tuple
+from typing import Dict, NamedTuple, Optional, Sequence, Tuple
 
+from eye_bci_ros2.base.settings import check_settings, Setting
+from eye_bci_ros2.base.validators import Interval
+
+#: The input modes, the one place they are named (the ``input_mode`` parameter's choices).
 INPUT_MODES = ('gaze', 'ssvep', 'hybrid')
+GAZE, SSVEP, HYBRID = INPUT_MODES
+
+
+class Timed(NamedTuple):
+    """A label and when it came, s (the node clock)."""
+
+    label: str
+    t: float
+
+
+@dataclass(frozen=True)
+class FusionOutcome:
+    """
+    What a gaze decision leads to (:meth:`ChoiceFusion.gaze_outcome`).
+
+    :param choice: the label to publish as the choice, or None.
+    :param no_choice: why the round can lead to no choice (for ``choice/none``:
+        a menu may ask again), or None while a choice may still come.
+    """
+
+    choice: Optional[str] = None
+    no_choice: Optional[str] = None
 
 
 @dataclass(frozen=True)
 class FusionSettings:
     """
-    How gaze and SSVEP combine.
+    How gaze and SSVEP combine: the choice_arbiter's input-mode parameters.
 
-    :param mode: one of :data:`INPUT_MODES`.
-    :param confirm_threshold: SSVEP posterior of the gaze candidate that confirms it.
-    :param max_lag_s: longest time between the gaze candidate and the SSVEP
-        evidence that confirms it, s.
-    :param min_gaze_margin: gaze margin a decision needs to be a candidate.
+    Each field is declared once (:class:`eye_bci_ros2.base.settings.Setting`);
+    ``input_mode`` is one of :data:`INPUT_MODES`.
     """
 
-    mode: str = 'gaze'
-    confirm_threshold: float = 0.9
-    max_lag_s: float = 5.0
-    min_gaze_margin: float = 0.5
+    input_mode: str = Setting(
+        'gaze', 'What chooses: gaze (the gaze decision), ssvep (ssvep/choice of the '
+        'ssvep_decoder) or hybrid (a gaze decision is only a candidate; it is chosen '
+        'when SSVEP confirms it, see eye_bci_ros2.decision.fusion)', choices=INPUT_MODES).field()
+    confirm_threshold: float = Setting(
+        0.9, 'hybrid: SSVEP posterior (ssvep/scores) of the gaze candidate that confirms it',
+        interval=Interval(0.01, 1.0)).field()
+    max_lag_s: float = Setting(
+        5.0, 'hybrid: longest time between the gaze candidate and the SSVEP evidence that '
+        'confirms it, s', interval=Interval(0.0, 60.0), unit='s').field()
+    min_gaze_margin: float = Setting(
+        0.5, 'hybrid: a gaze decision is a candidate only with at least this margin (share '
+        "of in-region gaze on it minus the runner-up's): the gaze stayed on it",
+        interval=Interval(0.0, 1.0)).field()
 
     def __post_init__(self):
-        """Reject settings that cannot work, with a reason."""
-        if self.mode not in INPUT_MODES:
-            raise ValueError(f"input mode '{self.mode}' is not one of {', '.join(INPUT_MODES)}")
-        if not 0.0 < self.confirm_threshold <= 1.0:
-            raise ValueError(f'confirm_threshold must be in (0, 1], got '
-                             f'{self.confirm_threshold}')
-        if self.max_lag_s < 0:
-            raise ValueError(f'max_lag_s must be >= 0, got {self.max_lag_s}')
-        if not 0.0 <= self.min_gaze_margin <= 1.0:
-            raise ValueError(f'min_gaze_margin must be in [0, 1], got {self.min_gaze_margin}')
+        """Reject settings that cannot work, with a reason (each field's declaration)."""
+        check_settings(self)
 
 
 class ChoiceFusion:
@@ -76,7 +101,7 @@ class ChoiceFusion:
     @property
     def candidate(self) -> Optional[str]:
         """Return the gaze candidate waiting for SSVEP confirmation (hybrid), or None."""
-        return self._candidate[0] if self._candidate else None
+        return self._candidate.label if self._candidate else None
 
     @property
     def chosen(self) -> bool:
@@ -87,8 +112,8 @@ class ChoiceFusion:
         """Start a round (with new ``options``, or the same ones when None)."""
         if options is not None:
             self._options = tuple(options)
-        self._candidate: Optional[Tuple[str, float]] = None
-        self._ssvep_choice: Optional[Tuple[str, float]] = None
+        self._candidate: Optional[Timed] = None
+        self._ssvep_choice: Optional[Timed] = None
         self._posterior: Dict[str, Tuple[float, float]] = {}
         self._chosen = False
 
@@ -99,30 +124,51 @@ class ChoiceFusion:
         :param margin: the decision's gaze margin (hybrid: below
             ``min_gaze_margin`` it nominates no candidate).
         """
-        mode = self.settings.mode
-        if mode == 'gaze':
+        mode = self.settings.input_mode
+        if mode == GAZE:
             return self._choose(label)
-        if mode == 'ssvep' or self._chosen:
+        if mode == SSVEP or self._chosen:
             return None
         steady = margin >= self.settings.min_gaze_margin
-        self._candidate = (label, t) if label in self._options and steady else None
+        self._candidate = Timed(label, t) if label in self._options and steady else None
         return self._confirm()
+
+    def gaze_outcome(self, label: Optional[str], t: float, margin: float = 1.0,
+                     reason: Optional[str] = None) -> FusionOutcome:
+        """
+        Take the gaze decision of a round (:meth:`gaze`) and say what it leads to.
+
+        No choice can come of the round when gaze chose nothing (mode gaze) or
+        nominated no candidate while none was chosen (hybrid); mode ssvep never
+        ends a round on gaze.
+
+        :param reason: why the decision chose nothing (its ``reason``), if it did not.
+        """
+        choice = self.gaze(label, t, margin)
+        if choice is not None:
+            return FusionOutcome(choice=choice)
+        mode = self.settings.input_mode
+        if (mode == GAZE and label is None) or (
+                mode == HYBRID and self._candidate is None and not self._chosen):
+            return FusionOutcome(
+                no_choice=reason or f"gaze on '{label}' too unsteady for a candidate")
+        return FusionOutcome()
 
     def ssvep_choice(self, label: str, t: float) -> Optional[str]:
         """Take the SSVEP decoder's choice at time ``t``."""
         if label not in self._options or self._chosen:
             return None
-        if self.settings.mode == 'ssvep':
+        if self.settings.input_mode == SSVEP:
             return self._choose(label)
-        if self.settings.mode == 'hybrid':
-            self._ssvep_choice = (label, t)
+        if self.settings.input_mode == HYBRID:
+            self._ssvep_choice = Timed(label, t)
             return self._confirm()
         return None
 
     def ssvep_scores(self, labels: Sequence[str], posterior: Sequence[float],
                      t: float) -> Optional[str]:
         """Take one SSVEP scoring step (posterior per label) at time ``t``."""
-        if self.settings.mode != 'hybrid' or self._chosen:
+        if self.settings.input_mode != HYBRID or self._chosen:
             return None
         for label, probability in zip(labels, posterior):
             if label in self._options:
@@ -151,6 +197,6 @@ class ChoiceFusion:
     def _choose(self, label: Optional[str]) -> Optional[str]:
         if label is None or self._chosen:
             return None
-        if self.settings.mode != 'gaze':
+        if self.settings.input_mode != GAZE:
             self._chosen = True
         return label

@@ -9,20 +9,25 @@ when its decision is final.  The evidence and the rules are in
 
 import bisect
 from collections import deque
+import dataclasses
 from dataclasses import dataclass, fields
 import math
-from typing import Callable, Deque, Dict, List, Optional, Tuple
+from typing import Callable, Deque, Dict, List, NamedTuple, Optional, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.decision.evidence import (check_hit_rate, check_min_reaction, check_min_share,
-                                            Decision, DEFAULT_HIT_RATE, DEFAULT_MIN_REACTION_S,
-                                            METHODS as COUNT_METHODS, options_moved, RoundEvidence)
+from eye_bci_ros2.base.settings import check_settings, flagged, Setting
+from eye_bci_ros2.base.validators import Interval
+from eye_bci_ros2.decision.evidence import (CONFIDENCE, Decision, DWELL_S, HIT_RATE,
+                                            METHODS as COUNT_METHODS, MIN_REACTION, MIN_SAMPLES,
+                                            MIN_SHARE, options_moved, RoundEvidence)
 from eye_bci_ros2.decision.fixation import FixationEvidence
 from eye_bci_ros2.decision.regions import points_array, RegionSet
 from eye_bci_ros2.decision.tolerance import (CLASSIFICATIONS, DEFAULT_RATIO, GazeErrorModel,
                                              TolerantRegions)
-from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, ScreenGeometry
+from eye_bci_ros2.projection.visual_angle import (SCREEN_HEIGHT, SCREEN_HEIGHT_MM, SCREEN_WIDTH,
+                                                  SCREEN_WIDTH_MM, ScreenGeometry,
+                                                  VIEWING_DISTANCE)
 
 #: Default bound on how far after its arrival a gaze sample may be stamped, s.
 DEFAULT_MAX_FUTURE_S = 1.0
@@ -86,12 +91,6 @@ ORIGINAL_RULE = {'classification': 'inside', 'min_share': 0.0}
 #: needed a 0.95 posterior and a 20 ms run): ``ArbiterSettings(**COUNT_RULE)``.
 COUNT_RULE = {'method': 'mean', 'early_decision': False, 'confidence': 0.95, 'dwell_s': 0.02}
 
-#: Settings that make up a round's rule (classification and share test): a change applies
-#: from the next round on (:meth:`RoundScheduler.configure`).
-RULE_FIELDS = ('classification', 'accuracy_deg', 'precision_deg', 'k_sigma', 'ratio',
-               'size_aware', 'min_share', 'screen_width_mm', 'screen_height_mm',
-               'viewing_distance_mm', 'screen_width', 'screen_height')
-
 
 class SampleLog:
     """
@@ -153,50 +152,22 @@ class ArbiterSettings:
     """
     Settings of a :class:`RoundScheduler` (the choice_arbiter's parameters).
 
-    :param method: the decision rule, one of :data:`METHODS`: 'fixation' (default:
-        the option a settled fixation clearly lands on, :mod:`eye_bci_ros2.decision.fixation`),
-        'mean' (the original) or 'vote' (sample counts, :mod:`eye_bci_ros2.decision.evidence`).
-    :param window_s: gaze collection time of a round, s of sample stamps (> 0).
-    :param early_decision: decide before the window ends on strong evidence.
-    :param confidence: posterior needed for an early decision, in (0.5, 1).
-    :param min_samples: early decision: fresh in-region samples needed (>= 1).
-    :param dwell_s: early decision: span of the leader's run, s (>= 0).
-    :param min_reaction_s: early decision: a run starting earlier than this
-        after the round start is not evidence (a gaze already there), s
-        (0 to :data:`MAX_REACTION_S`; 0 = off).
-    :param hit_rate: evidence model h, in (0.5, 1).
-    :param reorder_s: longest wait of a decision for regions that may apply
-        to its last samples, s (>= 0; 0 = decide at once).
-    :param stall_timeout_s: close a round this long after its window when
-        no later sample arrives, s of arrival time (>= 0).
-    :param max_future_s: drop a sample stamped more than this after its
-        arrival, s (0 to :data:`MAX_FUTURE_S`): acquisition cannot follow
-        arrival, so only a clock offset or a corrupt stamp does that, and
-        one such sample must not end a round (:class:`RoundScheduler`).
-
-    The rule (:data:`RULE_FIELDS`; :data:`ORIGINAL_RULE` restores the original):
-
-    :param classification: which option a sample counts for: 'tolerant'
-        (default: inside, or near it by the gaze-error model when clearly
-        nearer to it than to any other, :mod:`eye_bci_ros2.decision.tolerance`) or
-        'inside' (the original: inside only).  Applies to every sample and to
-        the window-end mean, early and window-end decisions alike.
-    :param accuracy_deg: gaze-error model: the tracker's constant offset, degrees.
-    :param precision_deg: gaze-error model: sample-to-sample noise per axis, degrees.
-    :param k_sigma: tolerance in standard deviations of the radial error.
-    :param ratio: a near sample counts only when the nearest option is at most
-        ``ratio`` times as far as the second nearest, in (0, 1].
-    :param size_aware: the tolerance counts from the option's centre (none
-        for options larger than the error).
-    :param min_share: the share test (:mod:`eye_bci_ros2.decision.evidence`): a
-        window-end choice needs this fraction of the window's valid samples,
-        an early one ``EARLY_SHARE`` of the last ``EARLY_SHARE_S``; [0, 1],
-        0 = off (the original).
-    :param screen_width_mm: the person's screen, visible width, mm.
-    :param screen_height_mm: visible height, mm.
-    :param viewing_distance_mm: eye to screen centre, mm.
-    :param screen_width: the screen's width, px (the frame ``screen``).
-    :param screen_height: its height, px.
+    Each field is declared once (:class:`eye_bci_ros2.base.settings.Setting`: default,
+    range, unit, meaning); the choice_arbiter declares its parameters from them
+    and docs/parameters.md lists them.  Fields declared with ``rule=True`` make
+    up a round's rule (:data:`RULE_FIELDS`: a change applies from the next
+    round on; :data:`ORIGINAL_RULE` restores the original).  The decision rule
+    ``method`` is one of :data:`METHODS`: 'fixation' (default: the option a
+    settled fixation clearly lands on, :mod:`eye_bci_ros2.decision.fixation`), 'mean'
+    (the original) or 'vote' (sample counts, :mod:`eye_bci_ros2.decision.evidence`).
+    The classification 'tolerant' (default: inside, or near it by the
+    gaze-error model when clearly nearer to it than to any other,
+    :mod:`eye_bci_ros2.decision.tolerance`) or 'inside' (the original) applies to every
+    sample and to the window-end mean, early and window-end decisions alike.
+    ``max_future_s`` bounds how far after its arrival a sample may be stamped:
+    acquisition cannot follow arrival, so only a clock offset or a corrupt
+    stamp does that, and one such sample must not end a round
+    (:class:`RoundScheduler`).
 
     Defaults: :class:`eye_bci_ros2.decision.tolerance.GazeErrorModel` and
     :data:`eye_bci_ros2.projection.visual_angle.DEFAULT_VIEWING` (a 24-inch 16:9
@@ -204,60 +175,88 @@ class ArbiterSettings:
     ``bench/tolerance.py``'s ``size_mean/s``.
     """
 
-    method: str = 'fixation'
-    window_s: float = 1.0
-    early_decision: bool = True
+    method: str = Setting(
+        'fixation',
+        'Decision rule: fixation = the option a still fixation of dwell_s clearly '
+        'lands on (posterior from the gaze-error model, fresh fixations only; holds on '
+        'real gaze: docs/selection.md); mean = the original rule (mean of the in-region '
+        'samples must lie in a region); vote = region with most samples',
+        choices=METHODS).field()
+    window_s: float = Setting(
+        1.0, 'Gaze collection time of a round, s of sample stamps from the round start',
+        interval=Interval(0.0, 60.0, low_open=True), unit='s').field()
+    early_decision: bool = Setting(
+        True, 'Decide before the window ends, as soon as the evidence for one option reaches '
+        'confidence (fixation: a fresh still fixation of dwell_s on it; mean/vote: '
+        'fresh in-region samples, min_samples / dwell_s / min_reaction_s); else at '
+        'the window end').field()
     # Early-decision defaults: the configuration bench/decision.py selects on its
     # tuning persons (90 Hz and 1200 Hz trackers, gaze off the menu or on another target).
-    confidence: float = 0.9
-    min_samples: int = 2
-    # A fixation (or an early run) must last this: longer than the transient landing of
-    # a saccade before its corrective saccade (mostly < 150 ms; bench/real_gaze.py).
-    dwell_s: float = 0.15
-    min_reaction_s: float = DEFAULT_MIN_REACTION_S
-    hit_rate: float = DEFAULT_HIT_RATE
-    reorder_s: float = 0.0
-    stall_timeout_s: float = 0.5
-    max_future_s: float = DEFAULT_MAX_FUTURE_S
-    classification: str = 'tolerant'
-    accuracy_deg: float = _DEFAULT_MODEL.accuracy_deg
-    precision_deg: float = _DEFAULT_MODEL.precision_deg
-    k_sigma: float = _DEFAULT_MODEL.k_sigma
-    ratio: float = DEFAULT_RATIO
-    size_aware: bool = True
-    min_share: float = 0.5
-    screen_width_mm: float = DEFAULT_VIEWING.width_mm
-    screen_height_mm: float = DEFAULT_VIEWING.height_mm
-    viewing_distance_mm: float = DEFAULT_VIEWING.distance_mm
-    screen_width: int = DEFAULT_VIEWING.width_px
-    screen_height: int = DEFAULT_VIEWING.height_px
+    confidence: float = CONFIDENCE.field()
+    min_samples: int = MIN_SAMPLES.field()
+    dwell_s: float = DWELL_S.field()
+    min_reaction_s: float = MIN_REACTION.field()
+    hit_rate: float = HIT_RATE.field()
+    reorder_s: float = Setting(
+        0.0, 'Longest time a decision waits for a regions message that may apply to its '
+        'last gaze samples (regions lagging gaze while the camera moves), s; 0 = '
+        'decide at once (lowest latency); the wait ends as soon as regions stamped '
+        'after those samples arrive', interval=Interval(0.0, 2.0), unit='s').field()
+    stall_timeout_s: float = Setting(
+        0.5, 'When no gaze sample stamped after the window arrives, close the round this '
+        'long after the window end (node clock), s', interval=Interval(0.0, 10.0),
+        unit='s').field()
+    max_future_s: float = Setting(
+        DEFAULT_MAX_FUTURE_S,
+        'Drop gaze samples stamped more than this after their arrival (node clock), s: '
+        'only a corrupt stamp or a wrong clock does that, and one such sample would '
+        'end the round at once; raise it only for a tracker clock known to run ahead',
+        interval=Interval(0.0, MAX_FUTURE_S), unit='s',
+        why='it bounds how far after its arrival a gaze sample may be stamped (about 1 s)'
+    ).field()
+    # The rule: a change applies from the next round on (RULE_FIELDS).
+    classification: str = Setting(
+        'tolerant',
+        'Which option a gaze sample counts for: tolerant = inside it, or near it (by the '
+        'gaze-error model below) when clearly nearer to it than to any other option; '
+        'inside = the original rule (inside only). With min_share 0 and method mean, '
+        'inside gives the original decisions', choices=CLASSIFICATIONS).field(rule=True)
+    accuracy_deg: float = Setting(
+        _DEFAULT_MODEL.accuracy_deg,
+        "Gaze-error model: the tracker's accuracy for this person, degrees of visual "
+        'angle (a validation measures it); with precision_deg the error the fixation '
+        'rule and the tolerant classification expect', interval=Interval(0.0, 10.0),
+        unit='deg').field(rule=True)
+    precision_deg: float = Setting(
+        _DEFAULT_MODEL.precision_deg,
+        "Gaze-error model: the tracker's precision (sample-to-sample noise per axis), "
+        'degrees', interval=Interval(0.0, 10.0), unit='deg').field(rule=True)
+    k_sigma: float = Setting(
+        _DEFAULT_MODEL.k_sigma,
+        'Tolerant rule: tolerance in standard deviations of the radial gaze error '
+        '(k_sigma x sqrt(accuracy^2 + 2 precision^2), below 30 deg)',
+        interval=Interval(0.0, 10.0)).field(rule=True)
+    ratio: float = Setting(
+        DEFAULT_RATIO,
+        'Tolerant rule: a sample outside every option counts for the nearest only when '
+        'it is at most ratio times as far as the second nearest (gaze between two '
+        'options counts for neither)', interval=Interval(0.0, 1.0, low_open=True),
+        why='the nearest option must be at most ratio times as far as the second'
+    ).field(rule=True)
+    size_aware: bool = Setting(
+        True, "Tolerant rule: count the tolerance from the option's centre (none for options "
+        'larger than the gaze error); false = from its edge').field(rule=True)
+    min_share: float = MIN_SHARE.field(rule=True)
+    # The person's screen: one declaration with gaze_validation's.
+    screen_width: int = SCREEN_WIDTH.field(rule=True)
+    screen_height: int = SCREEN_HEIGHT.field(rule=True)
+    screen_width_mm: float = SCREEN_WIDTH_MM.field(rule=True)
+    screen_height_mm: float = SCREEN_HEIGHT_MM.field(rule=True)
+    viewing_distance_mm: float = VIEWING_DISTANCE.field(rule=True)
 
     def __post_init__(self):
-        """Reject values no round can run with."""
-        if self.method not in METHODS:
-            raise ValueError(f"unknown method '{self.method}': use one of {', '.join(METHODS)}")
-        if not self.window_s > 0:
-            raise ValueError(f'window_s must be > 0 s, got {self.window_s}')
-        if not 0.5 < self.confidence < 1.0:
-            raise ValueError(f'confidence must be in (0.5, 1), got {self.confidence}')
-        check_hit_rate(self.hit_rate)
-        if int(self.min_samples) < 1:
-            raise ValueError(f'min_samples must be at least 1, got {self.min_samples}')
-        for name in ('dwell_s', 'reorder_s', 'stall_timeout_s'):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f'{name} must be >= 0 s, got {getattr(self, name)}')
-        check_min_reaction(self.min_reaction_s)
-        if not 0.0 <= self.max_future_s <= MAX_FUTURE_S:
-            raise ValueError(f'max_future_s must be in [0, {MAX_FUTURE_S}] s, got '
-                             f'{self.max_future_s}: it bounds how far after its arrival a '
-                             'gaze sample may be stamped (about 1 s)')
-        if self.classification not in CLASSIFICATIONS:
-            raise ValueError(f"unknown classification '{self.classification}': use one of "
-                             f"{', '.join(CLASSIFICATIONS)}")
-        if not (isinstance(self.ratio, (int, float)) and 0.0 < self.ratio <= 1.0):
-            raise ValueError(f'ratio must be in (0, 1], got {self.ratio!r}: the nearest option '
-                             'must be at most ratio times as far as the second')
-        check_min_share(self.min_share)
+        """Reject values no round can run with (each field's declaration, then the whole)."""
+        check_settings(self)
         # Both raise ValueError with a reason: an error model no tracker has, or no screen.
         self.error_model  # noqa: B018
         self.screen  # noqa: B018
@@ -330,11 +329,16 @@ class ArbiterSettings:
         return RULE_EVIDENCE[self.method](self, start, shown_since)
 
     def replace(self, **changed) -> 'ArbiterSettings':
-        """Return a copy with ``changed`` fields (unknown names are ignored)."""
+        """Return a checked copy with ``changed`` fields (unknown names are ignored)."""
         names = {item.name for item in fields(self)}
-        values = {name: getattr(self, name) for name in names}
-        values.update({name: value for name, value in changed.items() if name in names})
-        return ArbiterSettings(**values)
+        return dataclasses.replace(
+            self, **{name: value for name, value in changed.items() if name in names})
+
+
+#: Settings that make up a round's rule (classification, error model, share test, screen:
+#: declared with ``rule=True``): a change applies from the next round on
+#: (:meth:`RoundScheduler.configure`).
+RULE_FIELDS = flagged(ArbiterSettings, 'rule')
 
 
 class _Round:
@@ -354,6 +358,14 @@ class _Round:
         # A decision made but not yet final (reorder_s > 0), and until when it may wait.
         self.pending: Optional[Decision] = None
         self.deadline = math.inf
+
+
+class _Classifier(NamedTuple):
+    """A region set, the settings, and the classifier they make of it (kept between rounds)."""
+
+    regions: RegionSet
+    settings: ArbiterSettings
+    classifier: RegionSet
 
 
 #: ``on_log(level, key, text)``: level 'info' or 'warning'; key names the kind of message.
@@ -433,8 +445,8 @@ class RoundScheduler:
         # (stamp, x, y) of recent samples, arrival order, for rounds starting in the past.
         self._recent: Deque[Tuple[float, float, float]] = deque(maxlen=MAX_RECENT_SAMPLES)
         self._round: Optional[_Round] = None
-        # (newest region set, settings, its classifier) for classifier between rounds.
-        self._classifier: Optional[tuple] = None
+        # The newest region set's classifier under the settings, between rounds.
+        self._classifier: Optional[_Classifier] = None
         # Stamp of the last sample the last finished decision used.
         self._final_stamp = -math.inf
         #: The outcome of the last finished round.
@@ -485,9 +497,10 @@ class RoundScheduler:
         if self._round is not None:
             return self._round.evidence.regions_for(newest)
         cached = self._classifier
-        if cached is None or cached[0] is not newest or cached[1] != self.settings:
-            cached = self._classifier = (newest, self.settings, self.settings.regions(newest))
-        return cached[2]
+        if cached is None or cached.regions is not newest or cached.settings != self.settings:
+            cached = self._classifier = _Classifier(newest, self.settings,
+                                                    self.settings.regions(newest))
+        return cached.classifier
 
     def label_at(self, x: float, y: float) -> Optional[str]:
         """

@@ -71,6 +71,7 @@ from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.decision.evidence import Decision
+from eye_bci_ros2.decision.fusion import GAZE, HYBRID, INPUT_MODES
 from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings, METHODS
 from eye_bci_ros2.experiments import render as demo_render
@@ -118,8 +119,8 @@ QUICK_PERSON = ORIGINAL_TOBII_4C.with_changes(
 ASK_MODES = ('on-arrival', 'on-change')
 #: Answers per step the time limit of the whole run allows for.
 MAX_ATTEMPTS = 3
-#: What may choose (the arbiter's input_mode).
-INPUTS = ('gaze', 'ssvep', 'hybrid')
+#: What may choose (the arbiter's input_mode): fusion's modes.
+INPUTS = INPUT_MODES
 #: Gaze samples that must reach the pipeline before the experiment starts.
 WARMUP_SAMPLES = 20
 
@@ -170,7 +171,7 @@ class DemoOptions:
     stream_timeout_s: float = 15.0
     pictures: bool = True
     verbose: bool = False
-    input_mode: str = 'gaze'
+    input_mode: str = GAZE
     subject: str = 's4'
 
 
@@ -542,7 +543,7 @@ class ExperimentDriver(Node):
             elapsed = self.now_s() - self.shown_at
             # SSVEP waits for the response to build up (the decoder's onset_s) and a
             # window of EEG each time it is asked: twice the time.
-            timeout = self.options.timeout_s * (1 if self.options.input_mode == 'gaze' else 2)
+            timeout = self.options.timeout_s * (1 if self.options.input_mode == GAZE else 2)
             if elapsed > timeout:
                 raise DemoError(
                     f'no answer within {timeout:g} s of the options '
@@ -555,7 +556,7 @@ class ExperimentDriver(Node):
         gaze = decision if decision is not None and decision.label == label else None
         if gaze is None:
             gaze = Decision(label, self.options.input_mode, 0, 0, 0.0, math.nan)
-        elif self.options.input_mode != 'gaze':
+        elif self.options.input_mode != GAZE:
             gaze = replace(gaze, method=self.options.input_mode)
         selection = self._record(gaze, answered_at)
         self.selections.append(selection)
@@ -764,7 +765,7 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
             view = SimRvizView(context=context, parameter_overrides=[
                 Parameter('transition_time_s', value=float(options.transition_s))])
             nodes.append(view)
-            if options.input_mode != 'gaze':
+            if options.input_mode != GAZE:
                 eeg_id = f'eye_bci_demo_eeg-{uuid.uuid4()}'
                 subject = next(s for s in SUBJECTS if s.name == options.subject)
                 eeg = EegStreamer(EegSimulator(subject, seed=options.seed), source_id=eeg_id)
@@ -772,7 +773,7 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                 nodes.append(SsvepStimulusMap(context=context))
                 nodes.append(SsvepDecoder(context=context, parameter_overrides=[
                     Parameter('source_id', value=eeg_id),
-                    Parameter('keep_scoring', value=options.input_mode == 'hybrid')]))
+                    Parameter('keep_scoring', value=options.input_mode == HYBRID)]))
             driver = ExperimentDriver(scene, script, streamer, named['choice_arbiter'], options,
                                       eeg=eeg, menu=named['choice_menu'], context=context)
             nodes.append(driver)

@@ -28,14 +28,11 @@ from typing import Tuple
 
 import numpy as np
 
+from eye_bci_ros2.base.settings import Setting
+from eye_bci_ros2.base.validators import ensure, Interval
+
 #: One inch, mm.
 MM_PER_INCH = 25.4
-
-
-def _check(condition: bool, message: str) -> None:
-    """Raise ValueError(message) unless condition holds."""
-    if not condition:
-        raise ValueError(message)
 
 
 @dataclass(frozen=True)
@@ -63,7 +60,7 @@ class ScreenGeometry:
         """Reject sizes that cannot be a screen."""
         for name in ('width_px', 'height_px', 'width_mm', 'height_mm', 'distance_mm'):
             value = getattr(self, name)
-            _check(isinstance(value, Real) and math.isfinite(value) and value > 0,
+            ensure(isinstance(value, Real) and math.isfinite(value) and value > 0,
                    f'screen {name} must be a positive number, got {value!r}')
 
     @property
@@ -101,7 +98,7 @@ class ScreenGeometry:
         :returns: px, same shape as ``deg``.
         """
         deg = np.asarray(deg, dtype=float)
-        _check(bool(np.all((deg >= 0) & (deg < 180))),
+        ensure(bool(np.all((deg >= 0) & (deg < 180))),
                f'visual angle must be in [0, 180) degrees, got {deg}')
         return 2.0 * self.distance_mm * np.tan(np.radians(deg) / 2.0) * self.px_per_mm[axis]
 
@@ -224,6 +221,32 @@ def screen_from_diagonal(diagonal_inch: float = 24.0, aspect: float = 16.0 / 9.0
 #: The decision rule's default: a 24 inch 16:9 monitor (531 x 299 mm, 1920 x 1080 px) at 650
 #: mm, 41.0 px per degree at the centre.
 DEFAULT_VIEWING = screen_from_diagonal()
+
+#: Largest screen side, px (16K).
+MAX_SIDE_PX = 16384
+
+# The person's screen as settings, declared once (eye_bci_ros2.base.settings): the
+# choice_arbiter (degrees <-> px for its rule) and gaze_validation (accuracy in degrees)
+# both take them, with the same names, defaults, ranges and descriptions.
+SCREEN_WIDTH = Setting(
+    DEFAULT_VIEWING.width_px,
+    "The person's screen, the one the gaze is in (frame screen): width, px",
+    interval=Interval(1, MAX_SIDE_PX), unit='px', name='screen_width')
+SCREEN_HEIGHT = Setting(
+    DEFAULT_VIEWING.height_px, "The person's screen: height, px",
+    interval=Interval(1, MAX_SIDE_PX), unit='px', name='screen_height')
+SCREEN_WIDTH_MM = Setting(
+    DEFAULT_VIEWING.width_mm, "The person's screen: visible width, mm (degrees <-> px)",
+    interval=Interval(10.0, 10000.0), unit='mm', name='screen_width_mm')
+SCREEN_HEIGHT_MM = Setting(
+    DEFAULT_VIEWING.height_mm, "The person's screen: visible height, mm",
+    interval=Interval(10.0, 10000.0), unit='mm', name='screen_height_mm')
+VIEWING_DISTANCE = Setting(
+    DEFAULT_VIEWING.distance_mm, "Distance from the person's eyes to the screen centre, mm",
+    interval=Interval(50.0, 10000.0), unit='mm', name='viewing_distance_mm')
+#: The person's screen, in the order :class:`ScreenGeometry` takes it.
+SCREEN_SETTINGS = (SCREEN_WIDTH, SCREEN_HEIGHT, SCREEN_WIDTH_MM, SCREEN_HEIGHT_MM,
+                   VIEWING_DISTANCE)
 
 
 def px_per_degree_at(points, screen: ScreenGeometry = DEFAULT_VIEWING) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 import pytest
 
-from eye_bci_ros2.decision.fusion import ChoiceFusion, FusionSettings
+from eye_bci_ros2.decision.fusion import ChoiceFusion, FusionOutcome, FusionSettings
 
 OPTIONS = ('kitchen', 'bedroom', 'bathroom')
 
@@ -72,7 +72,25 @@ def test_hybrid_a_wandering_gaze_nominates_no_candidate():
 
 
 def test_bad_settings_say_why():
-    with pytest.raises(ValueError, match='input mode'):
+    with pytest.raises(ValueError, match='input_mode'):
         FusionSettings('eeg')
     with pytest.raises(ValueError, match='confirm_threshold'):
         FusionSettings('hybrid', confirm_threshold=0.0)
+
+
+def test_a_gaze_decision_says_when_its_round_can_lead_to_no_choice():
+    # The node publishes choice/none from this outcome; no mode is compared in the node.
+    gaze = _fusion('gaze')
+    assert gaze.gaze_outcome('kitchen', 1.0).choice == 'kitchen'
+    assert gaze.gaze_outcome(None, 2.0, reason='no sample in any region').no_choice == \
+        'no sample in any region'
+    ssvep = _fusion('ssvep')
+    assert ssvep.gaze_outcome(None, 1.0, reason='no sample') == FusionOutcome()
+    hybrid = _fusion('hybrid', min_gaze_margin=0.5)
+    unsteady = hybrid.gaze_outcome('kitchen', 1.0, margin=0.2)
+    assert unsteady.choice is None and 'too unsteady' in unsteady.no_choice
+    waiting = hybrid.gaze_outcome('kitchen', 2.0, margin=0.9)
+    assert waiting == FusionOutcome() and hybrid.candidate == 'kitchen'
+    assert hybrid.ssvep_choice('kitchen', 2.5) == 'kitchen'
+    assert hybrid.gaze_outcome(None, 3.0, reason='no sample') == FusionOutcome(), \
+        'a round already chosen is not reported as ending without a choice'

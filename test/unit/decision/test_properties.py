@@ -316,9 +316,8 @@ def test_decisions_do_not_depend_on_the_order_of_the_samples(regions, data):
 
 @SETTINGS
 @given(regions=region_sets(), data=st.data(), method=st.sampled_from(['mean', 'vote']))
-def test_live_tracker_decides_the_same_whatever_order_the_samples_arrive(regions, data,
-                                                                         method):
-    """The node's tracker, fed one sample at a time in any order, decides as the batch rule."""
+def test_live_rounds_decide_the_same_whatever_order_the_samples_arrive(regions, data, method):
+    """The node's rounds, fed one sample at a time in any order, decide as the batch rule."""
     labels, polygons = regions
     points = data.draw(gaze_samples(polygons))
     stamps = 0.1 + np.arange(len(points)) / 1200.0   # all inside the 1 s window
@@ -328,14 +327,14 @@ def test_live_tracker_decides_the_same_whatever_order_the_samples_arrive(regions
                                            expected.mean_point) > 1e-6)
     order = np.array(data.draw(st.permutations(range(len(points)))))
     for sequence in (np.arange(len(points)), order):
-        tracker = RoundScheduler(ArbiterSettings(method=method, window_s=1.0, early_decision=False,
-                                                 **ORIGINAL_RULE))
-        tracker.add_regions(RegionSet(labels, polygons, 0.0), now=0.0)
+        rounds = RoundScheduler(ArbiterSettings(method=method, window_s=1.0, early_decision=False,
+                                                **ORIGINAL_RULE))
+        rounds.add_regions(RegionSet(labels, polygons, 0.0), now=0.0)
         for k in sequence.tolist():
-            assert tracker.add_sample(stamps[k], points[k, 0], points[k, 1], now=0.5) is None
+            assert rounds.add_sample(stamps[k], points[k, 0], points[k, 1], now=0.5) is None
         # The first sample after the window closes the round.
-        decision = tracker.add_sample(1.5, math.nan, math.nan, now=1.5)
-        assert decision is not None and decision is tracker.last_decision
+        decision = rounds.add_sample(1.5, math.nan, math.nan, now=1.5)
+        assert decision is not None and decision is rounds.last_decision
         assert decision.label == expected.label, (decision.summary(), expected.summary())
         assert {k: n for k, n in decision.counts.items() if n} == \
             {k: n for k, n in expected.counts.items() if n}

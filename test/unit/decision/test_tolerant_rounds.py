@@ -225,9 +225,10 @@ def test_feedback_state_label_at_and_progress():
 
 @pytest.mark.parametrize('changed, name', [
     ({'classification': 'near'}, 'classification'), ({'ratio': 0.0}, 'ratio'),
-    ({'min_share': 1.5}, 'min_share'), ({'k_sigma': 40.0}, 'tolerance'),
+    ({'min_share': 1.5}, 'min_share'), ({'k_sigma': 40.0}, 'k_sigma'),
+    ({'k_sigma': 10.0, 'accuracy_deg': 10.0}, 'tolerance'),
     ({'accuracy_deg': -1.0}, 'accuracy_deg'), ({'viewing_distance_mm': 0.0}, 'distance_mm'),
-    ({'screen_width': 0}, 'width_px')])
+    ({'screen_width': 0}, 'screen_width')])
 def test_bad_rule_settings_raise_with_a_reason(changed, name):
     with pytest.raises(ValueError, match=name):
         ArbiterSettings(**changed)
