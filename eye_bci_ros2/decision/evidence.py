@@ -92,13 +92,12 @@ live stream (the choice_arbiter node's logic without ROS).
 
 from dataclasses import dataclass, field
 import math
-from typing import Callable, Dict, Optional, Tuple
+from typing import Callable, Dict, Mapping, Optional, Tuple
 
 import numpy as np
 
 from eye_bci_ros2.base.settings import Setting
 from eye_bci_ros2.base.validators import Interval
-from eye_bci_ros2.decision.feedback import early_progress, window_progress
 from eye_bci_ros2.decision.regions import points_array, RegionSet
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, px_per_degree_at
 
@@ -707,10 +706,10 @@ class RoundEvidence:
         """
         Return the progress towards each label seen, 0..1 (feedback).
 
-        The window rule's (:func:`eye_bci_ros2.decision.feedback.window_progress`, over
+        The window rule's (:func:`eye_bci_ros2.decision.evidence.window_progress`, over
         the valid samples so far) and, with ``settings.early_decision``, the
         larger of it and the early decision's
-        (:func:`eye_bci_ros2.decision.feedback.early_progress`; a stale run gives none).
+        (:func:`eye_bci_ros2.decision.evidence.early_progress`; a stale run gives none).
         """
         counts = self.counts
         out = window_progress(counts, self.valid, self.elapsed, settings.window_s)
@@ -780,3 +779,67 @@ class RoundEvidence:
                         time_to_decision=self.last_stamp - self.start, counts=self.counts,
                         mean_point=mean_point, reason=reason, fresh_samples=self.fresh,
                         round_start=self.start)
+
+
+def clip01(value: float) -> float:
+    """Clip a progress to [0, 1]; NaN gives 0."""
+    return float(min(max(value, 0.0), 1.0)) if math.isfinite(value) else (
+        1.0 if value == math.inf else 0.0)
+
+
+def early_progress(fresh_counts: Mapping[str, int], hit_rate: float, confidence: float,
+                   run_label: Optional[str], run_count: int, min_samples: int,
+                   run_span_s: float, dwell_s: float) -> Dict[str, float]:
+    """
+    Progress of the early decision towards each label (:meth:`RoundEvidence.progress`).
+
+    :param fresh_counts: fresh in-region samples per offered label (every
+        offered label, zeros included: R = its length).
+    :param hit_rate: h of the evidence model.
+    :param confidence: posterior needed.
+    :param run_label: label of the current run, or None.
+    :param run_count: samples in that run.
+    :param min_samples: run samples needed.
+    :param run_span_s: sample time the run spans, s.
+    :param dwell_s: span needed, s.
+    :returns: label -> progress 0..1.
+    """
+    labels = list(fresh_counts)
+    if not labels:
+        return {}
+    counts = np.array([fresh_counts[label] for label in labels], dtype=float)
+    region_count = len(labels)
+    if region_count == 1:
+        posterior_progress = np.ones(1)
+    else:
+        weight = math.log(hit_rate * (region_count - 1) / (1.0 - hit_rate))
+        exponent = weight * (counts - counts.max())
+        posterior = np.exp(exponent) / np.exp(exponent).sum()
+        chance = 1.0 / region_count
+        posterior_progress = np.clip((posterior - chance) / (confidence - chance), 0.0, 1.0)
+    out = {}
+    for label, value in zip(labels, posterior_progress):
+        if label != run_label:
+            out[label] = 0.0
+            continue
+        run = clip01(run_count / max(min_samples, 1))
+        dwell = 1.0 if dwell_s <= 0 else clip01(run_span_s / dwell_s)
+        out[label] = float(min(value, run, dwell))
+    return out
+
+
+def window_progress(counts: Mapping[str, int], samples: int, elapsed_s: float,
+                    window_s: float) -> Dict[str, float]:
+    """
+    Progress of a window rule (mean, vote) towards each label (:meth:`RoundEvidence.progress`).
+
+    :param counts: samples per offered label so far (in-region, or tolerant).
+    :param samples: every sample of the window so far (in and out of regions).
+    :param elapsed_s: time since the round start, s.
+    :param window_s: the window, s (> 0).
+    """
+    if not window_s > 0:
+        raise ValueError(f'window_s must be > 0 s, got {window_s}')
+    time_part = clip01(elapsed_s / window_s)
+    return {label: time_part * (count / samples if samples > 0 else 0.0)
+            for label, count in counts.items()}

@@ -7,17 +7,10 @@ just chosen) and the progress of the decision towards it, 0..1.  The node side
 (:mod:`eye_bci_ros2.nodes.feedback_markers`) turns it into RViz markers; the
 arbiter side builds it with :func:`build_feedback` from its round state.
 
-Progress:
-
-* early decision (:func:`early_progress`): the decision is made when the
-  leader's posterior reaches ``confidence`` and its current run holds
-  ``min_samples`` samples over ``dwell_s``; each label's progress is the
-  smallest of its posterior progress ``(P - 1/R) / (confidence - 1/R)`` and,
-  for the label of the current run, ``run_count / min_samples`` and
-  ``run_span / dwell_s`` (0 for the other labels: a decision needs the run);
-* window rules (:func:`window_progress`): ``elapsed / window_s`` times the
-  label's share of the window's samples so far, so the gazed option fills
-  up over the window and reaches 1 only when every sample was on it.
+Progress: each rule's ``progress`` (the count rules':
+:func:`eye_bci_ros2.decision.evidence.early_progress` and
+:func:`~eye_bci_ros2.decision.evidence.window_progress`; the fixation rule's in
+:mod:`eye_bci_ros2.decision.fixation`), passed to :func:`build_feedback`.
 
 Rate (:class:`FeedbackThrottle`): a person sees ~30 Hz as smooth; feedback is
 sent when its highlight changes (at once), when a progress moved by at least
@@ -27,12 +20,13 @@ idle screen costs almost nothing on the graph.
 
 from dataclasses import dataclass
 import math
-from typing import Dict, Mapping, Optional, Sequence, Tuple
+from typing import Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
 from eye_bci_ros2.base.settings import check_settings, Setting
 from eye_bci_ros2.base.validators import Interval
+from eye_bci_ros2.decision.evidence import clip01
 
 #: Highlight states.
 NONE = 'none'
@@ -115,12 +109,6 @@ class FeedbackSettings:
         check_settings(self)
 
 
-def _clip01(value: float) -> float:
-    """Clip to [0, 1]; NaN gives 0."""
-    return float(min(max(value, 0.0), 1.0)) if math.isfinite(value) else (
-        1.0 if value == math.inf else 0.0)
-
-
 def build_feedback(offered: Sequence[str], gazed: Optional[str] = None,
                    chosen: Optional[str] = None,
                    progress: Optional[Mapping[str, float]] = None,
@@ -142,66 +130,8 @@ def build_feedback(offered: Sequence[str], gazed: Optional[str] = None,
             options.append(OptionFeedback(label, CHOSEN, 1.0))
             continue
         state = GAZED if label == gazed else NONE
-        options.append(OptionFeedback(label, state, _clip01(progress.get(label, 0.0))))
+        options.append(OptionFeedback(label, state, clip01(progress.get(label, 0.0))))
     return Feedback(tuple(options), float(stamp))
-
-
-def early_progress(fresh_counts: Mapping[str, int], hit_rate: float, confidence: float,
-                   run_label: Optional[str], run_count: int, min_samples: int,
-                   run_span_s: float, dwell_s: float) -> Dict[str, float]:
-    """
-    Progress of the early decision towards each label (module doc).
-
-    :param fresh_counts: fresh in-region samples per offered label (every
-        offered label, zeros included: R = its length).
-    :param hit_rate: h of the evidence model.
-    :param confidence: posterior needed.
-    :param run_label: label of the current run, or None.
-    :param run_count: samples in that run.
-    :param min_samples: run samples needed.
-    :param run_span_s: sample time the run spans, s.
-    :param dwell_s: span needed, s.
-    :returns: label -> progress 0..1.
-    """
-    labels = list(fresh_counts)
-    if not labels:
-        return {}
-    counts = np.array([fresh_counts[label] for label in labels], dtype=float)
-    region_count = len(labels)
-    if region_count == 1:
-        posterior_progress = np.ones(1)
-    else:
-        weight = math.log(hit_rate * (region_count - 1) / (1.0 - hit_rate))
-        exponent = weight * (counts - counts.max())
-        posterior = np.exp(exponent) / np.exp(exponent).sum()
-        chance = 1.0 / region_count
-        posterior_progress = np.clip((posterior - chance) / (confidence - chance), 0.0, 1.0)
-    out = {}
-    for label, value in zip(labels, posterior_progress):
-        if label != run_label:
-            out[label] = 0.0
-            continue
-        run = _clip01(run_count / max(min_samples, 1))
-        dwell = 1.0 if dwell_s <= 0 else _clip01(run_span_s / dwell_s)
-        out[label] = float(min(value, run, dwell))
-    return out
-
-
-def window_progress(counts: Mapping[str, int], samples: int, elapsed_s: float,
-                    window_s: float) -> Dict[str, float]:
-    """
-    Progress of a window rule (mean, vote) towards each label (module doc).
-
-    :param counts: samples per offered label so far (in-region, or tolerant).
-    :param samples: every sample of the window so far (in and out of regions).
-    :param elapsed_s: time since the round start, s.
-    :param window_s: the window, s (> 0).
-    """
-    if not window_s > 0:
-        raise ValueError(f'window_s must be > 0 s, got {window_s}')
-    time_part = _clip01(elapsed_s / window_s)
-    return {label: time_part * (count / samples if samples > 0 else 0.0)
-            for label, count in counts.items()}
 
 
 def halo_scale(scale, progress: float) -> np.ndarray:
@@ -219,7 +149,7 @@ def halo_scale(scale, progress: float) -> np.ndarray:
     scale = np.asarray(scale, dtype=float).reshape(3)
     if not np.all(np.isfinite(scale) & (scale >= 0)):
         raise ValueError(f'marker scale must be 3 finite lengths >= 0, got {scale.tolist()}')
-    out = scale * (1.0 + HALO_BORDER + HALO_GROWTH * _clip01(progress))
+    out = scale * (1.0 + HALO_BORDER + HALO_GROWTH * clip01(progress))
     thin = int(np.argmin(scale))
     out[thin] = scale[thin] * HALO_THICKNESS
     return out

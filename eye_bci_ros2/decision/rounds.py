@@ -518,9 +518,9 @@ class RoundScheduler:
         """
         Return the open round's progress towards each offered label, 0..1 (feedback).
 
-        The window rule's (:func:`eye_bci_ros2.decision.feedback.window_progress`, over
+        The window rule's (:func:`eye_bci_ros2.decision.evidence.window_progress`, over
         the valid samples so far) and, with ``early_decision``, the larger of
-        it and the early decision's (:func:`eye_bci_ros2.decision.feedback.early_progress`;
+        it and the early decision's (:func:`eye_bci_ros2.decision.evidence.early_progress`;
         a stale run gives none).  Empty without an open round.
         """
         round_ = self._round

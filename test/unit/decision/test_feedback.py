@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from eye_bci_ros2.decision.feedback import (build_feedback, CHOSEN, early_progress,
-                                            FeedbackThrottle, GAZED, halo_scale, NONE,
-                                            OptionFeedback, window_progress)
+from eye_bci_ros2.decision.evidence import early_progress, window_progress
+from eye_bci_ros2.decision.feedback import (build_feedback, CHOSEN, FeedbackThrottle, GAZED,
+                                            halo_scale, NONE, OptionFeedback)
 
 
 def test_build_feedback_highlights_gazed_and_chosen():
