@@ -46,6 +46,7 @@ from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
 from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, LATCHED_QOS, RVIZ_CAMERA_POSE_TOPIC,
                                        RVIZ_POSE_QOS)
 from eye_bci_ros2.projection.camera_model import look_at_pose, optical_pose_from, POSE_CONVENTIONS
+from eye_bci_ros2.projection.geometry import WORLD_FRAME
 
 #: Default static view: the overview of the default scene (config/scene.yaml,
 #: a 20 m x 12 m map), from 17 m up and 8 m south of the map centre (10, 6, 0),
@@ -112,7 +113,7 @@ def _check_topic(value: Any) -> Optional[str]:
 
 
 PARAMETERS: List[ParamSpec] = [
-    ParamSpec('world_frame', 'map',
+    ParamSpec('world_frame', WORLD_FRAME,
               'Frame of camera/pose: the RViz fixed frame the markers are in.',
               check=check_frame_id),
     ParamSpec('pose_topic', RVIZ_CAMERA_POSE_TOPIC,

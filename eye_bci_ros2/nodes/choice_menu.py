@@ -79,6 +79,7 @@ from eye_bci_ros2.nodes.topics import (CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC, CHO
                                        REGIONS_TOPIC, REQUEST_TOPIC, VALIDATION_RESULT_TOPIC,
                                        VALIDATION_START_TOPIC, VIEW_QOS)
 from eye_bci_ros2.projection.camera_model import look_at_pose
+from eye_bci_ros2.projection.geometry import WORLD_FRAME
 from eye_bci_ros2.task.menu import (Action, Answer, Log, MenuProtocol, Offer, ProtocolSettings,
                                     Request, Result, ROOMS_NS, TABLES_NS, Validate)
 from eye_bci_ros2.task.scene import CubeMarker, load_scene, Scene, View
@@ -140,7 +141,7 @@ class ChoiceMenu(Node):
                       'config/scene.yaml); setting it reloads and starts over',
                       check=self._check_scene_file),
             ParamSpec('repeat', defaults.repeat, _PROTOCOL_PARAMETERS['repeat'][0]),
-            ParamSpec('world_frame', 'map',
+            ParamSpec('world_frame', WORLD_FRAME,
                       "Frame of the markers and camera goals; must match the scene's "
                       'frame_id', check=check_frame_id),
         ]

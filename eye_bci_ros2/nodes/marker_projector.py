@@ -46,7 +46,7 @@ from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, CHOICES_QOS, CHOICES_T
                                        REGIONS_TOPIC)
 from eye_bci_ros2.projection.camera_model import (DEFAULT_PANEL_OFFSET, OrthographicCamera,
                                                   parse_intrinsic, rviz_intrinsic, RvizCamera)
-from eye_bci_ros2.projection.geometry import external_from_pose
+from eye_bci_ros2.projection.geometry import external_from_pose, WORLD_FRAME
 
 #: Largest render panel side accepted, px.
 MAX_IMAGE_SIDE = 16384
@@ -169,7 +169,7 @@ def _intrinsic_values(value: Any) -> Optional[str]:
 
 
 PARAMETERS: List[ParamSpec] = [
-    ParamSpec('world_frame', 'map',
+    ParamSpec('world_frame', WORLD_FRAME,
               'RViz fixed frame: only markers (and camera poses) in this frame are projected.',
               check=check_frame_id),
     ParamSpec('image_width', 1280, 'Width W of the RViz render panel, px.',

@@ -19,6 +19,10 @@ from typing import Tuple
 
 import numpy as np
 
+#: The world frame's default name: RViz2's default fixed frame (every node's ``world_frame``,
+#: the scene file's ``frame_id``).
+WORLD_FRAME = 'map'
+
 #: Corner ``i`` of a box has local offset ``signs[i] * scale / 2``; bit 0 of ``i``
 #: is +x, bit 1 +y, bit 2 +z.
 CORNER_SIGNS = np.array(

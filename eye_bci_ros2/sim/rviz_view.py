@@ -67,7 +67,7 @@ PARAMETERS = (
     ParamSpec('publish_rate_hz', 30.0,
               'Rate of rviz/current_camera_pose while the camera moves, Hz',
               value_range=(1.0, 240.0)),
-    ParamSpec('world_frame', 'map',
+    ParamSpec('world_frame', geometry.WORLD_FRAME,
               'Fixed frame of the view; goals in another frame are ignored',
               check=check_frame_id),
 )

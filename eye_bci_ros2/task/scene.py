@@ -272,7 +272,7 @@ class _Parser:
             self.fail(0, 'scene', 'the file is empty')
         top = self.mapping(document, 1, 'scene')
         self.unknown_keys(top, ('frame_id', 'overview', 'rooms'), 'scene')
-        frame_id, line = self.field(top, 'frame_id', 'scene', default='map')
+        frame_id, line = self.field(top, 'frame_id', 'scene', default=geometry.WORLD_FRAME)
         if not isinstance(frame_id, str) or not frame_id.strip():
             self.fail(line, 'frame_id', f'expected a frame name, got {frame_id!r}')
         overview = self.view(*self.field(top, 'overview', 'scene'), 'overview')
