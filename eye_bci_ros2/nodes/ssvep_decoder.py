@@ -300,8 +300,9 @@ class SsvepDecoder(Node):
             if stream.nominal_srate <= 0:
                 raise ValueError('the stream has an irregular rate (nominal 0 Hz); SSVEP '
                                  'needs a regular sampling rate')
+            # The FBCCA null is measured in the background: no decision step waits for it.
             self._decoder = OnlineDecoder(stream.nominal_srate, names, _settings(self._params),
-                                          self._model)
+                                          self._model, background_null=True)
         except ValueError as error:
             self._bind_error = str(error)
             self.get_logger().warning(f'cannot decode {stream.describe()}: {error}; no SSVEP '

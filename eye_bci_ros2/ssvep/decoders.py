@@ -22,8 +22,8 @@ window that starts later is compared with the template from
 """
 
 from dataclasses import dataclass, field
-from functools import lru_cache
-from typing import Optional, Sequence, Tuple
+import threading
+from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 from scipy import linalg
@@ -162,18 +162,71 @@ def null_windows(min_window_s: float, window_s: float) -> Tuple[float, ...]:
     return tuple(float(w) for w in np.linspace(min_window_s, window_s, count + 1))
 
 
-@lru_cache(maxsize=16)
+#: A key of :func:`fbcca_null`: (rate, channels, bands, harmonics, band, notch_hz,
+#: windows_s, delta).
+NullKey = Tuple[float, int, int, int, Tuple[float, float], float, Tuple[float, ...], float]
+#: FBCCA nulls measured in this process, by key (kept: a handful of settings per process).
+_NULLS: Dict[NullKey, RestModel] = {}
+#: Nulls being measured in the background, by key.
+_MEASURING: Dict[NullKey, threading.Thread] = {}
+_NULLS_LOCK = threading.Lock()
+
+
 def fbcca_null(rate: float, channels: int, bands: int, harmonics: int,
                band: Tuple[float, float], notch_hz: float, windows_s: Tuple[float, ...],
                delta: float) -> RestModel:
     """
-    Measure the FBCCA sideband statistic of an unattended option on white noise.
+    The FBCCA sideband statistic of an unattended option, measured on white noise.
 
     Seeded, so the same settings give the same null.  The statistic compares
     an option with its own neighbourhood, so its null depends on the window
     length, channels and harmonics (degrees of freedom), hardly on the EEG's
     spectrum or size: measured on real rest EEG it matches (docs/ssvep.md).
+    Measured once per process and settings (seconds at 1000 Hz x 32 channels):
+    a live decoder asks :func:`fbcca_null_soon` instead, which never waits.
     """
+    key = _null_key(rate, channels, bands, harmonics, band, notch_hz, windows_s, delta)
+    with _NULLS_LOCK:
+        known = _NULLS.get(key)
+    if known is None:
+        known = _measure_null(*key)
+        with _NULLS_LOCK:
+            known = _NULLS.setdefault(key, known)
+    return known
+
+
+def fbcca_null_soon(rate: float, channels: int, bands: int, harmonics: int,
+                    band: Tuple[float, float], notch_hz: float, windows_s: Tuple[float, ...],
+                    delta: float) -> Optional[RestModel]:
+    """
+    :func:`fbcca_null` if already measured, else None and its measurement started.
+
+    The measurement runs in a daemon thread (numpy's factorisations release
+    the GIL, so a decision step in the meantime is not held up by it), one
+    per settings; the caller asks again at its next step.
+    """
+    key = _null_key(rate, channels, bands, harmonics, band, notch_hz, windows_s, delta)
+    with _NULLS_LOCK:
+        if key in _NULLS:
+            return _NULLS[key]
+        if key not in _MEASURING or not _MEASURING[key].is_alive():
+            thread = threading.Thread(target=fbcca_null, args=key, daemon=True,
+                                      name='fbcca-null')
+            _MEASURING[key] = thread
+            thread.start()
+    return None
+
+
+def _null_key(rate, channels, bands, harmonics, band, notch_hz, windows_s, delta) -> NullKey:
+    return (float(rate), int(channels), int(bands), int(harmonics),
+            (float(band[0]), float(band[1])), float(notch_hz),
+            tuple(float(w) for w in windows_s), float(delta))
+
+
+def _measure_null(rate: float, channels: int, bands: int, harmonics: int,
+                  band: Tuple[float, float], notch_hz: float, windows_s: Tuple[float, ...],
+                  delta: float) -> RestModel:
+    """Measure :func:`fbcca_null` (no cache)."""
     rng = np.random.default_rng(20161)
     hop = int(round(max(windows_s) * rate / 2))  # windows overlap by half: less to filter
     start = int(round(3.0 * rate))  # past the filters' settle time

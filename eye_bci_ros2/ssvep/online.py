@@ -37,6 +37,9 @@ Junk never chooses:
   (FBCCA, one note) or refused (a TRCA model fitted at another rate);
 - a stimulus map that lacks an offered option, fewer than 2 options, or a
   TRCA model without the options' stimuli decode nothing.
+- FBCCA decides nothing until its null for the decoded channels and rate is
+  measured (``background_null``: off the decision path, once per process and
+  settings, from the decoder's construction for all its channels).
 
 Each refusal is a :attr:`OnlineResult.problem` string the node logs.
 """
@@ -50,9 +53,9 @@ import numpy as np
 
 from eye_bci_ros2.ssvep.decision import (DecisionRule, DEFAULT_GAIN, DEFAULT_REST_Z,
                                          RestModel)
-from eye_bci_ros2.ssvep.decoders import (DECODERS, fbcca_null, FbccaDecoder, null_windows,
-                                         sideband_hz, sideband_statistic, TrcaModel,
-                                         with_sidebands)
+from eye_bci_ros2.ssvep.decoders import (DECODERS, fbcca_null, fbcca_null_soon, FbccaDecoder,
+                                         null_windows, sideband_hz, sideband_statistic,
+                                         TrcaModel, with_sidebands)
 from eye_bci_ros2.ssvep.filters import StreamingFilterBank
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
 
@@ -176,11 +179,16 @@ class OnlineDecoder:
     :param settings: see :class:`OnlineSettings`.
     :param model: a TRCA model (needed for 'trca' / 'ensemble_trca'); its
         rate, channels and filter settings must match.
+    :param background_null: measure the FBCCA null (seconds of CPU at 1000 Hz x
+        32 channels) in the background, from construction on, and decide
+        nothing until it is there (a live stream: no step ever waits for it);
+        False = measure it in the step that first needs it (offline replay,
+        where steps stand for stream time, not wall time).
     """
 
     def __init__(self, rate: float, channels: Sequence[str],
                  settings: OnlineSettings = OnlineSettings(),
-                 model: Optional[TrcaModel] = None):
+                 model: Optional[TrcaModel] = None, background_null: bool = False):
         if not (math.isfinite(rate) and rate > 0):
             raise ValueError(f'the EEG stream needs a regular sampling rate, got {rate:g} Hz')
         self.rate = float(rate)
@@ -205,6 +213,7 @@ class OnlineDecoder:
             bands, band, notch = settings.bands, settings.band, settings.notch_hz
         self.model = model
         self._filter_settings = (bands, band, notch)
+        self._background_null = background_null
         #: The rate the stream advertises, Hz; :attr:`rate` is the one decoded at.
         self.nominal_rate = self.rate
         #: The rate the sample times show (None until measured), Hz.
@@ -244,6 +253,8 @@ class OnlineDecoder:
         self._times = np.zeros(2 * self._capacity)
         self._fbcca_key = None
         self._fbcca_decoder: Optional[FbccaDecoder] = None
+        if self.model is None and self._background_null:
+            self._null(len(self.channels))  # every channel usable: the common case
         self._restart()
 
     # -- input ------------------------------------------------------------------------------
@@ -480,8 +491,12 @@ class OnlineDecoder:
             result.problem = problem
             return result
         if self.model is None:
-            decoder, null = self._fbcca(frequencies, int(good.sum()))
-            all_scores = decoder.scores(window[:, :, good])
+            null = self._null(int(good.sum()))
+            if null is None:
+                result.problem = (f'measuring the FBCCA rest model for {int(good.sum())} '
+                                  f'channels at {self.rate:g} Hz (a few seconds, once)')
+                return result
+            all_scores = self._fbcca(frequencies).scores(window[:, :, good])
             scores = all_scores[:len(labels)]
             statistic = sideband_statistic(all_scores)
         else:
@@ -506,23 +521,27 @@ class OnlineDecoder:
             self._done = True
         return result
 
-    def _fbcca(self, frequencies: np.ndarray, channels: int) -> Tuple[FbccaDecoder, RestModel]:
-        """
-        FBCCA of these stimuli and their sidebands (kept while they stay), and its null.
-
-        :param channels: channels decoded in this window (the null depends on them).
-        """
+    def _fbcca(self, frequencies: np.ndarray) -> FbccaDecoder:
+        """FBCCA of these stimuli and their sidebands (kept while they stay)."""
         key = (tuple(frequencies.tolist()), self.rate)
-        delta = sideband_hz(self.settings.min_window_s)
         if self._fbcca_key != key:
             self._fbcca_key = key
-            self._fbcca_decoder = FbccaDecoder(with_sidebands(frequencies, delta), self.rate,
-                                               self._bank.bands, self.settings.harmonics)
+            self._fbcca_decoder = FbccaDecoder(
+                with_sidebands(frequencies, sideband_hz(self.settings.min_window_s)),
+                self.rate, self._bank.bands, self.settings.harmonics)
+        return self._fbcca_decoder
+
+    def _null(self, channels: int) -> Optional[RestModel]:
+        """
+        The FBCCA null for this many decoded channels at the rate in use.
+
+        None while it is measured in the background (``background_null``).
+        """
         bands, band, notch = self._filter_settings
-        null = fbcca_null(self.rate, channels, bands, self.settings.harmonics, tuple(band),
-                          notch, null_windows(self.settings.min_window_s,
-                                              self.settings.window_s), delta)
-        return self._fbcca_decoder, null
+        key = (self.rate, channels, bands, self.settings.harmonics, tuple(band), notch,
+               null_windows(self.settings.min_window_s, self.settings.window_s),
+               sideband_hz(self.settings.min_window_s))
+        return fbcca_null_soon(*key) if self._background_null else fbcca_null(*key)
 
     def _model_problem(self, labels: Sequence[str], stimuli: StimulusMap) -> Optional[str]:
         """Say why the TRCA model cannot score these options, or None."""
