@@ -53,7 +53,7 @@ from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
 from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EEG_DATA_ENV,
                                          EegRecording, find_eeg_recordings, load_eeg)
-from eye_bci_ros2.ssvep.decision import DecisionRule
+from eye_bci_ros2.ssvep.decision import DecisionRule, HeldDecision
 from eye_bci_ros2.ssvep.decoders import FbccaDecoder, TrcaModel
 from eye_bci_ros2.ssvep.filters import filter_recording
 from eye_bci_ros2.ssvep.online import OnlineDecoder, OnlineSettings
@@ -71,7 +71,11 @@ OFFLINE_START_S = 1.5
 GOAL_WRONG = 0.01
 GOAL_REST = 0.02
 #: ``rest_z`` values the leave-subject-out evaluation chooses from.
-REST_Z_GRID = (1.5, 2.0, 2.5, 3.0, 3.5, 4.0)
+REST_Z_GRID = (1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0)
+#: (``rest_z``, ``threshold``, ``hold_s``) the recorded evidence is replayed under (all
+#: subjects): the trade between right choices, wrong ones and choices on nothing; the
+#: former default (2.5, 0.95, no hold) among them.
+REPLAY_GRID = ((2.5, 0.95, 0.0), (2.0, 0.95, 0.0), (1.0, 0.95, 0.5), (2.0, 0.95, 0.5))
 #: When the gaze reaches the option in the hybrid rounds, after the cue, s.
 GAZE_AT_S = 1.0
 #: Calibration trial length, s.
@@ -151,7 +155,7 @@ def _online(recording: EegRecording, settings: OnlineSettings,
             continue
         if len(result.posterior):
             trial['steps'].append((float(now), result.labels, result.posterior.tolist(),
-                                   result.evidence.tolist(), result.window_s))
+                                   result.evidence.tolist(), result.window_s, result.end_s))
         if result.choice is not None and trial['choice'] is None:
             trial['choice'], trial['after_s'] = result.choice, float(now - trial['cue'])
     return outcome
@@ -175,7 +179,7 @@ def _hybrid(trials: List[Dict]) -> Dict:
             fusion.new_round(labels)
             got = None
             gazed = False
-            for t, step_labels, posterior, _, _ in trial['steps']:
+            for t, step_labels, posterior, _, _, _ in trial['steps']:
                 if not gazed and t >= trial['cue'] + GAZE_AT_S:
                     got = fusion.gaze(candidate, t, 1.0) or got
                     gazed = True
@@ -196,14 +200,16 @@ def _replay(trials: List[Dict], rule: DecisionRule) -> List[Dict]:
     """
     Decide the rounds again under another rule, from their recorded evidence.
 
-    The rule is a pure function of each step's evidence z and window, and a
-    round takes its first choice, so this equals streaming them again.
+    The decision is a function of the steps' evidence z, windows and times
+    (:class:`~eye_bci_ros2.ssvep.decision.HeldDecision`), and a round takes its
+    first choice, so this equals streaming them again.
     """
     replayed = []
     for trial in trials:
         choice = after = None
-        for t, labels, _, z, window_s in trial['steps']:
-            index = rule.decide(np.array(z), window_s)
+        held = HeldDecision(rule)
+        for t, labels, _, z, window_s, end_s in trial['steps']:
+            index = held.update(np.array(z), window_s, end_s)
             if index is not None:
                 choice, after = labels[index], t - trial['cue']
                 break
@@ -330,6 +336,10 @@ def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str]
         if online_all:
             results[f'{decoder} online all'] = _online_row(online_all)
             results[f'{decoder} hybrid all'] = _hybrid(online_all)
+            for rest_z, threshold, hold_s in REPLAY_GRID:  # other decision constants
+                results[f'{decoder} online replay rest_z {rest_z:g} threshold {threshold:g} '
+                        f'hold_s {hold_s:g}'] = _online_row(_replay(online_all, DecisionRule(
+                            rest_z=rest_z, threshold=threshold, hold_s=hold_s)))
             if decoder == 'fbcca' and len(per_subject) > 1:
                 for subject, row in _leave_subjects_out(per_subject).items():
                     results[f'{decoder} online leave-subject-out {subject}'] = row

@@ -155,10 +155,10 @@ def sideband_hz(min_window_s: float) -> float:
 
 
 #: Sidebands on each side of an option, at 1, 2, ... x :func:`sideband_hz`: their mean
-#: is the statistic's denominator.  Two per side make it less noisy (real EEG: a
-#: response's median z +10 %), but on the real recordings (docs/ssvep.md) they bought
-#: 13 more right choices with one more wrong one and did worse left-subject-out, so one.
-SIDEBANDS_PER_SIDE = 1
+#: is the statistic's denominator, so more of them make it less noisy (two per side: on
+#: real EEG a response's median z is 10 % higher than with one; further out the
+#: neighbourhood would stop being the option's own).
+SIDEBANDS_PER_SIDE = 2
 
 
 def with_sidebands(frequencies: Sequence[float], delta: float) -> np.ndarray:

@@ -51,8 +51,8 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.ssvep.decision import (DecisionRule, DEFAULT_GAIN, DEFAULT_REST_Z,
-                                         RestModel)
+from eye_bci_ros2.ssvep.decision import (DecisionRule, DEFAULT_GAIN, DEFAULT_HOLD_S,
+                                         DEFAULT_REST_Z, HeldDecision, RestModel)
 from eye_bci_ros2.ssvep.decoders import (DECODERS, fbcca_null, fbcca_null_soon, FbccaDecoder,
                                          null_windows, sideband_hz, sideband_statistic,
                                          TrcaModel, with_sidebands)
@@ -97,6 +97,8 @@ class OnlineSettings:
     :param gain: the posterior's gain (expected evidence z of an attended option).
     :param rest_z: evidence z at which "nothing attended" is as likely as one
         option (:mod:`eye_bci_ros2.ssvep.decision`).
+    :param hold_s: an option is chosen once it has qualified in every step
+        over this long, s (:class:`eye_bci_ros2.ssvep.decision.HeldDecision`).
     :param onset_s: the window of a round starts this long after the round:
         the person's gaze reaching the option and the SSVEP building up, s.
     :param bands: FBCCA sub-bands; ``harmonics`` in its references.
@@ -119,6 +121,7 @@ class OnlineSettings:
     rule: str = 'posterior'
     gain: float = DEFAULT_GAIN
     rest_z: float = DEFAULT_REST_Z
+    hold_s: float = DEFAULT_HOLD_S
     onset_s: float = DEFAULT_ONSET_S
     bands: int = 5
     harmonics: int = 5
@@ -137,7 +140,8 @@ class OnlineSettings:
         if not 0 < self.min_window_s <= self.window_s:
             raise ValueError(f'need 0 < min_window_s ({self.min_window_s}) <= window_s '
                              f'({self.window_s})')
-        DecisionRule(self.rule, self.threshold, self.min_window_s, self.gain, self.rest_z)
+        DecisionRule(self.rule, self.threshold, self.min_window_s, self.gain, self.rest_z,
+                     self.hold_s)
         if not 0 <= self.onset_s <= 10.0:
             raise ValueError(f'onset_s must be in [0, 10] s, got {self.onset_s}')
 
@@ -197,7 +201,8 @@ class OnlineDecoder:
         self.channels = tuple(channels)
         self.settings = settings
         self.rule = DecisionRule(settings.rule, settings.threshold, settings.min_window_s,
-                                 settings.gain, settings.rest_z)
+                                 settings.gain, settings.rest_z, settings.hold_s)
+        self._held = HeldDecision(self.rule)
         if settings.decoder != 'fbcca':
             if model is None:
                 raise ValueError(f"decoder '{settings.decoder}' needs a TRCA model "
@@ -450,6 +455,7 @@ class OnlineDecoder:
         """Start a round at ``start_s`` among ``labels`` with these stimuli."""
         self._round = (float(start_s), tuple(labels), stimuli)
         self._done = False
+        self._held.interrupt()
 
     @property
     def round_open(self) -> bool:
@@ -473,6 +479,13 @@ class OnlineDecoder:
         if self._round is None or (self._done and not self.settings.keep_scoring):
             return None
         self._flush()
+        result = self._step()
+        if not len(result.evidence):  # nothing scored: the evidence no longer holds
+            self._held.interrupt()
+        return result
+
+    def _step(self) -> OnlineResult:
+        """Score the open round's window (:meth:`step`)."""
         start_s, labels, stimuli = self._round
         result = OnlineResult(labels)
         if self._rate_problem:
@@ -537,7 +550,7 @@ class OnlineDecoder:
         result.evidence = null.z(statistic, result.window_s)
         result.posterior = self.rule.probabilities(result.evidence)
         result.rest = float(1.0 - result.posterior.sum())
-        index = self.rule.decide(result.evidence, result.window_s)
+        index = self._held.update(result.evidence, result.window_s, result.end_s)
         if index is not None and not self._done:
             result.choice = labels[index]
             self._done = True
