@@ -7,8 +7,10 @@ Input modes of an experiment: gaze, SSVEP, or both (hybrid), and how they make a
 - ``hybrid``: gaze alone never chooses.  The gaze decision only nominates a
   *candidate*; it becomes the choice when SSVEP confirms it: the decoder
   chose the same option, or its posterior for that option (``ssvep/scores``)
-  reached ``confirm_threshold``, within ``max_lag_s`` of the gaze candidate
-  (either may come first).  A gaze decision is a candidate only when the gaze
+  stayed at or above ``confirm_threshold`` in every scoring step over
+  ``hold_s`` (as the decoder holds its own choices,
+  :class:`eye_bci_ros2.ssvep.decision.HeldDecision`: one step's excursion is
+  noise), within ``max_lag_s`` of the gaze candidate (either may come first).  A gaze decision is a candidate only when the gaze
   stayed on it: its margin (leader's share of the in-region gaze minus the
   runner-up's) is at least ``min_gaze_margin``.  Gaze narrows the options and SSVEP, which needs
   sustained attention to a flickering option, supplies the intent: looking
@@ -23,6 +25,8 @@ At most one choice per round; a round starts with :meth:`ChoiceFusion.new_round`
 from dataclasses import dataclass
 from typing import Dict, Optional, Sequence, Tuple
 
+from eye_bci_ros2.ssvep.decision import DEFAULT_HOLD_S
+
 INPUT_MODES = ('gaze', 'ssvep', 'hybrid')
 
 
@@ -36,12 +40,15 @@ class FusionSettings:
     :param max_lag_s: longest time between the gaze candidate and the SSVEP
         evidence that confirms it, s.
     :param min_gaze_margin: gaze margin a decision needs to be a candidate.
+    :param hold_s: how long the candidate's posterior must stay at or above
+        ``confirm_threshold``, s.
     """
 
     mode: str = 'gaze'
     confirm_threshold: float = 0.9
     max_lag_s: float = 5.0
     min_gaze_margin: float = 0.5
+    hold_s: float = DEFAULT_HOLD_S
 
     def __post_init__(self):
         """Reject settings that cannot work, with a reason."""
@@ -89,7 +96,10 @@ class ChoiceFusion:
             self._options = tuple(options)
         self._candidate: Optional[Tuple[str, float]] = None
         self._ssvep_choice: Optional[Tuple[str, float]] = None
-        self._posterior: Dict[str, Tuple[float, float]] = {}
+        #: Per label: since when its posterior has been at or above the threshold.
+        self._above: Dict[str, float] = {}
+        #: Per label: when its posterior last completed a hold.
+        self._held: Dict[str, float] = {}
         self._chosen = False
 
     def gaze(self, label: Optional[str], t: float, margin: float = 1.0) -> Optional[str]:
@@ -125,11 +135,16 @@ class ChoiceFusion:
         if self.settings.mode != 'hybrid' or self._chosen:
             return None
         for label, probability in zip(labels, posterior):
-            if label in self._options:
-                best = self._posterior.get(label)
-                if best is None or probability >= best[0] or \
-                        t - best[1] > self.settings.max_lag_s:
-                    self._posterior[label] = (float(probability), t)
+            if label not in self._options:
+                continue
+            if probability < self.settings.confirm_threshold:
+                self._above.pop(label, None)
+                continue
+            since = self._above.setdefault(label, t)
+            if t - since >= self.settings.hold_s - 1e-6:
+                self._held[label] = t
+        for label in set(self._above) - set(labels):  # not scored in this step
+            del self._above[label]
         return self._confirm()
 
     def _confirm(self) -> Optional[str]:
@@ -142,9 +157,8 @@ class ChoiceFusion:
             chosen, t = self._ssvep_choice
             if chosen == label and abs(t - t_gaze) <= lag:
                 return self._choose(label)
-        evidence = self._posterior.get(label)
-        if evidence is not None and evidence[0] >= self.settings.confirm_threshold \
-                and abs(evidence[1] - t_gaze) <= lag:
+        held = self._held.get(label)
+        if held is not None and abs(held - t_gaze) <= lag:
             return self._choose(label)
         return None
 

@@ -58,12 +58,16 @@ class RestModel:
     :param mean: its mean at each length, (L,).
     :param std: its standard deviation at each length, (L,), > 0.
     :param source: where it was measured (e.g. 'white noise', 'calibration rest').
+    :param option_means: optional, the mean of each of K options at each
+        length, (L, K) (the statistic's mean can depend on the option's
+        frequency through the filters); used instead of ``mean`` when given.
     """
 
     windows_s: tuple
     mean: tuple
     std: tuple
     source: str = ''
+    option_means: tuple = ()
 
     def __post_init__(self):
         """Check the table."""
@@ -71,10 +75,19 @@ class RestModel:
         if not (w.ndim == 1 and len(w) >= 1 and w.shape == m.shape == s.shape
                 and np.all(np.diff(w) > 0) and np.all(s > 0) and np.all(np.isfinite(m))):
             raise ValueError(f'inconsistent rest model: windows {w}, mean {m}, std {s}')
+        if len(self.option_means):
+            o = np.asarray(self.option_means, dtype=float)
+            if not (o.ndim == 2 and o.shape[0] == len(w) and np.all(np.isfinite(o))):
+                raise ValueError(f'inconsistent rest model: option means of shape {o.shape} '
+                                 f'for {len(w)} window lengths')
 
     def z(self, statistic: np.ndarray, window_s: float) -> np.ndarray:
         """Evidence of each statistic against the null at this window length, (K,)."""
-        mean = np.interp(window_s, self.windows_s, self.mean)
+        if len(self.option_means):
+            table = np.asarray(self.option_means, dtype=float)
+            mean = np.array([np.interp(window_s, self.windows_s, column) for column in table.T])
+        else:
+            mean = np.interp(window_s, self.windows_s, self.mean)
         std = np.interp(window_s, self.windows_s, self.std)
         return (np.asarray(statistic, dtype=float) - mean) / std
 

@@ -193,8 +193,9 @@ def null_windows(min_window_s: float, window_s: float) -> Tuple[float, ...]:
 
 
 #: A key of :func:`fbcca_null`: (rate, channels, bands, harmonics, band, notch_hz,
-#: windows_s, delta).
-NullKey = Tuple[float, int, int, int, Tuple[float, float], float, Tuple[float, ...], float]
+#: windows_s, delta, frequencies).
+NullKey = Tuple[float, int, int, int, Tuple[float, float], float, Tuple[float, ...], float,
+                Tuple[float, ...]]
 #: FBCCA nulls measured in this process, by key (kept: a handful of settings per process).
 _NULLS: Dict[NullKey, RestModel] = {}
 #: Nulls being measured in the background, by key.
@@ -204,7 +205,7 @@ _NULLS_LOCK = threading.Lock()
 
 def fbcca_null(rate: float, channels: int, bands: int, harmonics: int,
                band: Tuple[float, float], notch_hz: float, windows_s: Tuple[float, ...],
-               delta: float) -> RestModel:
+               delta: float, frequencies: Tuple[float, ...] = ()) -> RestModel:
     """
     The FBCCA sideband statistic of an unattended option, measured on white noise.
 
@@ -212,10 +213,16 @@ def fbcca_null(rate: float, channels: int, bands: int, harmonics: int,
     an option with its own neighbourhood, so its null depends on the window
     length, channels and harmonics (degrees of freedom), hardly on the EEG's
     spectrum or size: measured on real rest EEG it matches (docs/ssvep.md).
+    Its spread is pooled over :data:`NULL_PROBES_HZ`; its mean is also measured
+    at each of ``frequencies`` (the offered options, in the same noise
+    windows): there the filters shift it (an option whose lower sidebands
+    fall on the filter bank's lower edge, e.g. 8 Hz: +0.14, 0.7 standard
+    deviations; one whose harmonic falls on the line notch, 10 Hz: -0.17).
     Measured once per process and settings (seconds at 1000 Hz x 32 channels):
     a live decoder asks :func:`fbcca_null_soon` instead, which never waits.
     """
-    key = _null_key(rate, channels, bands, harmonics, band, notch_hz, windows_s, delta)
+    key = _null_key(rate, channels, bands, harmonics, band, notch_hz, windows_s, delta,
+                    frequencies)
     with _NULLS_LOCK:
         known = _NULLS.get(key)
     if known is None:
@@ -227,7 +234,7 @@ def fbcca_null(rate: float, channels: int, bands: int, harmonics: int,
 
 def fbcca_null_soon(rate: float, channels: int, bands: int, harmonics: int,
                     band: Tuple[float, float], notch_hz: float, windows_s: Tuple[float, ...],
-                    delta: float) -> Optional[RestModel]:
+                    delta: float, frequencies: Tuple[float, ...] = ()) -> Optional[RestModel]:
     """
     :func:`fbcca_null` if already measured, else None and its measurement started.
 
@@ -235,7 +242,8 @@ def fbcca_null_soon(rate: float, channels: int, bands: int, harmonics: int,
     the GIL, so a decision step in the meantime is not held up by it), one
     per settings; the caller asks again at its next step.
     """
-    key = _null_key(rate, channels, bands, harmonics, band, notch_hz, windows_s, delta)
+    key = _null_key(rate, channels, bands, harmonics, band, notch_hz, windows_s, delta,
+                    frequencies)
     with _NULLS_LOCK:
         if key in _NULLS:
             return _NULLS[key]
@@ -247,29 +255,38 @@ def fbcca_null_soon(rate: float, channels: int, bands: int, harmonics: int,
     return None
 
 
-def _null_key(rate, channels, bands, harmonics, band, notch_hz, windows_s, delta) -> NullKey:
+def _null_key(rate, channels, bands, harmonics, band, notch_hz, windows_s, delta,
+              frequencies) -> NullKey:
     return (float(rate), int(channels), int(bands), int(harmonics),
             (float(band[0]), float(band[1])), float(notch_hz),
-            tuple(float(w) for w in windows_s), float(delta))
+            tuple(float(w) for w in windows_s), float(delta),
+            tuple(float(f) for f in frequencies))
 
 
 def _measure_null(rate: float, channels: int, bands: int, harmonics: int,
                   band: Tuple[float, float], notch_hz: float, windows_s: Tuple[float, ...],
-                  delta: float) -> RestModel:
+                  delta: float, frequencies: Tuple[float, ...]) -> RestModel:
     """Measure :func:`fbcca_null` (no cache)."""
     rng = np.random.default_rng(20161)
     hop = int(round(max(windows_s) * rate / 2))  # windows overlap by half: less to filter
     start = int(round(3.0 * rate))  # past the filters' settle time
     noise = rng.standard_normal((start + (NULL_WINDOWS + 1) * hop, channels))
     filtered = filter_recording(noise, rate, bands, band, notch_hz)
-    decoder = FbccaDecoder(with_sidebands(NULL_PROBES_HZ, delta), rate, bands, harmonics)
-    samples = []
+    probes = len(NULL_PROBES_HZ)
+    decoder = FbccaDecoder(with_sidebands(NULL_PROBES_HZ + tuple(frequencies), delta), rate,
+                           bands, harmonics)
+    samples, option_means = [], []
     for length in windows_s:
         n = int(round(length * rate))
-        values = [sideband_statistic(decoder.scores(
-            filtered[:, start + i * hop:start + i * hop + n])) for i in range(NULL_WINDOWS)]
-        samples.append(np.concatenate(values))
-    return RestModel.measure(windows_s, samples, 'white noise')
+        values = np.array([sideband_statistic(decoder.scores(
+            filtered[:, start + i * hop:start + i * hop + n])) for i in range(NULL_WINDOWS)])
+        samples.append(values[:, :probes].ravel())
+        option_means.append(tuple(values[:, probes:].mean(axis=0).tolist()))
+    pooled = RestModel.measure(windows_s, samples, 'white noise')
+    if not frequencies:
+        return pooled
+    return RestModel(pooled.windows_s, pooled.mean, pooled.std, pooled.source,
+                     tuple(option_means))
 
 
 def trca_filter(trials: np.ndarray) -> np.ndarray:

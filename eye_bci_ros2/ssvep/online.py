@@ -37,9 +37,9 @@ Junk never chooses:
   (FBCCA, one note) or refused (a TRCA model fitted at another rate);
 - a stimulus map that lacks an offered option, fewer than 2 options, or a
   TRCA model without the options' stimuli decode nothing.
-- FBCCA decides nothing until its null for the decoded channels and rate is
-  measured (``background_null``: off the decision path, once per process and
-  settings, from the decoder's construction for all its channels).
+- FBCCA decides nothing until its null for the decoded channels, rate and
+  stimuli is measured (``background_null``: off the decision path, once per
+  process and settings, when they are first seen).
 
 Each refusal is a :attr:`OnlineResult.problem` string the node logs.
 """
@@ -186,8 +186,9 @@ class OnlineDecoder:
     :param model: a TRCA model (needed for 'trca' / 'ensemble_trca'); its
         rate, channels and filter settings must match.
     :param background_null: measure the FBCCA null (seconds of CPU at 1000 Hz x
-        32 channels) in the background, from construction on, and decide
-        nothing until it is there (a live stream: no step ever waits for it);
+        32 channels) in the background when a count of usable channels or a set
+        of stimuli is first seen, and decide nothing until it is there (a live
+        stream: no step ever waits for it);
         False = measure it in the step that first needs it (offline replay,
         where steps stand for stream time, not wall time).
     """
@@ -260,8 +261,6 @@ class OnlineDecoder:
         self._times = np.zeros(2 * self._capacity)
         self._fbcca_key = None
         self._fbcca_decoder: Optional[FbccaDecoder] = None
-        if self.model is None and self._background_null:
-            self._null(len(self.channels))  # every channel usable: the common case
         self._restart()
 
     # -- input ------------------------------------------------------------------------------
@@ -526,10 +525,11 @@ class OnlineDecoder:
             result.problem = problem
             return result
         if self.model is None:
-            null = self._null(int(good.sum()))
+            null = self._null(int(good.sum()), frequencies)
             if null is None:
                 result.problem = (f'measuring the FBCCA rest model for {int(good.sum())} '
-                                  f'channels at {self.rate:g} Hz (a few seconds, once)')
+                                  f'channels at {self.rate:g} Hz and these stimuli (up to a few '
+                                  'seconds, once)')
                 return result
             all_scores = self._fbcca(frequencies).scores(window[:, :, good])
             scores = all_scores[:len(labels)]
@@ -566,16 +566,16 @@ class OnlineDecoder:
                 self.rate, self._bank.bands, self.settings.harmonics)
         return self._fbcca_decoder
 
-    def _null(self, channels: int) -> Optional[RestModel]:
+    def _null(self, channels: int, frequencies: np.ndarray) -> Optional[RestModel]:
         """
-        The FBCCA null for this many decoded channels at the rate in use.
+        The FBCCA null for this many decoded channels and these stimuli at the rate in use.
 
         None while it is measured in the background (``background_null``).
         """
         bands, band, notch = self._filter_settings
         key = (self.rate, channels, bands, self.settings.harmonics, tuple(band), notch,
                null_windows(self.settings.min_window_s, self.settings.window_s),
-               sideband_hz(self.settings.min_window_s))
+               sideband_hz(self.settings.min_window_s), tuple(frequencies.tolist()))
         return fbcca_null_soon(*key) if self._background_null else fbcca_null(*key)
 
     def _model_problem(self, labels: Sequence[str], stimuli: StimulusMap) -> Optional[str]:

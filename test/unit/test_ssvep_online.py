@@ -118,10 +118,11 @@ def test_ensemble_trca_online_and_its_checks():
     # Nobody attending: the model's rest model keeps it from choosing.
     simulator, decoder = _setup(SUBJECTS[4], None, settings, model)
     assert _choices(_run(decoder, simulator, 6.0)) == []
-    moved = StimulusMap(LABELS, (8.0, 9.0, 11.0), STIMULI.phases, 1.0)
+    moved = StimulusMap(LABELS, STIMULI.frequencies[:2] + (STIMULI.frequencies[2] + 1.0,),
+                        STIMULI.phases, 1.0)
     simulator, decoder = _setup(SUBJECTS[4], 'bathroom', settings, model)
     decoder.start_round(1.0, LABELS, moved)
-    assert 'model learnt it at 10 Hz' in _run(decoder, simulator, 2.0)[-1].problem
+    assert f'model learnt it at {STIMULI.frequencies[2]:g} Hz' in _run(decoder, simulator, 2.0)[-1].problem
     with pytest.raises(ValueError, match='needs a TRCA model'):
         OnlineDecoder(250.0, calibration.labels, settings)
     with pytest.raises(ValueError, match='fitted on channels'):
@@ -180,7 +181,7 @@ def test_a_round_window_starts_after_the_onset():
 
 
 def test_strong_alpha_with_nobody_attending_never_chooses():
-    """Alpha bursts near the options (8-10 Hz) are not an attended stimulus."""
+    """Alpha bursts (10 Hz, below the default options) are not an attended stimulus."""
     alpha = EegSubject('alpha', 5.0, alpha_uv=12.0, alpha_hz=10.0)
     for seed in range(2):
         simulator, decoder = _setup(alpha, None, seed=seed)
