@@ -10,10 +10,11 @@ Input modes of an experiment: gaze, SSVEP, or both (hybrid), and how they make a
   stayed at or above ``confirm_threshold`` in every scoring step over
   ``hold_s`` (as the decoder holds its own choices,
   :class:`eye_bci_ros2.ssvep.decision.HeldDecision`: one step's excursion is
-  noise), within ``max_lag_s`` of the gaze candidate (either may come first).  A gaze decision is a candidate only when the gaze
-  stayed on it: its margin (leader's share of the in-region gaze minus the
-  runner-up's) is at least ``min_gaze_margin``.  Gaze narrows the options and SSVEP, which needs
-  sustained attention to a flickering option, supplies the intent: looking
+  noise), within ``max_lag_s`` of the gaze candidate (either may come
+  first).  A gaze decision is a candidate only when the gaze stayed on it:
+  its margin (leader's share of the in-region gaze minus the runner-up's) is
+  at least ``min_gaze_margin``.  Gaze narrows the options and SSVEP, which
+  needs sustained attention to a flickering option, supplies the intent: looking
   over the options (the "Midas touch") nominates candidates but never
   confirms one.  (Sequential gaze-then-SSVEP confirmation as in Stawicki et
   al. 2017 and the sequential mode of Guo et al. 2023.)

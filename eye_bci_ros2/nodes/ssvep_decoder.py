@@ -101,7 +101,7 @@ PARAMETERS = (
     ParamSpec('rest_z', DEFAULT_REST_Z, "evidence z at which 'nothing attended' is as likely "
               'as one option (higher: fewer choices when nobody attends, slower ones)',
               value_range=(0.0, 20.0)),
-    ParamSpec('hold_s', DEFAULT_HOLD_S, "an option is chosen once its evidence has reached "
+    ParamSpec('hold_s', DEFAULT_HOLD_S, 'an option is chosen once its evidence has reached '
               "'threshold' in every decision step over this long, s (an SSVEP lasts, chance "
               'crossings do not; 0 = at the first step)', value_range=(0.0, 10.0)),
     ParamSpec('onset_s', DEFAULT_ONSET_S, "a round's EEG window starts this long after the "

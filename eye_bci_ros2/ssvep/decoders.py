@@ -207,7 +207,7 @@ def fbcca_null(rate: float, channels: int, bands: int, harmonics: int,
                band: Tuple[float, float], notch_hz: float, windows_s: Tuple[float, ...],
                delta: float, frequencies: Tuple[float, ...] = ()) -> RestModel:
     """
-    The FBCCA sideband statistic of an unattended option, measured on white noise.
+    Measure the FBCCA sideband statistic of an unattended option on white noise.
 
     Seeded, so the same settings give the same null.  The statistic compares
     an option with its own neighbourhood, so its null depends on the window

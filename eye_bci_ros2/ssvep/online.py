@@ -299,9 +299,11 @@ class OnlineDecoder:
                              f' got {raw.shape}')
         if not len(times):
             return
-        last = (self._pending[-1][0][-1] if self._pending
-                 else self._times[(self._written - 1) % self._capacity] if self._written
-                 else None)
+        last = None
+        if self._pending:
+            last = self._pending[-1][0][-1]
+        elif self._written:
+            last = self._times[(self._written - 1) % self._capacity]
         if last is not None and (times[0] - last > GAP_PERIODS / self.rate or times[0] < last):
             self.counters['gaps'] += 1
             self.reset()
@@ -568,7 +570,7 @@ class OnlineDecoder:
 
     def _null(self, channels: int, frequencies: np.ndarray) -> Optional[RestModel]:
         """
-        The FBCCA null for this many decoded channels and these stimuli at the rate in use.
+        Return the FBCCA null for this many decoded channels and these stimuli at this rate.
 
         None while it is measured in the background (``background_null``).
         """

@@ -81,8 +81,8 @@ def test_a_choice_needs_the_evidence_to_hold():
     # Another option taking the lead starts the hold again.
     held.interrupt()
     other = np.array([6.0, 0.0, 0.5])
-    assert [held.update(z, 2.0, t) for z, t in ((strong, 0.0), (other, 0.3), (other, 0.7),
-                                                 (other, 0.8))] == [None, None, None, 0]
+    steps = ((strong, 0.0), (other, 0.3), (other, 0.7), (other, 0.8))
+    assert [held.update(z, 2.0, t) for z, t in steps] == [None, None, None, 0]
     # hold_s 0: the first qualifying step chooses (the rule alone).
     assert HeldDecision(DecisionRule(hold_s=0.0)).update(strong, 2.0, 0.0) == 1
     with pytest.raises(ValueError, match='hold_s'):

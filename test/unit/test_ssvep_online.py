@@ -122,7 +122,8 @@ def test_ensemble_trca_online_and_its_checks():
                         STIMULI.phases, 1.0)
     simulator, decoder = _setup(SUBJECTS[4], 'bathroom', settings, model)
     decoder.start_round(1.0, LABELS, moved)
-    assert f'model learnt it at {STIMULI.frequencies[2]:g} Hz' in _run(decoder, simulator, 2.0)[-1].problem
+    problem = _run(decoder, simulator, 2.0)[-1].problem
+    assert f'model learnt it at {STIMULI.frequencies[2]:g} Hz' in problem
     with pytest.raises(ValueError, match='needs a TRCA model'):
         OnlineDecoder(250.0, calibration.labels, settings)
     with pytest.raises(ValueError, match='fitted on channels'):
