@@ -19,7 +19,9 @@ clone).
    choice of the stimulus trials, choices in rest trials, median decision
    time after the cue; and leave-subject-out: each subject decided with the
    ``rest_z`` (:data:`REST_Z_GRID`) that does best on the *other* subjects
-   within the goals' limits (FBCCA, replayed from the recorded evidence).
+   within the goals' limits (FBCCA, replayed from the recorded evidence);
+   and the recorded evidence replayed under other decision constants
+   (:data:`REPLAY_GRID`: ``rest_z``, ``threshold``, ``hold_s``).
 3. ``hybrid``: the same rounds through the hybrid fusion
    (:class:`~eye_bci_ros2.fusion.ChoiceFusion`, default settings) with the
    gaze resting on an option from :data:`GAZE_AT_S` after the cue: in rest
