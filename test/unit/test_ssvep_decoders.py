@@ -168,7 +168,8 @@ def test_trca_evidence_of_rest_stays_in_its_null(trca_model):
 
 
 def test_the_fbcca_null_is_centred_at_each_offered_frequency():
-    """The filters shift the statistic at some frequencies; the null follows them.
+    """
+    The filters shift the statistic at some frequencies; the null follows them.
 
     8 Hz: its lower sidebands fall on the filter bank's 8 Hz edge (white noise: +0.14,
     0.7 standard deviations); 10 Hz: its 5th harmonic on the 50 Hz notch (-0.17).
