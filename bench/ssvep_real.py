@@ -22,7 +22,10 @@ clone).
    within the goals' limits (FBCCA, replayed from the recorded evidence);
    and the recorded evidence replayed under other decision constants
    (:data:`REPLAY_GRID`: ``rest_z``, ``threshold``, ``hold_s``).
-3. ``hybrid``: the same rounds through the hybrid fusion
+3. ``statistic``: the FBCCA evidence statistic's spread on real EEG
+   nobody attends (rest trials, unattended options) beside its white-noise
+   null, and the attended option's median z, at 1, 2 and 4 s windows.
+4. ``hybrid``: the same rounds through the hybrid fusion
    (:class:`~eye_bci_ros2.fusion.ChoiceFusion`, default settings) with the
    gaze resting on an option from :data:`GAZE_AT_S` after the cue: in rest
    trials on each option in turn (looking without attending: must not
@@ -56,7 +59,8 @@ from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
 from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EEG_DATA_ENV,
                                          EegRecording, find_eeg_recordings, load_eeg)
 from eye_bci_ros2.ssvep.decision import DecisionRule, HeldDecision
-from eye_bci_ros2.ssvep.decoders import FbccaDecoder, TrcaModel
+from eye_bci_ros2.ssvep.decoders import (fbcca_null, FbccaDecoder, sideband_hz,
+                                         sideband_statistic, TrcaModel, with_sidebands)
 from eye_bci_ros2.ssvep.filters import filter_recording
 from eye_bci_ros2.ssvep.online import OnlineDecoder, OnlineSettings
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
@@ -78,6 +82,8 @@ REST_Z_GRID = (1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0)
 #: subjects): the trade between right choices, wrong ones and choices on nothing; the
 #: former default (2.5, 0.95, no hold) among them.
 REPLAY_GRID = ((2.5, 0.95, 0.0), (2.0, 0.95, 0.0), (1.0, 0.95, 0.5), (2.0, 0.95, 0.5))
+#: Window lengths the FBCCA statistic is compared with its white-noise null at, s.
+STATISTIC_WINDOWS_S = (1.0, 2.0, 4.0)
 #: When the gaze reaches the option in the hybrid rounds, after the cue, s.
 GAZE_AT_S = 1.0
 #: Calibration trial length, s.
@@ -124,6 +130,42 @@ def _offline(recording: EegRecording, model: Optional[TrcaModel]) -> Dict[float,
                       else model.scores(window, OFFLINE_START_S))  # the cue is the epoch
             hits[w].append(bool(frequencies[np.argmax(scores)] == hz))
     return hits
+
+
+def _statistic(recordings: Sequence[EegRecording], settings: OnlineSettings) -> Dict[str, Dict]:
+    """
+    Compare the FBCCA evidence statistic on real EEG with its white-noise null, by window.
+
+    Windows from ``onset_s`` after each cue: the statistic of every option in
+    rest trials and of the unattended options in stimulus trials (the real
+    null: its standard deviation), and the attended option's z against that
+    real null (median).  White noise: :func:`~eye_bci_ros2.ssvep.decoders.fbcca_null`.
+    """
+    rows = {}
+    delta = sideband_hz(settings.min_window_s)
+    for length in STATISTIC_WINDOWS_S:
+        null, attended = [], []
+        for recording in recordings:
+            frequencies = np.array(recording.frequencies)
+            fbcca = FbccaDecoder(with_sidebands(frequencies, delta), recording.rate)
+            filtered = filter_recording(recording.eeg_uv, recording.rate)
+            n = int(round(length * recording.rate))
+            for cue, hz in recording.trials:
+                start = int(round((cue + settings.onset_s) * recording.rate))
+                values = sideband_statistic(fbcca.scores(filtered[:, start:start + n]))
+                own = frequencies == hz
+                null += values[~own].tolist()
+                attended += values[own].tolist()
+        null, attended = np.array(null), np.array(attended)
+        first = recordings[0]
+        white = fbcca_null(first.rate, len(first.channels), settings.bands, settings.harmonics,
+                           settings.band, settings.notch_hz, (length,), delta)
+        rows[f'{length:g} s'] = {
+            'real_null_sd': round(float(null.std()), 3),
+            'white_noise_sd': round(float(white.std[0]), 3),
+            'attended_median_z': round(float(np.median((attended - null.mean()) / null.std())),
+                                       2)}
+    return rows
 
 
 def _online(recording: EegRecording, settings: OnlineSettings,
@@ -335,6 +377,10 @@ def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str]
                 per_subject[subject] = online
                 for w in WINDOWS_S:
                     offline_all[w] += offline[w]
+        if decoder == 'fbcca':
+            for length, row in _statistic([r for listed in groups.values() for r in listed],
+                                          settings).items():
+                results[f'fbcca statistic {length}'] = row
         if online_all:
             results[f'{decoder} online all'] = _online_row(online_all)
             results[f'{decoder} hybrid all'] = _hybrid(online_all)
