@@ -264,7 +264,7 @@ def _cpu(full: bool) -> Dict[str, Dict]:
             # The FBCCA null is measured once per set-up (cached): timed on its own.
             setup = time.process_time()
             fbcca_null(rate, len(names), 5, 5, (6.0, 90.0), 50.0, null_windows(1.0, 2.0),
-                       sideband_hz(1.0))
+                       sideband_hz(1.0), tuple(float(f) for f in stimuli.frequencies))
             setup_s = time.process_time() - setup
             start = time.process_time()
             for k, first in enumerate(range(0, len(times), chunk)):

@@ -7,11 +7,14 @@ Input modes of an experiment: gaze, SSVEP, or both (hybrid), and how they make a
 - ``hybrid``: gaze alone never chooses.  The gaze decision only nominates a
   *candidate*; it becomes the choice when SSVEP confirms it: the decoder
   chose the same option, or its posterior for that option (``ssvep/scores``)
-  reached ``confirm_threshold``, within ``max_lag_s`` of the gaze candidate
-  (either may come first).  A gaze decision is a candidate only when the gaze
-  stayed on it: its margin (leader's share of the in-region gaze minus the
-  runner-up's) is at least ``min_gaze_margin``.  Gaze narrows the options and SSVEP, which needs
-  sustained attention to a flickering option, supplies the intent: looking
+  stayed at or above ``confirm_threshold`` in every scoring step over
+  ``hold_s`` (as the decoder holds its own choices,
+  :class:`eye_bci_ros2.ssvep.decision.HeldDecision`: one step's excursion is
+  noise), within ``max_lag_s`` of the gaze candidate (either may come
+  first).  A gaze decision is a candidate only when the gaze stayed on it:
+  its margin (leader's share of the in-region gaze minus the runner-up's) is
+  at least ``min_gaze_margin``.  Gaze narrows the options and SSVEP, which
+  needs sustained attention to a flickering option, supplies the intent: looking
   over the options (the "Midas touch") nominates candidates but never
   confirms one.  (Sequential gaze-then-SSVEP confirmation as in Stawicki et
   al. 2017 and the sequential mode of Guo et al. 2023.)
@@ -25,6 +28,7 @@ from typing import Dict, NamedTuple, Optional, Sequence, Tuple
 
 from eye_bci_ros2.base.settings import check_settings, Setting
 from eye_bci_ros2.base.validators import Interval
+from eye_bci_ros2.ssvep.decision import DEFAULT_HOLD_S
 
 #: The input modes, the one place they are named (the ``input_mode`` parameter's choices).
 INPUT_MODES = ('gaze', 'ssvep', 'hybrid')
@@ -75,6 +79,10 @@ class FusionSettings:
         0.5, 'hybrid: a gaze decision is a candidate only with at least this margin (share '
         "of in-region gaze on it minus the runner-up's): the gaze stayed on it",
         interval=Interval(0.0, 1.0)).field()
+    hold_s: float = Setting(
+        DEFAULT_HOLD_S, "hybrid: how long the candidate's SSVEP posterior must stay at or above "
+        'confirm_threshold to confirm it, s (as the ssvep_decoder holds its choices)',
+        interval=Interval(0.0, 10.0), unit='s').field()
 
     def __post_init__(self):
         """Reject settings that cannot work, with a reason (each field's declaration)."""
@@ -114,7 +122,10 @@ class ChoiceFusion:
             self._options = tuple(options)
         self._candidate: Optional[Timed] = None
         self._ssvep_choice: Optional[Timed] = None
-        self._posterior: Dict[str, Tuple[float, float]] = {}
+        #: Per label: since when its posterior has been at or above the threshold.
+        self._above: Dict[str, float] = {}
+        #: Per label: when its posterior last completed a hold.
+        self._held: Dict[str, float] = {}
         self._chosen = False
 
     def gaze(self, label: Optional[str], t: float, margin: float = 1.0) -> Optional[str]:
@@ -171,11 +182,16 @@ class ChoiceFusion:
         if self.settings.input_mode != HYBRID or self._chosen:
             return None
         for label, probability in zip(labels, posterior):
-            if label in self._options:
-                best = self._posterior.get(label)
-                if best is None or probability >= best[0] or \
-                        t - best[1] > self.settings.max_lag_s:
-                    self._posterior[label] = (float(probability), t)
+            if label not in self._options:
+                continue
+            if probability < self.settings.confirm_threshold:
+                self._above.pop(label, None)
+                continue
+            since = self._above.setdefault(label, t)
+            if t - since >= self.settings.hold_s - 1e-6:
+                self._held[label] = t
+        for label in set(self._above) - set(labels):  # not scored in this step
+            del self._above[label]
         return self._confirm()
 
     def _confirm(self) -> Optional[str]:
@@ -188,9 +204,8 @@ class ChoiceFusion:
             chosen, t = self._ssvep_choice
             if chosen == label and abs(t - t_gaze) <= lag:
                 return self._choose(label)
-        evidence = self._posterior.get(label)
-        if evidence is not None and evidence[0] >= self.settings.confirm_threshold \
-                and abs(evidence[1] - t_gaze) <= lag:
+        held = self._held.get(label)
+        if held is not None and abs(held - t_gaze) <= lag:
             return self._choose(label)
         return None
 

@@ -11,7 +11,7 @@ ALLOWED = {
     'base': set(),
     'projection': set(),
     'streams': set(),
-    'decision': {'projection'},
+    'decision': {'projection', 'ssvep'},
     'gaze': {'projection', 'streams', 'decision'},
     'task': {'projection', 'decision'},
     'ssvep': {'streams'},

@@ -50,7 +50,7 @@ def test_hybrid_gaze_confirmed_by_the_ssvep_choice(ssvep_first):
 
 
 def test_hybrid_disagreement_or_stale_evidence_does_not_choose():
-    fusion = _fusion('hybrid', max_lag_s=1.0)
+    fusion = _fusion('hybrid', max_lag_s=1.0, hold_s=0.0)
     assert fusion.gaze('bedroom', 1.0) is None
     assert fusion.ssvep_choice('kitchen', 1.2) is None
     assert fusion.ssvep_scores(OPTIONS, [0.1, 0.95, 0.0], 5.0) is None  # too late
@@ -58,14 +58,26 @@ def test_hybrid_disagreement_or_stale_evidence_does_not_choose():
 
 
 def test_hybrid_confirmed_by_the_ssvep_posterior():
-    fusion = _fusion('hybrid', confirm_threshold=0.8)
+    fusion = _fusion('hybrid', confirm_threshold=0.8, hold_s=0.5)
     assert fusion.ssvep_scores(OPTIONS, [0.3, 0.6, 0.1], 1.0) is None
     assert fusion.gaze('bedroom', 1.1) is None
-    assert fusion.ssvep_scores(OPTIONS, [0.05, 0.85, 0.05], 1.2) == 'bedroom'
+    # Above the threshold from 1.2 s: confirmed once it has held for 0.5 s.
+    assert [fusion.ssvep_scores(OPTIONS, [0.05, 0.85, 0.05], 1.2 + 0.1 * k)
+            for k in range(6)] == [None] * 5 + ['bedroom']
+
+
+def test_hybrid_a_brief_posterior_excursion_does_not_confirm():
+    """One step's high posterior is noise (nobody attending); the hold is measured anew."""
+    fusion = _fusion('hybrid', confirm_threshold=0.8, hold_s=0.5)
+    assert fusion.gaze('bedroom', 1.0) is None
+    steps = [0.9, 0.9, 0.9, 0.5, 0.9, 0.9, 0.9, 0.9, 0.5]
+    assert all(fusion.ssvep_scores(OPTIONS, [0.0, p, 0.0], 1.0 + 0.1 * k) is None
+               for k, p in enumerate(steps))
+    assert not fusion.chosen
 
 
 def test_hybrid_a_wandering_gaze_nominates_no_candidate():
-    fusion = _fusion('hybrid', min_gaze_margin=0.5)
+    fusion = _fusion('hybrid', min_gaze_margin=0.5, hold_s=0.0)
     assert fusion.ssvep_scores(OPTIONS, [0.0, 0.99, 0.0], 1.0) is None
     assert fusion.gaze('bedroom', 1.1, margin=0.2) is None and fusion.candidate is None
     assert fusion.gaze('bedroom', 1.2, margin=0.9) == 'bedroom'

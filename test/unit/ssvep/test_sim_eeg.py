@@ -7,7 +7,7 @@ from eye_bci_ros2.sim.eeg import (calibration_session, EegSimulator, EegSubject,
                                   SUBJECTS)
 from eye_bci_ros2.ssvep.stimuli import assign_stimuli
 
-STIMULI = assign_stimuli(['a', 'b', 'c'])
+STIMULI = assign_stimuli(['a', 'b', 'c'], (8.0, 9.0, 10.0))  # the figures below are at these
 
 
 def test_chunked_streaming_equals_one_batch():

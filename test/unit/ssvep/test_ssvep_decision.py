@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from eye_bci_ros2.ssvep.decision import DecisionRule, margin, posterior, RestModel
+from eye_bci_ros2.ssvep.decision import DecisionRule, HeldDecision, margin, posterior, RestModel
 
 
 def test_the_posterior_is_the_likelihood_ratio_against_nothing_attended():
@@ -20,7 +20,8 @@ def test_the_same_ranking_with_small_evidence_is_not_a_choice():
     """Relative scores alone made [-0.004, 0.016, 0.044] a 0.99 posterior; the null does not."""
     rule = DecisionRule()
     small = np.array([-0.1, 0.4, 1.1])  # z: well inside the null
-    assert rule.probabilities(small).max() < 0.05
+    # "Nothing attended" keeps most of the posterior (0.74 at the default rest_z).
+    assert rule.probabilities(small).sum() < 0.3
     assert rule.decide(small, 2.0) is None
     large = small + 5.0  # the same differences, but far out of the null
     assert rule.decide(np.array([-0.1, 0.4, 7.0]), 2.0) == 2
@@ -65,3 +66,24 @@ def test_rest_model_standardises_by_window_length_and_round_trips():
         RestModel.measure((1.0,), [np.zeros(3)], 'too few')
     with pytest.raises(ValueError, match='inconsistent'):
         RestModel((2.0, 1.0), (0.0, 0.0), (1.0, 1.0))
+
+
+def test_a_choice_needs_the_evidence_to_hold():
+    """A chance crossing of the threshold is brief; an SSVEP lasts: hold_s of steps."""
+    held = HeldDecision(DecisionRule(hold_s=0.5))
+    strong, weak = np.array([0.0, 6.0, 0.5]), np.array([0.0, 0.3, 0.5])
+    # One crossing, then the evidence falls back: no choice.
+    assert [held.update(z, 2.0, t) for z, t in ((strong, 0.0), (strong, 0.1), (weak, 0.2))] \
+        == [None, None, None]
+    # Held from 0.3 s: chosen at the step 0.5 s later, not before.
+    steps = [held.update(strong, 2.0, 0.3 + 0.1 * k) for k in range(7)]
+    assert steps == [None] * 5 + [1, 1]
+    # Another option taking the lead starts the hold again.
+    held.interrupt()
+    other = np.array([6.0, 0.0, 0.5])
+    steps = ((strong, 0.0), (other, 0.3), (other, 0.7), (other, 0.8))
+    assert [held.update(z, 2.0, t) for z, t in steps] == [None, None, None, 0]
+    # hold_s 0: the first qualifying step chooses (the rule alone).
+    assert HeldDecision(DecisionRule(hold_s=0.0)).update(strong, 2.0, 0.0) == 1
+    with pytest.raises(ValueError, match='hold_s'):
+        DecisionRule(hold_s=-1.0)

@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 from eye_bci_ros2.sim.eeg import calibration_session, EegSimulator, SUBJECTS
-from eye_bci_ros2.ssvep.decoders import FbccaDecoder, trca_filter, TrcaModel
+from eye_bci_ros2.ssvep.decoders import (fbcca_null, FbccaDecoder, null_windows, sideband_hz,
+                                         sideband_statistic, trca_filter, TrcaModel,
+                                         with_sidebands)
 from eye_bci_ros2.ssvep.filters import filter_recording
 from eye_bci_ros2.ssvep.stimuli import assign_stimuli
 from eye_bci_ros2.ssvep.training import fit_trca
@@ -163,3 +165,29 @@ def test_trca_evidence_of_rest_stays_in_its_null(trca_model):
         else:
             attended_z.append(z[LABELS.index(label)])
     assert max(rest_z) < 3.0 < np.median(attended_z)
+
+
+def test_the_fbcca_null_is_centred_at_each_offered_frequency():
+    """
+    The filters shift the statistic at some frequencies; the null follows them.
+
+    8 Hz: its lower sidebands fall on the filter bank's 8 Hz edge (white noise: +0.14,
+    0.7 standard deviations); 10 Hz: its 5th harmonic on the 50 Hz notch (-0.17).
+    """
+    rate, channels, offered = 250.0, 4, (8.0, 10.0, 13.0)
+    windows = null_windows(1.0, 2.0)
+    null = fbcca_null(rate, channels, 5, 5, (6.0, 90.0), 50.0, windows, sideband_hz(1.0),
+                      offered)
+    # Fresh white noise (another seed than the null's), through the same filters.
+    noise = np.random.default_rng(7).standard_normal((int(130 * rate), channels))
+    filtered = filter_recording(noise, rate)
+    decoder = FbccaDecoder(with_sidebands(offered, sideband_hz(1.0)), rate)
+    n = int(2.0 * rate)
+    z = np.array([null.z(sideband_statistic(decoder.scores(filtered[:, s:s + n])), 2.0)
+                  for s in range(int(3 * rate), filtered.shape[1] - n, n)])
+    pooled = (z * np.asarray(null.std)[-1] + np.asarray(null.option_means)[-1]
+              - np.asarray(null.mean)[-1]) / np.asarray(null.std)[-1]
+    # Against the pooled mean the 8 Hz option sits well above 0 and 10 Hz below; against
+    # its own mean every option is centred (60 windows: standard error ~0.13).
+    assert pooled[:, 0].mean() > 0.35 and pooled[:, 1].mean() < -0.35
+    assert np.all(np.abs(z.mean(axis=0)) < 0.4)

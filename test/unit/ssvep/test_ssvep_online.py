@@ -1,5 +1,7 @@
 """The online decoder on simulated streams: choices, and junk that must not choose."""
 
+import threading
+
 import numpy as np
 import pytest
 
@@ -116,10 +118,12 @@ def test_ensemble_trca_online_and_its_checks():
     # Nobody attending: the model's rest model keeps it from choosing.
     simulator, decoder = _setup(SUBJECTS[4], None, settings, model)
     assert _choices(_run(decoder, simulator, 6.0)) == []
-    moved = StimulusMap(LABELS, (8.0, 9.0, 11.0), STIMULI.phases, 1.0)
+    moved = StimulusMap(LABELS, STIMULI.frequencies[:2] + (STIMULI.frequencies[2] + 1.0,),
+                        STIMULI.phases, 1.0)
     simulator, decoder = _setup(SUBJECTS[4], 'bathroom', settings, model)
     decoder.start_round(1.0, LABELS, moved)
-    assert 'model learnt it at 10 Hz' in _run(decoder, simulator, 2.0)[-1].problem
+    problem = _run(decoder, simulator, 2.0)[-1].problem
+    assert f'model learnt it at {STIMULI.frequencies[2]:g} Hz' in problem
     with pytest.raises(ValueError, match='needs a TRCA model'):
         OnlineDecoder(250.0, calibration.labels, settings)
     with pytest.raises(ValueError, match='fitted on channels'):
@@ -178,8 +182,38 @@ def test_a_round_window_starts_after_the_onset():
 
 
 def test_strong_alpha_with_nobody_attending_never_chooses():
-    """Alpha bursts near the options (8-10 Hz) are not an attended stimulus."""
+    """Alpha bursts (10 Hz, below the default options) are not an attended stimulus."""
     alpha = EegSubject('alpha', 5.0, alpha_uv=12.0, alpha_hz=10.0)
     for seed in range(2):
         simulator, decoder = _setup(alpha, None, seed=seed)
         assert _choices(_run(decoder, simulator, 8.0)) == []
+
+
+def test_a_live_decoder_never_waits_for_the_fbcca_null(monkeypatch):
+    """With ``background_null`` the null is measured off the decision path (node's mode)."""
+    from eye_bci_ros2.ssvep import decoders
+    # The measurement is held until released: stands for a slow one (1000 Hz x 32 channels)
+    # without depending on how fast this machine is.
+    release = threading.Event()
+    measure = decoders._measure_null
+
+    def held(*key):
+        release.wait(30.0)
+        return measure(*key)
+
+    monkeypatch.setattr(decoders, '_measure_null', held)
+    # Settings no other test uses, so nothing is cached yet.
+    settings = OnlineSettings(window_s=1.9, min_window_s=0.9)
+    simulator = EegSimulator(SUBJECTS[5], seed=3)
+    simulator.start(0.0, STIMULI)
+    simulator.set_attended('bedroom', 1.0)
+    decoder = OnlineDecoder(simulator.rate, simulator.labels, settings, background_null=True)
+    decoder.add(*simulator.next_chunk(1.0))
+    decoder.start_round(1.0, LABELS, STIMULI)
+    waiting = _run(decoder, simulator, 2.5)
+    assert _choices(waiting) == []
+    assert 'measuring the FBCCA rest model' in (waiting[-1].problem or '')
+    release.set()
+    for thread in list(decoders._MEASURING.values()):
+        thread.join(30.0)
+    assert _choices(_run(decoder, simulator, 2.0, start=3.5)) == ['bedroom']

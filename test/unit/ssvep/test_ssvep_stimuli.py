@@ -12,10 +12,11 @@ from eye_bci_ros2.ssvep.stimuli import (assign_stimuli, decode_stimulus_map, enc
 def test_round_trip_and_assignment():
     stimuli = assign_stimuli(['kitchen', 'bath'], epoch_s=12.5)
     names, frequencies, phases, epoch = encode_stimulus_map(stimuli)
-    assert names == ['kitchen', 'bath'] and frequencies == [8.0, 9.0]
+    # The defaults sit above the alpha band (8-12 Hz), 1 Hz apart.
+    assert names == ['kitchen', 'bath'] and frequencies == [13.0, 14.0]
     assert phases == pytest.approx([0.0, 0.35 * math.pi]) and epoch == 12.5
     assert decode_stimulus_map(names, frequencies, phases, epoch) == stimuli
-    assert stimuli.stimulus('bath') == (9.0, phases[1])
+    assert stimuli.stimulus('bath') == (14.0, phases[1])
 
 
 @pytest.mark.parametrize('fields, reason', [
