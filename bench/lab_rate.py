@@ -69,7 +69,7 @@ import rclpy
 from rclpy.context import Context
 from std_msgs.msg import Empty, String
 
-from bench.latency import Driver, encode_xy_pixels, make_outlet
+from bench.latency import default_poll_period, Driver, encode_xy_pixels, make_outlet
 from bench.timing import machine_info
 from eye_bci_ros2.nodes.runner import make_executor, spin_for, spin_until
 from eye_bci_ros2.nodes.topics import EVENT_QOS, NO_CHOICE_TOPIC
@@ -85,6 +85,7 @@ GAZE_NOISE_PX = 3.0
 CHUNK_PERIOD_S = 0.01
 #: Waits, s.
 SETUP_TIMEOUT_S = 40.0
+DRAIN_TIMEOUT_S = 10.0
 WARMUP_ROUNDS = 8
 #: The four pipeline nodes (``ros2 run`` starts one process each).
 NODES = ('lsl_gaze_bridge', 'camera_tracker', 'marker_projector', 'choice_arbiter')
@@ -106,12 +107,13 @@ class Scenario:
     push: str = 'sample'            # 'sample' (push_sample each) or 'chunk' (10 ms chunks)
     load: str = 'idle'              # 'idle' or 'busy' (the other core busy)
     early: bool = False             # the arbiter's own early decision (node default) on
+    fixed: bool = False             # the reference: the bridge pulls every poll_period_s
 
     @property
     def name(self) -> str:
         """Name the scenario, e.g. ``eye_bci-1200-sample-idle``."""
         return '-'.join([self.layout, f'{self.rate:g}', self.push, self.load]
-                        + (['early'] if self.early else []))
+                        + (['early'] if self.early else []) + (['fixed'] if self.fixed else []))
 
 
 #: The default run (~2 minutes): the goals' set-ups, then 2000 Hz and chunks.
@@ -136,9 +138,11 @@ def push_loop(conn, name: str, source_id: str, rate: float, push: str,
     """
     Push gaze at ``rate`` Hz until told to stop (the pusher process).
 
-    In on ``conn``: ``('aim', x, y)`` screen px (1920x1080), ``None`` = stop.
-    Out: ``('ready',)`` once the outlet exists, ``('pushing', first_stamp)``
-    once a consumer connected and pushing began, ``('done', pushed)``.
+    In on ``conn``: ``('aim', x, y)`` screen px (1920x1080), ``None`` = stop
+    pushing, then anything: close the outlet (a closed outlet takes the
+    samples still in the inlet with it).  Out: ``('ready',)`` once the outlet
+    exists, ``('pushing', first_stamp)`` once a consumer connected and pushing
+    began, ``('done', pushed)``.
     Every sample is stamped with its due time ``start + i / rate`` (LSL
     clock), also when the pusher runs late, as a tracker's samples carry
     their acquisition time.
@@ -164,6 +168,7 @@ def push_loop(conn, name: str, source_id: str, rate: float, push: str,
             command = conn.recv()
             if command is None:
                 conn.send(('done', pushed))
+                conn.poll(DRAIN_TIMEOUT_S)
                 return
             aim = np.array(encode_xy_pixels(command[1:]))
         due = int((pylsl.local_clock() - start) * rate) + 1
@@ -200,11 +205,13 @@ def node_commands(scenario: Scenario, name: str, source_id: str) -> Dict[str, Li
                   f'window_s:={WINDOW_S!r}']
     if not scenario.early:
         parameters.append('early_decision:=false')
+    if scenario.fixed:
+        parameters.append(f'idle_poll_period_s:={default_poll_period()!r}')
     ros_args = ['--ros-args'] + [part for value in parameters for part in ('-p', value)]
     if scenario.layout == 'eye_bci':
         return {'eye_bci': [sys.executable, '-m', 'eye_bci_ros2.nodes.eye_bci'] + ros_args}
     # One process per node; each takes only its own parameters (an unknown one is warned).
-    own = {'lsl_gaze_bridge': ('profile', 'source_', 'stream_', 'stats_'),
+    own = {'lsl_gaze_bridge': ('profile', 'source_', 'stream_', 'stats_', 'idle_'),
            'choice_arbiter': ('window_s', 'early_decision')}
     commands = {}
     for node in NODES:
@@ -248,6 +255,22 @@ class NoChoiceDriver(Driver):
 
 
 # -- one scenario --------------------------------------------------------------------------
+
+def _read_logs(logs: Dict[str, object]) -> str:
+    """Return what the node processes wrote so far (their log lines)."""
+    text = ''
+    for stream in logs.values():
+        stream.flush()
+        stream.seek(0)
+        text += stream.read()
+    return text
+
+
+def _bridge_received(logs) -> int:
+    """Sum the bridge's ``gaze: N received`` lines (``logs``: the text or the log files)."""
+    text = logs if isinstance(logs, str) else _read_logs(logs)
+    return sum(int(m.group(1)) for m in _RECEIVED_LINE.finditer(text))
+
 
 def _percentiles(values: Sequence[float]) -> Dict[str, float]:
     values = np.asarray(values, dtype=float)
@@ -344,9 +367,12 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
             load_average = os.getloadavg()
             here.send(None)
             pushed = here.recv()[1] if here.poll(10.0) else math.nan
-            spin_for(executor, 1.5)   # the bridge's last counter line (stats_period_s 1 s)
+            # The bridge's counter lines (stats_period_s 1 s) until they hold every sample.
+            spin_until(executor, lambda: _bridge_received(logs) >= pushed, DRAIN_TIMEOUT_S,
+                       step_s=0.1)
         finally:
             if pusher.is_alive():
+                here.send(None)
                 here.send(None)
                 pusher.join(5.0)
             if pusher.is_alive():
@@ -359,10 +385,11 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
             driver.destroy_node()
             context.try_shutdown()
             os.sched_setaffinity(0, own_affinity)
-    text = ''
+    text = _read_logs(logs)
+    if os.environ.get('LAB_RATE_LOG'):
+        with open(os.environ['LAB_RATE_LOG'], 'w') as out:
+            out.write(text)
     for stream in logs.values():
-        stream.seek(0)
-        text += stream.read()
         stream.close()
     answers = ([(t, 'choice', chosen) for t, chosen in driver.received[first_answer[0]:]]
                + [(t, 'none', None) for t, _ in driver.no_choice[first_answer[1]:]])
@@ -390,7 +417,7 @@ def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float
             wrong += 1
         offset = 0.0 if scenario.early else WINDOW_S
         latencies.append((arrived - asked - offset) * 1e3)
-    received = sum(int(m.group(1)) for m in _RECEIVED_LINE.finditer(text))
+    received = _bridge_received(text)
     used = [int(m.group(2)) for m in _DECISION_LINE.finditer(text)]
     expected = int(round(WINDOW_S * scenario.rate))
     short = [expected - 1 - n for n in used if n < expected - 1] if not scenario.early else []
@@ -457,10 +484,12 @@ def run(quick: bool = False, scenarios: Sequence[Scenario] = DEFAULT_SCENARIOS,
 def _scenario(text: str) -> Scenario:
     """Parse ``layout-rate-push-load[-early]`` (a scenario's name)."""
     parts = text.split('-')
-    if len(parts) not in (4, 5) or (len(parts) == 5 and parts[4] != 'early'):
-        raise argparse.ArgumentTypeError(f"'{text}' is not layout-rate-push-load[-early], e.g. "
-                                         'eye_bci-1200-sample-idle')
-    scenario = Scenario(parts[0], float(parts[1]), parts[2], parts[3], len(parts) == 5)
+    flags = set(parts[4:])
+    if len(parts) < 4 or not flags <= {'early', 'fixed'}:
+        raise argparse.ArgumentTypeError(f"'{text}' is not layout-rate-push-load[-early]"
+                                         "[-fixed], e.g. eye_bci-1200-sample-idle")
+    scenario = Scenario(parts[0], float(parts[1]), parts[2], parts[3], 'early' in flags,
+                        'fixed' in flags)
     if scenario.layout not in GOAL_CPU_PERCENT or scenario.push not in ('sample', 'chunk') \
             or scenario.load not in GOAL_P99_MS:
         raise argparse.ArgumentTypeError(f"'{text}': layout eye_bci|processes, push "

@@ -50,6 +50,7 @@ confirms it within ``max_lag_s`` (``ssvep/choice`` of the same label, or
 
 from typing import Optional
 
+from builtin_interfaces.msg import Time
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Empty, String
@@ -58,7 +59,8 @@ from visualization_msgs.msg import MarkerArray
 from eye_bci_ros2.evidence import Decision, MAX_REACTION_S
 from eye_bci_ros2.feedback import build_feedback, Feedback, FeedbackThrottle
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
-from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
+from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
+                                            ns_to_stamp)
 from eye_bci_ros2.nodes.feedback_markers import FeedbackMarkers, option_label, OptionMarkers
 from eye_bci_ros2.nodes.graph_watch import GraphWatch
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings, QuietRepeats
@@ -68,7 +70,8 @@ from eye_bci_ros2.nodes.screen_parameters import person_screen_parameters
 from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, CHOICES_TOPIC, EVENT_QOS,
                                        FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC,
                                        LATCHED_QOS, NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC,
-                                       SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
+                                       SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC,
+                                       WINDOW_END_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, METHODS, RoundScheduler
 from eye_bci_ros2.tolerance import CLASSIFICATIONS
@@ -238,6 +241,9 @@ class ChoiceArbiter(Node):
         self._tracker = RoundScheduler(ArbiterSettings(**self._config), self._publish, self._log)
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
         self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
+        # Each round's window end, for the bridge's batching (topics.WINDOW_END_TOPIC).
+        self._window_end_publisher = self.create_publisher(Time, WINDOW_END_TOPIC, LATCHED_QOS)
+        self._announced_start: Optional[float] = None
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
         # Says so when a second pipeline shares this graph (two eye_bci on one domain).
         self.graph_watch = GraphWatch(self, outputs=[CHOICE_TOPIC], inputs=[GAZE_SAMPLES_TOPIC])
@@ -334,6 +340,7 @@ class ChoiceArbiter(Node):
             self._tracker.add_regions(region_set, now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'regions_error', f'failed to apply regions: {error}')
+        self._announce_window()
         self._fusion_options(labels)
 
     def _on_request(self, msg: Empty) -> None:
@@ -342,6 +349,15 @@ class ChoiceArbiter(Node):
             self._tracker.request(self._now())
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'request_error', f'failed to start a round: {error}')
+        self._announce_window()
+
+    def _announce_window(self) -> None:
+        """Publish the window end of a round just opened (choice/window_end)."""
+        start = self._tracker.round_start
+        if start is not None and start != self._announced_start:
+            self._announced_start = start
+            end_ns = int(round((start + self._tracker.settings.window_s) * 1e9))
+            self._window_end_publisher.publish(ns_to_stamp(end_ns))
 
     def _on_tick(self) -> None:
         try:

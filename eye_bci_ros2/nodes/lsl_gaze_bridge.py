@@ -56,6 +56,7 @@ import math
 import time
 from typing import Any, Dict, Optional
 
+from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PointStamped
 import numpy as np
 from rclpy.node import Node
@@ -68,16 +69,21 @@ from eye_bci_ros2.gaze_profiles import (
 from eye_bci_ros2.gaze_stream import GazeStreamProfile
 from eye_bci_ros2.lsl_connection import (Chunk, ConnectionSettings, StreamConnection,
                                          StreamDescription)
-from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_point
+from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_point, stamp_to_ns
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import (GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC, GAZE_QOS,
-                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, VIEW_QOS)
+                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, VIEW_QOS,
+                                       WINDOW_END_TOPIC)
 from eye_bci_ros2.validation import (as_matrix, correction_values, IDENTITY, implausibility,
                                      is_identity, PARAMETER as CORRECTION_PARAMETER)
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
+
+#: After a window end, the short poll period is kept at most this long for a sample stamped
+#: after it (a stream that stopped), s: longer than the arbiter's stall timeout.
+PROMPT_LIMIT_S = 1.0
 
 #: Counters kept and logged by the bridge.
 COUNTERS = ('received', 'published') + DROP_REASONS + ('layout', 'bad_stamp')
@@ -163,6 +169,13 @@ PARAMETERS = (
               'period of pulling samples from LSL, s; a sample waits up to this long in the '
               'inlet, so it bounds the added latency (see the README, Performance)',
               value_range=(0.001, 1.0)),
+    ParamSpec('idle_poll_period_s', 0.02,
+              'period of pulling samples while no window end is near, s: once a '
+              'choice_arbiter announces its rounds (choice/window_end), samples are pulled '
+              'every poll_period_s only from this long before a window end until a sample '
+              'stamped after it is published, and in bigger batches otherwise (the cost '
+              'follows the batches); without an arbiter always every poll_period_s; equal '
+              'to poll_period_s: always', value_range=(0.001, 1.0)),
     ParamSpec('max_chunk', 1024, 'most samples pulled at once', value_range=(1, 65536)),
     ParamSpec('point_rate_hz', 30.0,
               'most gaze/point messages (the newest sample, for people and simple tools) '
@@ -234,6 +247,13 @@ class LslGazeBridge(Node):
         self._mapping: Optional[GazeMapping] = None
         self._mapping_error = ''
         self._poll_timer = None
+        # Pulls in bigger batches while no window end is near (module doc, "Batches").
+        self._idle_timer = None
+        # The announced window end, ns on the ROS clock (None: no arbiter announces: the
+        # short period always); whether the short period runs for it now.
+        self._window_end_ns: Optional[int] = None
+        self._prompt = False
+        self.create_subscription(Time, WINDOW_END_TOPIC, self._on_window_end, LATCHED_QOS)
         self._resolve_timer = None
         self._stats_timer = None
         self._connection = StreamConnection(
@@ -241,7 +261,8 @@ class LslGazeBridge(Node):
             LogReporter(self.get_logger()),
             ros_now_ns=lambda: self.get_clock().now().nanoseconds,
             on_connected=self._on_connected, on_quiet=lambda: self._publish_on_screen(False))
-        self._make_timers(('poll_period_s', 'resolve_period_s', 'stats_period_s'))
+        self._make_timers(('poll_period_s', 'idle_poll_period_s', 'resolve_period_s',
+                           'stats_period_s'))
         self.get_logger().info(
             f"profile '{self._config.profile}': looking for {self._config.describe_selection()}")
 
@@ -313,7 +334,6 @@ class LslGazeBridge(Node):
             self.get_logger().info(
                 f'stream selection changed: now looking for {self._config.describe_selection()} '
                 f"(profile '{self._config.profile}')")
-            self._poll_timer.cancel()
             self._connection.reselect(profile, _settings(self._params))
         else:
             # Same streams: refused ones are judged again, the one in use is bound again.
@@ -324,12 +344,15 @@ class LslGazeBridge(Node):
 
     def _make_timers(self, changed) -> None:
         """(Re)create the timers whose period parameter is in ``changed``."""
-        if 'poll_period_s' in changed:
-            if self._poll_timer is not None:
-                self.destroy_timer(self._poll_timer)
-            self._poll_timer = self.create_timer(self._params['poll_period_s'], self._poll)
-            if self._connection.stream is None:
-                self._poll_timer.cancel()   # no wake-ups while there is nothing to read
+        for name, attribute in (('poll_period_s', '_poll_timer'),
+                                ('idle_poll_period_s', '_idle_timer')):
+            if name in changed:
+                if getattr(self, attribute) is not None:
+                    self.destroy_timer(getattr(self, attribute))
+                timer = self.create_timer(self._params[name], self._poll)
+                timer.cancel()     # _schedule starts the one the state asks for
+                setattr(self, attribute, timer)
+        self._schedule()
         if 'resolve_period_s' in changed:
             if self._resolve_timer is not None:
                 self.destroy_timer(self._resolve_timer)
@@ -350,7 +373,7 @@ class LslGazeBridge(Node):
         try:
             self._connection.maintain()
             if self._connection.stream is None:
-                self._poll_timer.cancel()
+                self._schedule()
         except Exception as exc:  # noqa: B902 - a node never dies on a stream
             self.get_logger().warning(f'LSL maintenance failed: {exc}',
                                       throttle_duration_sec=WARN_PERIOD_S)
@@ -360,7 +383,7 @@ class LslGazeBridge(Node):
         self._on_screen = None       # published once when this stream starts sending
         self._bind(stream)
         if self._poll_timer is not None:
-            self._poll_timer.reset()
+            self._schedule()
 
     def _bind(self, stream: StreamDescription) -> None:
         """Map the configuration onto the stream's channels, or say why it cannot."""
@@ -387,7 +410,49 @@ class LslGazeBridge(Node):
             self.get_logger().warning(f'failed to publish gaze: {exc}',
                                       throttle_duration_sec=WARN_PERIOD_S)
         if self._connection.stream is None:
-            self._poll_timer.cancel()
+            self._schedule()
+        elif self._window_end_ns is not None:
+            self._update_prompt()
+
+    # -- batches: the short poll period around window ends ---------------------------
+
+    def _on_window_end(self, msg: Time) -> None:
+        """Take a round's window end from the arbiter (module doc, "Batches")."""
+        if self._window_end_ns is None:
+            self.get_logger().info(
+                f'{WINDOW_END_TOPIC} announced: pulling every '
+                f"{self._params['idle_poll_period_s']:g} s, and every "
+                f"{self._params['poll_period_s']:g} s around each window end")
+        self._window_end_ns = stamp_to_ns(msg)
+        self._prompt = False
+        self._update_prompt()
+        self._schedule()
+
+    def _update_prompt(self) -> None:
+        """Start the short period near the window end, end it once a later sample is out."""
+        end = self._window_end_ns
+        newest = self._connection.newest_stamp_ns
+        now = self.get_clock().now().nanoseconds
+        delivered = newest is not None and newest >= end
+        # The idle tick before the end starts it; 1.5 periods, for a late tick.
+        lead = int(1.5e9 * self._params['idle_poll_period_s'])
+        prompt = not delivered and end - lead <= now <= end + int(PROMPT_LIMIT_S * 1e9)
+        if prompt != self._prompt:
+            self._prompt = prompt
+            self._schedule()
+
+    def _schedule(self) -> None:
+        """Run the poll timer the state asks for; none while there is nothing to read."""
+        reading = self._connection.stream is not None
+        short = reading and (self._window_end_ns is None or self._prompt)
+        for timer, wanted in ((self._poll_timer, short),
+                              (self._idle_timer, reading and not short)):
+            if timer is None:
+                continue
+            if wanted and timer.is_canceled():
+                timer.reset()
+            elif not wanted and not timer.is_canceled():
+                timer.cancel()
 
     def _publish_chunk(self, chunk: Chunk, now: float) -> None:
         """Convert and publish one stamped chunk; count what is dropped."""

@@ -3,14 +3,16 @@
 import re
 
 from arbiter_rig import ArbiterRig, to_time
+from builtin_interfaces.msg import Time
 import numpy as np
 import pytest
 from rclpy.parameter import Parameter
-from ros_harness import gaze_messages
+from ros_harness import Collector, gaze_messages
 from visualization_msgs.msg import Marker
 
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import regions_to_marker_array
+from eye_bci_ros2.nodes.conversions import regions_to_marker_array, stamp_to_ns
+from eye_bci_ros2.nodes.topics import LATCHED_QOS, WINDOW_END_TOPIC
 from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE
 
 pytestmark = pytest.mark.ros
@@ -310,3 +312,14 @@ def test_nan_and_infinite_gaze_is_never_evidence_and_is_reported_once(graph, cap
     warnings = re.findall(r'choice_arbiter.*gaze sample \(.*\) px is NaN or infinite: taken '
                           r'as in no region \((\d+) such samples so far\)', log)
     assert warnings == ['1'], log[-2000:]
+
+
+def test_each_round_announces_its_window_end(graph):
+    """choice/window_end: when the open round's window ends, for the bridge's batching."""
+    rig = Rig(graph, window_s=0.4)
+    ends = Collector(rig.driver, Time, WINDOW_END_TOPIC, LATCHED_QOS)
+    rig.offer({'a': (300.0, 300.0), 'b': (800.0, 300.0)})   # new choices start a round
+    rig.request()
+    assert graph.spin_until(lambda: len(ends.messages) >= 2, 10.0), 'no window end announced'
+    start = rig.arbiter.round_start
+    assert stamp_to_ns(ends.last) == int(round((start + 0.4) * 1e9))
