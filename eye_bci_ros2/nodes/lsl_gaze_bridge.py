@@ -172,10 +172,11 @@ PARAMETERS = (
     ParamSpec('idle_poll_period_s', 0.02,
               'period of pulling samples while no window end is near, s: once a '
               'choice_arbiter announces its rounds (choice/window_end), samples are pulled '
-              'every poll_period_s only from this long before a window end until a sample '
-              'stamped after it is published, and in bigger batches otherwise (the cost '
-              'follows the batches); without an arbiter always every poll_period_s; equal '
-              'to poll_period_s: always', value_range=(0.001, 1.0)),
+              'every poll_period_s only from just before each window end until a sample '
+              'stamped after it is published, and every idle_poll_period_s otherwise (the '
+              'cost follows the batches; an early decision waits up to this long); without '
+              'an arbiter always every poll_period_s; equal to poll_period_s: always',
+              value_range=(0.001, 1.0)),
     ParamSpec('max_chunk', 1024, 'most samples pulled at once', value_range=(1, 65536)),
     ParamSpec('point_rate_hz', 30.0,
               'most gaze/point messages (the newest sample, for people and simple tools) '
@@ -253,6 +254,8 @@ class LslGazeBridge(Node):
         # short period always); whether the short period runs for it now.
         self._window_end_ns: Optional[int] = None
         self._prompt = False
+        # A one-shot timer that starts the short period just before the window end.
+        self._wake_timer = None
         self.create_subscription(Time, WINDOW_END_TOPIC, self._on_window_end, LATCHED_QOS)
         self._resolve_timer = None
         self._stats_timer = None
@@ -425,8 +428,20 @@ class LslGazeBridge(Node):
                 f"{self._params['poll_period_s']:g} s around each window end")
         self._window_end_ns = stamp_to_ns(msg)
         self._prompt = False
+        if self._wake_timer is not None:
+            self.destroy_timer(self._wake_timer)
+            self._wake_timer = None
+        lead_s = self._params['poll_period_s']
+        delay_s = (self._window_end_ns - self.get_clock().now().nanoseconds) * 1e-9 - lead_s
+        if delay_s > lead_s:
+            self._wake_timer = self.create_timer(delay_s, self._on_wake)
         self._update_prompt()
         self._schedule()
+
+    def _on_wake(self) -> None:
+        """Start the short period one poll_period_s before the window end (one shot)."""
+        self._wake_timer.cancel()
+        self._update_prompt()
 
     def _update_prompt(self) -> None:
         """Start the short period near the window end, end it once a later sample is out."""
@@ -434,8 +449,9 @@ class LslGazeBridge(Node):
         newest = self._connection.newest_stamp_ns
         now = self.get_clock().now().nanoseconds
         delivered = newest is not None and newest >= end
-        # The idle tick before the end starts it; 1.5 periods, for a late tick.
-        lead = int(1.5e9 * self._params['idle_poll_period_s'])
+        # From two short periods before the end (the wake timer fires at one) until a
+        # sample stamped after it is out: what the window-end decision waits for.
+        lead = int(2e9 * self._params['poll_period_s'])
         prompt = not delivered and end - lead <= now <= end + int(PROMPT_LIMIT_S * 1e9)
         if prompt != self._prompt:
             self._prompt = prompt
