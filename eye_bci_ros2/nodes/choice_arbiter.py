@@ -59,8 +59,7 @@ from visualization_msgs.msg import MarkerArray
 from eye_bci_ros2.evidence import Decision, MAX_REACTION_S
 from eye_bci_ros2.feedback import build_feedback, Feedback, FeedbackThrottle
 from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings, INPUT_MODES
-from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
-                                            ns_to_stamp)
+from eye_bci_ros2.nodes.conversions import gaze_cdr, marker_array_to_regions, ns_to_stamp
 from eye_bci_ros2.nodes.feedback_markers import FeedbackMarkers, option_label, OptionMarkers
 from eye_bci_ros2.nodes.graph_watch import GraphWatch
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings, QuietRepeats
@@ -244,7 +243,10 @@ class ChoiceArbiter(Node):
         # Each round's window end, for the bridge's batching (topics.WINDOW_END_TOPIC).
         self._window_end_publisher = self.create_publisher(Time, WINDOW_END_TOPIC, LATCHED_QOS)
         self._announced_start: Optional[float] = None
-        self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
+        # Taken serialized and read with numpy (conversions.GazeCdr): no Python message.
+        self._gaze_cdr = gaze_cdr()
+        self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS,
+                                 raw=True)
         # Says so when a second pipeline shares this graph (two eye_bci on one domain).
         self.graph_watch = GraphWatch(self, outputs=[CHOICE_TOPIC], inputs=[GAZE_SAMPLES_TOPIC])
         self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
@@ -311,15 +313,15 @@ class ChoiceArbiter(Node):
 
     # -- inputs -----------------------------------------------------------------------------
 
-    def _on_gaze(self, msg: PointCloud2) -> None:
+    def _on_gaze(self, data: bytes) -> None:
         try:
-            stamps, points = gaze_batch_arrays(msg)
+            stamps, points, stamped = self._gaze_cdr.read(data)
         except ValueError as error:
             self._log('warning', 'gaze_bad', str(error))
             return
         try:
             now = self._now()
-            if not (msg.header.stamp.sec or msg.header.stamp.nanosec):
+            if not stamped:
                 stamps = stamps + now   # unstamped: taken as arriving now (offsets kept)
             if len(points):
                 self._newest = (float(points[-1, 0]), float(points[-1, 1]), now)

@@ -69,7 +69,7 @@ from eye_bci_ros2.gaze_profiles import (
 from eye_bci_ros2.gaze_stream import GazeStreamProfile
 from eye_bci_ros2.lsl_connection import (Chunk, ConnectionSettings, StreamConnection,
                                          StreamDescription)
-from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_point, stamp_to_ns
+from eye_bci_ros2.nodes.conversions import gaze_cdr, gaze_point, stamp_to_ns
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
@@ -233,6 +233,7 @@ class LslGazeBridge(Node):
         self._config: GazeConfig = build_config(self._params)
         self._batch_publisher = self.create_publisher(
             PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)
+        self._gaze_cdr = gaze_cdr()
         self._point_publisher = self.create_publisher(PointStamped, GAZE_POINT_TOPIC, VIEW_QOS)
         self._on_screen_publisher = self.create_publisher(Bool, GAZE_ON_SCREEN_TOPIC,
                                                           LATCHED_QOS)
@@ -503,7 +504,9 @@ class LslGazeBridge(Node):
         if not len(batch.xy):
             return
         stamps_ns = stamps_ns[batch.keep]
-        self._batch_publisher.publish(gaze_batch(stamps_ns, batch.xy))
+        # Serialized (conversions.GazeCdr): the same bytes as gaze_batch's message, built
+        # without rclpy's Python message.
+        self._batch_publisher.publish(self._gaze_cdr.build(stamps_ns, batch.xy))
         self._counters['published'] += len(batch.xy)
         rate = self._params['point_rate_hz']
         if rate > 0.0 and now - self._point_at >= 1.0 / rate:
