@@ -70,7 +70,7 @@ from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, CHOICES_TOPIC,
                                        FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC,
                                        LATCHED_QOS, NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC,
                                        SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC,
-                                       WINDOW_END_TOPIC)
+                                       DECISION_DUE_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, METHODS, RoundScheduler
 from eye_bci_ros2.tolerance import CLASSIFICATIONS
@@ -240,9 +240,10 @@ class ChoiceArbiter(Node):
         self._tracker = RoundScheduler(ArbiterSettings(**self._config), self._publish, self._log)
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
         self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
-        # Each round's window end, for the bridge's batching (topics.WINDOW_END_TOPIC).
-        self._window_end_publisher = self.create_publisher(Time, WINDOW_END_TOPIC, LATCHED_QOS)
-        self._announced_start: Optional[float] = None
+        # When the open round's decision can next come, for the bridge's batching
+        # (topics.DECISION_DUE_TOPIC): (round start, due) last announced.
+        self._due_publisher = self.create_publisher(Time, DECISION_DUE_TOPIC, LATCHED_QOS)
+        self._announced: Optional[tuple] = None
         # Taken serialized and read with numpy (conversions.GazeCdr): no Python message.
         self._gaze_cdr = gaze_cdr()
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS,
@@ -342,7 +343,7 @@ class ChoiceArbiter(Node):
             self._tracker.add_regions(region_set, now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'regions_error', f'failed to apply regions: {error}')
-        self._announce_window()
+        self._announce_due()
         self._fusion_options(labels)
 
     def _on_request(self, msg: Empty) -> None:
@@ -351,19 +352,32 @@ class ChoiceArbiter(Node):
             self._tracker.request(self._now())
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'request_error', f'failed to start a round: {error}')
-        self._announce_window()
+        self._announce_due()
 
-    def _announce_window(self) -> None:
-        """Publish the window end of a round just opened (choice/window_end)."""
+    def _announce_due(self, now: Optional[float] = None) -> None:
+        """
+        Publish when the open round's decision can next come (choice/due), if that changed.
+
+        The earliest early decision (round start + dwell_s: every rule's deciding run or
+        fixation spans dwell_s) until the node clock passes it, then the window end.
+        """
         start = self._tracker.round_start
-        if start is not None and start != self._announced_start:
-            self._announced_start = start
-            end_ns = int(round((start + self._tracker.settings.window_s) * 1e9))
-            self._window_end_publisher.publish(ns_to_stamp(end_ns))
+        if start is None:
+            return
+        settings = self._tracker.settings
+        due = start + settings.window_s
+        early = start + settings.dwell_s
+        if settings.early_decision and early < due and (now is None or now < early):
+            due = early
+        if (start, due) != self._announced:
+            self._announced = (start, due)
+            self._due_publisher.publish(ns_to_stamp(int(round(due * 1e9))))
 
     def _on_tick(self) -> None:
         try:
-            self._tracker.tick(self._now())
+            now = self._now()
+            self._tracker.tick(now)
+            self._announce_due(now)
         except Exception as error:  # noqa: B902 - a node never dies on a timer
             self._log('warning', 'tick_error', f'failed to close a round: {error}')
 

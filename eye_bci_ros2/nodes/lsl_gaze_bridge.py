@@ -76,12 +76,12 @@ from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import (GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC, GAZE_QOS,
                                        GAZE_SAMPLES_TOPIC, LATCHED_QOS, VIEW_QOS,
-                                       WINDOW_END_TOPIC)
+                                       DECISION_DUE_TOPIC)
 from eye_bci_ros2.validation import (as_matrix, correction_values, IDENTITY, implausibility,
                                      is_identity, PARAMETER as CORRECTION_PARAMETER)
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
 
-#: After a window end, the short poll period is kept at most this long for a sample stamped
+#: After a decision's due time, the short poll period is kept at most this long for a sample stamped
 #: after it (a stream that stopped), s: longer than the arbiter's stall timeout.
 PROMPT_LIMIT_S = 1.0
 
@@ -170,12 +170,13 @@ PARAMETERS = (
               'inlet, so it bounds the added latency (see the README, Performance)',
               value_range=(0.001, 1.0)),
     ParamSpec('idle_poll_period_s', 0.02,
-              'period of pulling samples while no window end is near, s: once a '
-              'choice_arbiter announces its rounds (choice/window_end), samples are pulled '
-              'every poll_period_s only from just before each window end until a sample '
-              'stamped after it is published, and every idle_poll_period_s otherwise (the '
-              'cost follows the batches; an early decision waits up to this long); without '
-              'an arbiter always every poll_period_s; equal to poll_period_s: always',
+              'period of pulling samples while no decision is due, s: once a '
+              'choice_arbiter announces when its decisions can come (choice/due: the '
+              'earliest early decision, the window end), samples are pulled every '
+              'poll_period_s only from just before each such time until a sample stamped '
+              'after it is published, and every idle_poll_period_s otherwise (the cost '
+              'follows the batches; a decision at another time waits up to this long); '
+              'without an arbiter always every poll_period_s; equal to poll_period_s: always',
               value_range=(0.001, 1.0)),
     ParamSpec('max_chunk', 1024, 'most samples pulled at once', value_range=(1, 65536)),
     ParamSpec('point_rate_hz', 30.0,
@@ -249,15 +250,15 @@ class LslGazeBridge(Node):
         self._mapping: Optional[GazeMapping] = None
         self._mapping_error = ''
         self._poll_timer = None
-        # Pulls in bigger batches while no window end is near (module doc, "Batches").
+        # Pulls in bigger batches while no decision is due (module doc, "Batches").
         self._idle_timer = None
-        # The announced window end, ns on the ROS clock (None: no arbiter announces: the
+        # The announced due time, ns on the ROS clock (None: no arbiter announces: the
         # short period always); whether the short period runs for it now.
-        self._window_end_ns: Optional[int] = None
+        self._due_ns: Optional[int] = None
         self._prompt = False
-        # A one-shot timer that starts the short period just before the window end.
+        # A one-shot timer that starts the short period just before the due time.
         self._wake_timer = None
-        self.create_subscription(Time, WINDOW_END_TOPIC, self._on_window_end, LATCHED_QOS)
+        self.create_subscription(Time, DECISION_DUE_TOPIC, self._on_due, LATCHED_QOS)
         self._resolve_timer = None
         self._stats_timer = None
         self._connection = StreamConnection(
@@ -415,43 +416,43 @@ class LslGazeBridge(Node):
                                       throttle_duration_sec=WARN_PERIOD_S)
         if self._connection.stream is None:
             self._schedule()
-        elif self._window_end_ns is not None:
+        elif self._due_ns is not None:
             self._update_prompt()
 
-    # -- batches: the short poll period around window ends ---------------------------
+    # -- batches: the short poll period when a decision is due ---------------------------
 
-    def _on_window_end(self, msg: Time) -> None:
-        """Take a round's window end from the arbiter (module doc, "Batches")."""
-        if self._window_end_ns is None:
+    def _on_due(self, msg: Time) -> None:
+        """Take when the arbiter's next decision can come (module doc, "Batches")."""
+        if self._due_ns is None:
             self.get_logger().info(
-                f'{WINDOW_END_TOPIC} announced: pulling every '
+                f'{DECISION_DUE_TOPIC} announced: pulling every '
                 f"{self._params['idle_poll_period_s']:g} s, and every "
-                f"{self._params['poll_period_s']:g} s around each window end")
-        self._window_end_ns = stamp_to_ns(msg)
+                f"{self._params['poll_period_s']:g} s when a decision is due")
+        self._due_ns = stamp_to_ns(msg)
         self._prompt = False
         if self._wake_timer is not None:
             self.destroy_timer(self._wake_timer)
             self._wake_timer = None
         lead_s = self._params['poll_period_s']
-        delay_s = (self._window_end_ns - self.get_clock().now().nanoseconds) * 1e-9 - lead_s
+        delay_s = (self._due_ns - self.get_clock().now().nanoseconds) * 1e-9 - lead_s
         if delay_s > lead_s:
             self._wake_timer = self.create_timer(delay_s, self._on_wake)
         self._update_prompt()
         self._schedule()
 
     def _on_wake(self) -> None:
-        """Start the short period one poll_period_s before the window end (one shot)."""
+        """Start the short period one poll_period_s before the due time (one shot)."""
         self._wake_timer.cancel()
         self._update_prompt()
 
     def _update_prompt(self) -> None:
-        """Start the short period near the window end, end it once a later sample is out."""
-        end = self._window_end_ns
+        """Start the short period near the due time, end it once a later sample is out."""
+        end = self._due_ns
         newest = self._connection.newest_stamp_ns
         now = self.get_clock().now().nanoseconds
         delivered = newest is not None and newest >= end
-        # From two short periods before the end (the wake timer fires at one) until a
-        # sample stamped after it is out: what the window-end decision waits for.
+        # From two short periods before it (the wake timer fires at one) until a sample
+        # stamped after it is out: what a decision due then waits for.
         lead = int(2e9 * self._params['poll_period_s'])
         prompt = not delivered and end - lead <= now <= end + int(PROMPT_LIMIT_S * 1e9)
         if prompt != self._prompt:
@@ -461,7 +462,7 @@ class LslGazeBridge(Node):
     def _schedule(self) -> None:
         """Run the poll timer the state asks for; none while there is nothing to read."""
         reading = self._connection.stream is not None
-        short = reading and (self._window_end_ns is None or self._prompt)
+        short = reading and (self._due_ns is None or self._prompt)
         for timer, wanted in ((self._poll_timer, short),
                               (self._idle_timer, reading and not short)):
             if timer is None:

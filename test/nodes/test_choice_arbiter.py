@@ -12,7 +12,7 @@ from visualization_msgs.msg import Marker
 
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import regions_to_marker_array, stamp_to_ns
-from eye_bci_ros2.nodes.topics import LATCHED_QOS, WINDOW_END_TOPIC
+from eye_bci_ros2.nodes.topics import DECISION_DUE_TOPIC, LATCHED_QOS
 from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE
 
 pytestmark = pytest.mark.ros
@@ -314,12 +314,16 @@ def test_nan_and_infinite_gaze_is_never_evidence_and_is_reported_once(graph, cap
     assert warnings == ['1'], log[-2000:]
 
 
-def test_each_round_announces_its_window_end(graph):
-    """choice/window_end: when the open round's window ends, for the bridge's batching."""
-    rig = Rig(graph, window_s=0.4)
-    ends = Collector(rig.driver, Time, WINDOW_END_TOPIC, LATCHED_QOS)
+def test_each_round_announces_when_its_decision_can_come(graph):
+    """choice/due: the earliest early decision, then the window end (the bridge's batching)."""
+    rig = Rig(graph, window_s=0.4, early_decision=True, dwell_s=0.1)
+    ends = Collector(rig.driver, Time, DECISION_DUE_TOPIC, LATCHED_QOS)
     rig.offer({'a': (300.0, 300.0), 'b': (800.0, 300.0)})   # new choices start a round
     rig.request()
-    assert graph.spin_until(lambda: len(ends.messages) >= 2, 10.0), 'no window end announced'
     start = rig.arbiter.round_start
-    assert stamp_to_ns(ends.last) == int(round((start + 0.4) * 1e9))
+    early_ns, end_ns = (int(round((start + offset) * 1e9)) for offset in (0.1, 0.4))
+    # Without gaze the round stays open past its early time: then its window end is due.
+    assert graph.spin_until(lambda: any(stamp_to_ns(m) == end_ns for m in ends.messages),
+                            10.0), 'no window end announced'
+    dues = [stamp_to_ns(m) for m in ends.messages]
+    assert dues[dues.index(end_ns) - 1] == early_ns

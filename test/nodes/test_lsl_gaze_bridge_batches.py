@@ -1,4 +1,4 @@
-"""The bridge's batching around announced window ends, with a real LSL outlet pushing per sample."""
+"""The bridge's batching around announced decision times, a real LSL outlet pushing per sample."""
 
 import threading
 
@@ -12,7 +12,7 @@ from ros_harness import GazeCollector
 
 from eye_bci_ros2.nodes.conversions import ns_to_stamp
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
-from eye_bci_ros2.nodes.topics import LATCHED_QOS, WINDOW_END_TOPIC
+from eye_bci_ros2.nodes.topics import DECISION_DUE_TOPIC, LATCHED_QOS
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 
@@ -40,16 +40,16 @@ class Pusher(threading.Thread):
             threading.Event().wait(0.0005)
 
 
-def test_between_window_ends_samples_come_in_bigger_batches_and_none_is_lost(graph):
+def test_between_due_decisions_samples_come_in_bigger_batches_and_none_is_lost(graph):
     outlet, info = make_outlet('xy_pixels', rate=RATE_HZ)
     bridge = graph.add(LslGazeBridge, parameter_overrides=[
         Parameter(name, value=value) for name, value in bridge_parameters(
             'xy_pixels', info, idle_poll_period_s=IDLE_S, stats_period_s=0.0).items()])
     gaze = GazeCollector(graph.node('gaze_listener'))
-    announcer = graph.node('gaze_listener').create_publisher(Time, WINDOW_END_TOPIC,
+    announcer = graph.node('gaze_listener').create_publisher(Time, DECISION_DUE_TOPIC,
                                                              LATCHED_QOS)
     assert graph.spin_until(outlet.have_consumers, WAIT_S), 'bridge never connected'
-    # A window end 1.5 s ahead: the bridge pulls every IDLE_S until shortly before it.
+    # A decision due 1.5 s ahead: the bridge pulls every IDLE_S until shortly before it.
     now_ns = bridge.get_clock().now().nanoseconds
     end_ns = now_ns + 1_500_000_000
     announcer.publish(ns_to_stamp(end_ns))
@@ -61,15 +61,16 @@ def test_between_window_ends_samples_come_in_bigger_batches_and_none_is_lost(gra
     # Every sample, once, in order.
     assert len(stamps) == pusher.count
     assert np.all(np.diff(stamps) > 0)
-    # Batches wholly before the lead-in to the window end hold what IDLE_S gathers:
+    # Batches wholly before the lead-in to the due time hold what IDLE_S gathers:
     # far more than the 2 ms poll's one or two (a busy machine only makes them bigger).
     sizes = np.array([m.width for m in gaze.messages])
     firsts = np.cumsum(np.concatenate([[0], sizes[:-1]]))
     lasts = stamps[firsts + sizes - 1] * 1e9
     early = sizes[lasts < end_ns - 2 * IDLE_S * 1e9]
     assert len(early) > 3 and np.median(early) >= 0.5 * IDLE_S * RATE_HZ
-    # A sample stamped after the window end has been delivered.
+    # A sample stamped after the due time has been delivered.
     assert stamps[-1] * 1e9 >= end_ns
-    # Around the window end the short period takes over: smaller batches, delivered sooner.
-    near = sizes[(lasts >= end_ns - IDLE_S * 1e9) & (lasts <= end_ns)]
-    assert len(near) and np.median(near) < np.median(early)
+    # Just before the due time the short period takes over: the batch that brings the first
+    # sample stamped after it is small, pulled promptly, not gathered for IDLE_S.
+    due = int(np.argmax(lasts >= end_ns))
+    assert sizes[due] < np.median(early)
