@@ -48,7 +48,7 @@ Usage::
 """
 
 import argparse
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import json
 import math
 import multiprocessing
@@ -67,6 +67,7 @@ import psutil
 import pylsl
 import rclpy
 from rclpy.context import Context
+from rclpy.parameter_client import AsyncParameterClient
 from std_msgs.msg import Empty, String
 
 from bench.latency import default_poll_period, Driver, encode_xy_pixels, make_outlet
@@ -83,6 +84,8 @@ SECONDS, LONG_SECONDS = 8.0, 30.0
 GAZE_NOISE_PX = 3.0
 #: Chunked pushes: one chunk per this, s (an SDK that batches).
 CHUNK_PERIOD_S = 0.01
+#: Samples of the burst part (83 s of a 1200 Hz tracker at once).
+BURST_SAMPLES = 100_000
 #: Waits, s.
 SETUP_TIMEOUT_S = 40.0
 DRAIN_TIMEOUT_S = 10.0
@@ -108,6 +111,8 @@ class Scenario:
     load: str = 'idle'              # 'idle' or 'busy' (the other core busy)
     early: bool = False             # the arbiter's own early decision (node default) on
     fixed: bool = False             # the reference: the bridge pulls every poll_period_s
+    extra: Tuple[str, ...] = ()     # more NAME:=VALUE parameters, for every node
+    window_s: float = WINDOW_S      # the arbiter's window_s
 
     @property
     def name(self) -> str:
@@ -138,11 +143,13 @@ def push_loop(conn, name: str, source_id: str, rate: float, push: str,
     """
     Push gaze at ``rate`` Hz until told to stop (the pusher process).
 
-    In on ``conn``: ``('aim', x, y)`` screen px (1920x1080), ``None`` = stop
-    pushing, then anything: close the outlet (a closed outlet takes the
-    samples still in the inlet with it).  Out: ``('ready',)`` once the outlet
-    exists, ``('pushing', first_stamp)`` once a consumer connected and pushing
-    began, ``('done', pushed)``.
+    In on ``conn``: ``('aim', x, y)`` screen px (1920x1080); ``('burst', n,
+    t0, t1)``: push n samples at the aim stamped evenly in [t0, t1) (LSL
+    clock) in one chunk (a tracker that stalled); ``None`` = stop pushing,
+    then anything: close the outlet (a closed outlet takes the samples still
+    in the inlet with it).  Out: ``('ready',)`` once the outlet exists,
+    ``('pushing', first_stamp)`` once a consumer connected and pushing began,
+    ``('burst', pushed_at)``, ``('done', pushed)`` (the burst not counted).
     Every sample is stamped with its due time ``start + i / rate`` (LSL
     clock), also when the pusher runs late, as a tracker's samples carry
     their acquisition time.
@@ -170,6 +177,14 @@ def push_loop(conn, name: str, source_id: str, rate: float, push: str,
                 conn.send(('done', pushed))
                 conn.poll(DRAIN_TIMEOUT_S)
                 return
+            if command[0] == 'burst':
+                count, first, last = command[1:]
+                points = aim + scale * rng.normal(0.0, GAZE_NOISE_PX, (count, 2))
+                pushed_at = pylsl.local_clock()
+                outlet.push_chunk(points.tolist(),
+                                  (first + (last - first) * np.arange(count) / count).tolist())
+                conn.send(('burst', pushed_at))
+                continue
             aim = np.array(encode_xy_pixels(command[1:]))
         due = int((pylsl.local_clock() - start) * rate) + 1
         if push == 'sample':
@@ -202,11 +217,12 @@ def node_commands(scenario: Scenario, name: str, source_id: str) -> Dict[str, Li
     """Return the command lines that start the nodes, as ``ros2 run`` / ``eye_bci`` do."""
     parameters = ['profile:=xy_pixels', 'source_width:=1366', 'source_height:=768',
                   f'stream_name:={name}', f'source_id:={source_id}', 'stats_period_s:=1.0',
-                  f'window_s:={WINDOW_S!r}']
+                  f'window_s:={scenario.window_s!r}']
     if not scenario.early:
         parameters.append('early_decision:=false')
     if scenario.fixed:
         parameters.append(f'idle_poll_period_s:={default_poll_period()!r}')
+    parameters += list(scenario.extra)
     ros_args = ['--ros-args'] + [part for value in parameters for part in ('-p', value)]
     if scenario.layout == 'eye_bci':
         return {'eye_bci': [sys.executable, '-m', 'eye_bci_ros2.nodes.eye_bci'] + ros_args}
@@ -215,7 +231,8 @@ def node_commands(scenario: Scenario, name: str, source_id: str) -> Dict[str, Li
            'choice_arbiter': ('window_s', 'early_decision')}
     commands = {}
     for node in NODES:
-        kept = [value for value in parameters if value.startswith(own.get(node, ('-',)))]
+        kept = [value for value in parameters if value.startswith(own.get(node, ('-',)))
+                or value in scenario.extra]
         commands[node] = ([sys.executable, '-m', f'eye_bci_ros2.nodes.{node}', '--ros-args']
                           + [part for value in kept for part in ('-p', value)])
     return commands
@@ -422,6 +439,7 @@ def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float
     expected = int(round(WINDOW_S * scenario.rate))
     short = [expected - 1 - n for n in used if n < expected - 1] if not scenario.early else []
     row = {
+        'extra_parameters': list(scenario.extra),
         'cpu_percent': {key: round(value, 1) for key, value in cpu.items()},
         'nodes_cpu_percent': round(nodes_cpu, 1),
         'others_cpu_percent': round(max(0.0, machine - ours), 1),
@@ -456,6 +474,11 @@ def _goals(section: Dict[str, Dict]) -> Dict[str, object]:
         if row and fast and 'nodes_cpu_percent' in fast:
             goals[f'{layout}_2000_cpu'] = (fast['nodes_cpu_percent']
                                            <= GOAL_2000_FACTOR * limit)
+    row = section.get('burst')
+    if row:
+        goals['burst'] = (abs(row['samples_decided_on'] - row['samples_pushed']) <= 1
+                          and row['choice'] == row['expected']
+                          and row['next_choice'] == row['next_expected'])
     for key, row in section.items():
         if 'window_end_to_choice' not in row:
             continue
@@ -466,16 +489,117 @@ def _goals(section: Dict[str, Dict]) -> Dict[str, object]:
     return goals
 
 
+def burst(samples: int = BURST_SAMPLES, log=sys.stderr) -> Dict[str, object]:
+    """
+    Push ``samples`` gaze samples at once into the running nodes (``eye_bci``, one process).
+
+    A round is asked (window 2 s), then ``samples`` stamped inside its window
+    arrive in one LSL chunk (a sender that stalled, or a 100 kHz test
+    stream), on an option where the gaze then stays.  Measured: samples
+    stamped in the window (the burst and the tracker's own 1200 Hz, +-1) vs
+    samples the decision used (the arbiter's log line), time from the push to
+    ``choice``, the
+    bridge's parameter service answering during the drain (``ros2 param get``
+    round trips), and the next ordinary round's choice.
+    """
+    scenario = Scenario('eye_bci', window_s=2.0)
+    name, source_id = f'lab-burst-{uuid.uuid4().hex}', f'lab-burst-{uuid.uuid4().hex}'
+    spawn = multiprocessing.get_context('spawn')
+    here, there = spawn.Pipe()
+    pusher = spawn.Process(target=push_loop, daemon=True, args=(
+        there, name, source_id, 1200.0, 'chunk', None))
+    process, output = None, tempfile.TemporaryFile(mode='w+')
+    with domain_id() as domain:
+        context = Context()
+        rclpy.init(context=context, domain_id=domain)
+        executor = make_executor(context=context)
+        driver = NoChoiceDriver(context=context)
+        executor.add_node(driver)
+        try:
+            pusher.start()
+            if not here.poll(SETUP_TIMEOUT_S):
+                raise RuntimeError('the LSL pusher did not start')
+            here.recv()
+            command = node_commands(scenario, name, source_id)['eye_bci']
+            process = subprocess.Popen(command, stdout=output, stderr=subprocess.STDOUT,
+                                       env=dict(os.environ, ROS_DOMAIN_ID=str(domain)))
+            client = AsyncParameterClient(driver, 'lsl_gaze_bridge')
+            driver.publish_menu()
+            if not spin_until(executor, lambda: driver.regions is not None
+                              and len(driver.regions.markers) == 3, SETUP_TIMEOUT_S):
+                raise RuntimeError('marker_projector published no regions')
+            targets = driver.targets()
+            labels = list(targets)
+            if not here.poll(SETUP_TIMEOUT_S):
+                raise RuntimeError('the bridge did not connect to the LSL stream')
+            here.recv()
+            spin_for(executor, 2.0)    # the clock offset, DDS discovery
+            received = len(driver.received)
+            driver.request_pub.publish(Empty())
+            spin_for(executor, 1.2)
+            # Stamped inside the round's window, all in one chunk, on the first option, where
+            # the gaze then stays (the fixation rule decides where the gaze last settled).
+            first = pylsl.local_clock() - 1.1
+            here.send(('aim', *targets[labels[0]]))
+            here.send(('burst', samples, first, first + 0.9))
+            answers, started = [], time.monotonic()
+            while time.monotonic() - started < 60.0 and len(driver.received) <= received:
+                asked = time.monotonic()
+                future = client.get_parameters(['max_chunk'])
+                executor.spin_until_future_complete(future, timeout_sec=5.0)
+                answers.append((time.monotonic() - asked) * 1e3 if future.done() else math.inf)
+                spin_for(executor, 0.05)
+            drained_s = time.monotonic() - started
+            chosen = driver.received[received][1] if len(driver.received) > received else None
+            # The next ordinary round, on the third option.
+            here.send(('aim', *targets[labels[2]]))
+            spin_for(executor, 0.5)
+            received = len(driver.received)
+            driver.request_pub.publish(Empty())
+            spin_until(executor, lambda: len(driver.received) > received, 5.0)
+            following = driver.received[received][1] if len(driver.received) > received else None
+        finally:
+            if pusher.is_alive():
+                for _ in range(3):
+                    here.send(None)
+                pusher.join(5.0)
+            if pusher.is_alive():
+                pusher.terminate()
+            if process is not None:
+                _stop([process])
+            executor.shutdown()
+            driver.destroy_node()
+            context.try_shutdown()
+    text = _read_logs({'eye_bci': output})
+    if os.environ.get('LAB_RATE_LOG'):
+        with open(os.environ['LAB_RATE_LOG'], 'w') as out:
+            out.write(text)
+    used = [int(m.group(2)) for m in _DECISION_LINE.finditer(text)]
+    output.close()
+    # The burst and the tracker's own samples stamped in the window.
+    row = {'samples_pushed': samples + int(2.0 * 1200.0),
+           'samples_decided_on': max(used, default=0),
+           'choice': chosen, 'expected': labels[0], 'push_to_choice_s': round(drained_s, 2),
+           'parameter_answers': len(answers),
+           'parameter_answer_max_ms': round(max(answers), 1) if answers else math.nan,
+           'next_choice': following, 'next_expected': labels[2]}
+    print(f'lab_rate burst: {row}', file=log, flush=True)
+    return row
+
+
 def run(quick: bool = False, scenarios: Sequence[Scenario] = DEFAULT_SCENARIOS,
-        seconds: float = SECONDS, repeat: int = 1, log=sys.stderr) -> Dict[str, object]:
-    """Measure ``scenarios`` (``quick``: the first two, 3 s each); return the section."""
+        seconds: float = SECONDS, repeat: int = 1, with_burst: bool = True,
+        log=sys.stderr) -> Dict[str, object]:
+    """Measure ``scenarios`` and the burst (``quick``: the first two, 3 s each, no burst)."""
     if quick:
-        scenarios, seconds = scenarios[:2], 3.0
+        scenarios, seconds, with_burst = scenarios[:2], 3.0, False
     section: Dict[str, object] = {}
     for attempt in range(repeat):
         for scenario in scenarios:
             key = scenario.name + (f'#{attempt + 1}' if repeat > 1 else '')
             section[key] = measure(scenario, seconds, log)
+    if with_burst:
+        section['burst'] = burst(log=log)
     section['goals'] = _goals(section)
     section['machine'] = machine_info()
     return section
@@ -508,10 +632,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument('--only', type=_scenario, nargs='+', metavar='NAME',
                         help='scenarios by name, e.g. eye_bci-1200-sample-busy')
     parser.add_argument('--repeat', type=int, default=1, help='run the scenarios N times')
+    parser.add_argument('--no-burst', action='store_true',
+                        help='skip the burst part (always skipped with --only)')
+    parser.add_argument('--set', nargs='+', default=[], metavar='NAME:=VALUE',
+                        help='more parameters for the nodes, e.g. idle_poll_period_s:=0.04')
     args = parser.parse_args(argv)
     scenarios = args.only or (LONG_SCENARIOS if args.long else DEFAULT_SCENARIOS)
+    scenarios = [replace(scenario, extra=tuple(args.set)) for scenario in scenarios]
     seconds = args.seconds or (LONG_SECONDS if args.long else SECONDS)
-    section = run(False, scenarios, seconds, args.repeat)
+    section = run(False, scenarios, seconds, args.repeat, not args.no_burst and not args.only)
     print(json.dumps({'lab_rate': section}, indent=2))
     return 0 if all(section['goals'].values()) else 1
 
