@@ -7,7 +7,10 @@ Subscribes ``gaze/samples`` (sensor_msgs/PointCloud2 batches, frame
 (visualization_msgs/MarkerArray, latched) and ``choice/request``
 (std_msgs/Empty); publishes ``choice`` (std_msgs/String, the region's label:
 its text if set, else ``ns/id``) and ``choice/none`` (std_msgs/String, why a
-round ended without a choice; input mode gaze), so a menu can ask again.
+round ended without a choice; input mode gaze), so a menu can ask again; and
+``choice/due`` (builtin_interfaces/Time, latched): when the open round's
+decision can next come (round start + ``dwell_s``, then the window end), so
+the bridge pulls gaze promptly then and in bigger batches otherwise.
 
 The rounds (when they start and end, which samples and regions they weigh,
 when a decision is final, what is dropped as implausible) are

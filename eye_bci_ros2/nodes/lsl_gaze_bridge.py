@@ -9,8 +9,9 @@ publishes
 * every valid sample on ``gaze/samples`` (sensor_msgs/PointCloud2), one
   message per pulled chunk, each sample with its own acquisition time on the
   ROS clock (:mod:`eye_bci_ros2.nodes.conversions`, "Gaze batches";
-  :mod:`eye_bci_ros2.lsl_connection` for the stamps): the cost follows the poll
-  rate, not the tracker rate;
+  :mod:`eye_bci_ros2.lsl_connection` for the stamps), published serialized
+  (:class:`eye_bci_ros2.nodes.conversions.GazeCdr`): the cost follows the
+  batches (below), not the tracker rate;
 * the newest sample on ``gaze/point`` (geometry_msgs/PointStamped) at most
   ``point_rate_hz`` times a second, for people and simple tools;
 * whether the newest sample is on the screen on ``gaze/on_screen``
@@ -40,6 +41,15 @@ different sources none is taken until ``source_id`` or ``stream_name``
 picks one.  Nothing blocks the executor for long: resolving runs in
 liblsl's background, chunks are pulled with a zero timeout, and the only
 waits are reading a stream's full description once (at most 0.2 s).
+
+Batches.  Without a choice_arbiter the bridge pulls every ``poll_period_s``
+(2 ms: a sample waits at most that long).  Once an arbiter announces when its
+decision can next come (``choice/due``: a round's earliest early decision,
+then its window end), it pulls every ``poll_period_s`` only from just before
+that time (a one-shot timer) until a sample stamped after it is published,
+and every ``idle_poll_period_s`` (20 ms) otherwise: at 1200 Hz about 60
+batches a second instead of 500, while the sample a decision waits for is
+still pulled within ``poll_period_s`` (``python -m bench.lab_rate``).
 
 Bursts: a backlog (a sender that stalled and then pushed seconds of gaze at
 once) waits in the inlet's buffer, which liblsl fills without loss up to
