@@ -40,11 +40,24 @@ Measured over the rounds (after a warm-up):
   log lines), and per round the samples the arbiter decided on (its
   ``choice ...: N samples`` log line) vs the samples stamped in the window
   (``window_s`` x rate, +-1);
-* rounds: right, wrong (a choice of another option), without a choice, unanswered.
+* rounds: right, wrong (a choice of another option), without a choice, unanswered
+  (no answer before the next request, 50 ms after the window end: the round is
+  replaced).
+
+Scenario names: ``layout-rate-push-load[-early][-fixed]``, e.g.
+``processes-2000-chunk-busy``; ``-early``: the arbiter's own early decision
+(the node default); ``-fixed``: the reference in the same run, the bridge
+pulling every ``poll_period_s`` whatever is due (``idle_poll_period_s`` set to
+it: the batching before ``choice/due``).
+
+A last part, ``burst`` (:func:`burst`): 100 000 samples stamped inside an
+open round's window arrive at once (a sender that stalled); every one must be
+decided on, the parameter service must answer during the drain.
 
 Usage::
 
     python -m bench.lab_rate [--long] [--seconds S] [--only NAME ...] [--repeat N]
+                             [--no-burst] [--set NAME:=VALUE ...]
 """
 
 import argparse
@@ -611,7 +624,7 @@ def _scenario(text: str) -> Scenario:
     flags = set(parts[4:])
     if len(parts) < 4 or not flags <= {'early', 'fixed'}:
         raise argparse.ArgumentTypeError(f"'{text}' is not layout-rate-push-load[-early]"
-                                         "[-fixed], e.g. eye_bci-1200-sample-idle")
+                                         '[-fixed], e.g. eye_bci-1200-sample-idle')
     scenario = Scenario(parts[0], float(parts[1]), parts[2], parts[3], 'early' in flags,
                         'fixed' in flags)
     if scenario.layout not in GOAL_CPU_PERCENT or scenario.push not in ('sample', 'chunk') \

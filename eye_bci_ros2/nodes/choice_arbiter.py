@@ -69,11 +69,11 @@ from eye_bci_ros2.nodes.log_throttle import KeyedWarnings, QuietRepeats
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.screen_parameters import person_screen_parameters
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, CHOICES_TOPIC, EVENT_QOS,
-                                       FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC,
-                                       LATCHED_QOS, NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC,
-                                       SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC,
-                                       DECISION_DUE_TOPIC)
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_QOS, CHOICES_TOPIC,
+                                       DECISION_DUE_TOPIC, EVENT_QOS, FEEDBACK_QOS,
+                                       FEEDBACK_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                       NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC, SCORES_QOS,
+                                       SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC)
 from eye_bci_ros2.regions import RegionSet
 from eye_bci_ros2.rounds import ArbiterSettings, MAX_FUTURE_S, METHODS, RoundScheduler
 from eye_bci_ros2.tolerance import CLASSIFICATIONS
@@ -330,6 +330,7 @@ class ChoiceArbiter(Node):
             if len(points):
                 self._newest = (float(points[-1, 0]), float(points[-1, 1]), now)
             self._tracker.add_samples(stamps, points, now)
+            self._announce_due(now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'gaze_error', f'gaze batch ignored: {error}')
 
@@ -361,17 +362,25 @@ class ChoiceArbiter(Node):
         """
         Publish when the open round's decision can next come (choice/due), if that changed.
 
-        The earliest early decision (round start + dwell_s: every rule's deciding run or
-        fixation spans dwell_s) until the node clock passes it, then the window end.
+        With the early decision: the earliest one (round start + dwell_s: every rule's
+        deciding run or fixation spans dwell_s) until the node clock passes it, and the
+        time the current fixation can first decide (the fixation rule's ``next_due``)
+        while no sample stamped after it has come; else the window end.
         """
         start = self._tracker.round_start
         if start is None:
             return
         settings = self._tracker.settings
         due = start + settings.window_s
-        early = start + settings.dwell_s
-        if settings.early_decision and early < due and (now is None or now < early):
-            due = early
+        if settings.early_decision:
+            early = start + settings.dwell_s
+            if now is None or now < early:
+                due = min(due, early)
+            evidence = self._tracker.evidence
+            next_due = getattr(evidence, 'next_due', None)
+            fixation_due = next_due() if next_due is not None else None
+            if fixation_due is not None and fixation_due > evidence.last_stamp:
+                due = min(due, fixation_due)
         if (start, due) != self._announced:
             self._announced = (start, due)
             self._due_publisher.publish(ns_to_stamp(int(round(due * 1e9))))

@@ -178,7 +178,7 @@ class GazeCdr:
         self._data_at = len(self._head)
 
     def build(self, stamps_ns: np.ndarray, xy: np.ndarray) -> bytes:
-        """Return the serialized :func:`gaze_batch` of ``stamps_ns`` (N,) ns and ``xy`` (N, 2) px."""
+        """Return the serialized :func:`gaze_batch` of ``stamps_ns`` (N,) ns, ``xy`` (N, 2) px."""
         first, points = _gaze_points(stamps_ns, xy)
         count = len(points)
         head = bytearray(self._head)

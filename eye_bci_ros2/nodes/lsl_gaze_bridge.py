@@ -84,15 +84,15 @@ from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC, GAZE_QOS,
-                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, VIEW_QOS,
-                                       DECISION_DUE_TOPIC)
+from eye_bci_ros2.nodes.topics import (DECISION_DUE_TOPIC, GAZE_ON_SCREEN_TOPIC,
+                                       GAZE_POINT_TOPIC, GAZE_QOS, GAZE_SAMPLES_TOPIC,
+                                       LATCHED_QOS, VIEW_QOS)
 from eye_bci_ros2.validation import (as_matrix, correction_values, IDENTITY, implausibility,
                                      is_identity, PARAMETER as CORRECTION_PARAMETER)
 from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
 
-#: After a decision's due time, the short poll period is kept at most this long for a sample stamped
-#: after it (a stream that stopped), s: longer than the arbiter's stall timeout.
+#: After a decision's due time, the short poll period is kept at most this long for a sample
+#: stamped after it (a stream that stopped), s: longer than the arbiter's stall timeout.
 PROMPT_LIMIT_S = 1.0
 
 #: Counters kept and logged by the bridge.

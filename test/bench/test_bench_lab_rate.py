@@ -1,4 +1,4 @@
-"""bench/lab_rate.py's plumbing on a tiny run: the nodes as a lab starts them, every sample counted."""
+"""bench/lab_rate.py's plumbing on a tiny run: the nodes as a lab starts them, samples counted."""
 
 import pytest
 

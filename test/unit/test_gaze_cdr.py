@@ -1,4 +1,4 @@
-"""gaze/samples serialized with numpy (conversions.GazeCdr): the same bytes and values as rclpy's."""
+"""gaze/samples serialized with numpy (conversions.GazeCdr): the same message as rclpy's."""
 
 import numpy as np
 import pytest
