@@ -17,7 +17,7 @@ from eye_bci_ros2.nodes.topics import DECISION_DUE_TOPIC, LATCHED_QOS
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 
 RATE_HZ = 1000.0
-IDLE_S = 0.05
+IDLE_S = 0.1
 WAIT_S = 10.0
 
 
@@ -40,6 +40,13 @@ class Pusher(threading.Thread):
             threading.Event().wait(0.0005)
 
 
+def batches(gaze):
+    """Each batch's size and the stamp of its newest sample, ns: (B,), (B,)."""
+    stamps, _ = gaze.samples()
+    sizes = np.array([m.width for m in gaze.messages])
+    return sizes, stamps[np.cumsum(sizes) - 1] * 1e9
+
+
 def test_between_due_decisions_samples_come_in_bigger_batches_and_none_is_lost(graph):
     outlet, info = make_outlet('xy_pixels', rate=RATE_HZ)
     bridge = graph.add(LslGazeBridge, parameter_overrides=[
@@ -49,28 +56,28 @@ def test_between_due_decisions_samples_come_in_bigger_batches_and_none_is_lost(g
     announcer = graph.node('gaze_listener').create_publisher(Time, DECISION_DUE_TOPIC,
                                                              LATCHED_QOS)
     assert graph.spin_until(outlet.have_consumers, WAIT_S), 'bridge never connected'
-    # A decision due 1.5 s ahead: the bridge pulls every IDLE_S until shortly before it.
-    now_ns = bridge.get_clock().now().nanoseconds
-    end_ns = now_ns + 1_500_000_000
-    announcer.publish(ns_to_stamp(end_ns))
-    pusher = Pusher(outlet, int(2.5 * RATE_HZ))
+    # A decision due far ahead: the bridge pulls every IDLE_S.
+    announcer.publish(ns_to_stamp(bridge.get_clock().now().nanoseconds + 60_000_000_000))
+    pusher = Pusher(outlet, int(3.0 * RATE_HZ))
     pusher.start()
+    assert graph.spin_until(lambda: len(gaze.messages) >= 8, WAIT_S)
+    sizes, lasts = batches(gaze)
+    # Batches of what IDLE_S gathers: far more than the 2 ms poll's one or two (a busy
+    # machine only makes them bigger).
+    assert np.median(sizes[2:]) >= 0.5 * IDLE_S * RATE_HZ
+    # A decision due half-way between two idle pulls (their timer does not drift).
+    end_ns = int(lasts[-1] + 5.5 * IDLE_S * 1e9)
+    announcer.publish(ns_to_stamp(end_ns))
     assert graph.spin_until(lambda: not pusher.is_alive() and gaze.count >= pusher.count,
                             WAIT_S), f'{gaze.count} of {pusher.count} samples arrived'
     stamps, _ = gaze.samples()
     # Every sample, once, in order.
     assert len(stamps) == pusher.count
     assert np.all(np.diff(stamps) > 0)
-    # Batches wholly before the lead-in to the due time hold what IDLE_S gathers:
-    # far more than the 2 ms poll's one or two (a busy machine only makes them bigger).
-    sizes = np.array([m.width for m in gaze.messages])
-    firsts = np.cumsum(np.concatenate([[0], sizes[:-1]]))
-    lasts = stamps[firsts + sizes - 1] * 1e9
-    early = sizes[lasts < end_ns - 2 * IDLE_S * 1e9]
-    assert len(early) > 3 and np.median(early) >= 0.5 * IDLE_S * RATE_HZ
-    # A sample stamped after the due time has been delivered.
-    assert stamps[-1] * 1e9 >= end_ns
-    # Just before the due time the short period takes over: the batch that brings the first
-    # sample stamped after it is small, pulled promptly, not gathered for IDLE_S.
+    # From just before the due time the short period takes over: the batch that brings the
+    # first sample stamped after it was pulled within a few ms of it (its newest sample),
+    # not half an idle period later (sample stamps, not timing: a busy machine would only
+    # delay the pulls).
+    sizes, lasts = batches(gaze)
     due = int(np.argmax(lasts >= end_ns))
-    assert sizes[due] < np.median(early)
+    assert lasts[due] - end_ns < 0.25 * IDLE_S * 1e9
