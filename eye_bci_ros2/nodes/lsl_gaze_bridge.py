@@ -46,10 +46,13 @@ Batches.  Without a choice_arbiter the bridge pulls every ``poll_period_s``
 (2 ms: a sample waits at most that long).  Once an arbiter announces when its
 decision can next come (``choice/due``: a round's earliest early decision,
 then its window end), it pulls every ``poll_period_s`` only from just before
-that time (a one-shot timer) until a sample stamped after it is published,
-and every ``idle_poll_period_s`` (20 ms) otherwise: at 1200 Hz about 60
-batches a second instead of 500, while the sample a decision waits for is
-still pulled within ``poll_period_s`` (``python -m bench.lab_rate``).
+that time until a sample stamped after it is published, and every
+``idle_poll_period_s`` (20 ms) otherwise: at 1200 Hz about 60 batches a
+second instead of 500, while the sample a decision waits for is still pulled
+within ``poll_period_s`` (``python -m bench.lab_rate``).  One timer at
+``poll_period_s`` runs throughout and skips the pulls not due (a cheap
+check): timers are never cancelled and reset per round (rclpy's
+EventsExecutor has missed timers after a reset).
 
 Bursts: a backlog (a sender that stalled and then pushed seconds of gaze at
 once) waits in the inlet's buffer, which liblsl fills without loss up to
@@ -260,14 +263,12 @@ class LslGazeBridge(Node):
         self._mapping: Optional[GazeMapping] = None
         self._mapping_error = ''
         self._poll_timer = None
-        # Pulls in bigger batches while no decision is due (module doc, "Batches").
-        self._idle_timer = None
-        # The announced due time, ns on the ROS clock (None: no arbiter announces: the
-        # short period always); whether the short period runs for it now.
+        # Batches (module doc): the announced due time, ns on the ROS clock (None: no
+        # arbiter announces: every tick pulls); the short period's span for it and the
+        # last pull, s of time.monotonic().
         self._due_ns: Optional[int] = None
-        self._prompt = False
-        # A one-shot timer that starts the short period just before the due time.
-        self._wake_timer = None
+        self._prompt_from = self._prompt_until = -math.inf
+        self._pulled_at = -math.inf
         self.create_subscription(Time, DECISION_DUE_TOPIC, self._on_due, LATCHED_QOS)
         self._resolve_timer = None
         self._stats_timer = None
@@ -276,8 +277,7 @@ class LslGazeBridge(Node):
             LogReporter(self.get_logger()),
             ros_now_ns=lambda: self.get_clock().now().nanoseconds,
             on_connected=self._on_connected, on_quiet=lambda: self._publish_on_screen(False))
-        self._make_timers(('poll_period_s', 'idle_poll_period_s', 'resolve_period_s',
-                           'stats_period_s'))
+        self._make_timers(('poll_period_s', 'resolve_period_s', 'stats_period_s'))
         self.get_logger().info(
             f"profile '{self._config.profile}': looking for {self._config.describe_selection()}")
 
@@ -349,6 +349,7 @@ class LslGazeBridge(Node):
             self.get_logger().info(
                 f'stream selection changed: now looking for {self._config.describe_selection()} '
                 f"(profile '{self._config.profile}')")
+            self._poll_timer.cancel()
             self._connection.reselect(profile, _settings(self._params))
         else:
             # Same streams: refused ones are judged again, the one in use is bound again.
@@ -359,15 +360,12 @@ class LslGazeBridge(Node):
 
     def _make_timers(self, changed) -> None:
         """(Re)create the timers whose period parameter is in ``changed``."""
-        for name, attribute in (('poll_period_s', '_poll_timer'),
-                                ('idle_poll_period_s', '_idle_timer')):
-            if name in changed:
-                if getattr(self, attribute) is not None:
-                    self.destroy_timer(getattr(self, attribute))
-                timer = self.create_timer(self._params[name], self._poll)
-                timer.cancel()     # _schedule starts the one the state asks for
-                setattr(self, attribute, timer)
-        self._schedule()
+        if 'poll_period_s' in changed:
+            if self._poll_timer is not None:
+                self.destroy_timer(self._poll_timer)
+            self._poll_timer = self.create_timer(self._params['poll_period_s'], self._poll)
+            if self._connection.stream is None:
+                self._poll_timer.cancel()   # no wake-ups while there is nothing to read
         if 'resolve_period_s' in changed:
             if self._resolve_timer is not None:
                 self.destroy_timer(self._resolve_timer)
@@ -388,7 +386,7 @@ class LslGazeBridge(Node):
         try:
             self._connection.maintain()
             if self._connection.stream is None:
-                self._schedule()
+                self._poll_timer.cancel()
         except Exception as exc:  # noqa: B902 - a node never dies on a stream
             self.get_logger().warning(f'LSL maintenance failed: {exc}',
                                       throttle_duration_sec=WARN_PERIOD_S)
@@ -398,7 +396,7 @@ class LslGazeBridge(Node):
         self._on_screen = None       # published once when this stream starts sending
         self._bind(stream)
         if self._poll_timer is not None:
-            self._schedule()
+            self._poll_timer.reset()
 
     def _bind(self, stream: StreamDescription) -> None:
         """Map the configuration onto the stream's channels, or say why it cannot."""
@@ -417,7 +415,10 @@ class LslGazeBridge(Node):
     # -- pulling and publishing ------------------------------------------------------
 
     def _poll(self) -> None:
-        """Pull what the inlet holds, convert and publish it."""
+        """Pull what the inlet holds, convert and publish it (when due: module doc)."""
+        if self._due_ns is not None and not self._pull_due():
+            return
+        self._pulled_at = time.monotonic()
         try:
             for chunk in self._connection.acquire():
                 self._publish_chunk(chunk, time.monotonic())
@@ -425,9 +426,7 @@ class LslGazeBridge(Node):
             self.get_logger().warning(f'failed to publish gaze: {exc}',
                                       throttle_duration_sec=WARN_PERIOD_S)
         if self._connection.stream is None:
-            self._schedule()
-        elif self._due_ns is not None:
-            self._update_prompt()
+            self._poll_timer.cancel()
 
     # -- batches: the short poll period when a decision is due ---------------------------
 
@@ -439,48 +438,22 @@ class LslGazeBridge(Node):
                 f"{self._params['idle_poll_period_s']:g} s, and every "
                 f"{self._params['poll_period_s']:g} s when a decision is due")
         self._due_ns = stamp_to_ns(msg)
-        self._prompt = False
-        if self._wake_timer is not None:
-            self.destroy_timer(self._wake_timer)
-            self._wake_timer = None
-        lead_s = self._params['poll_period_s']
-        delay_s = (self._due_ns - self.get_clock().now().nanoseconds) * 1e-9 - lead_s
-        if delay_s > lead_s:
-            self._wake_timer = self.create_timer(delay_s, self._on_wake)
-        self._update_prompt()
-        self._schedule()
+        # The ROS clock's due time on the monotonic clock the ticks read.
+        due = time.monotonic() + (self._due_ns - self.get_clock().now().nanoseconds) * 1e-9
+        # From two short periods before it until a sample stamped after it is out (or the
+        # stream stopped): what a decision due then waits for.
+        self._prompt_from = due - 2.0 * self._params['poll_period_s']
+        self._prompt_until = due + PROMPT_LIMIT_S
 
-    def _on_wake(self) -> None:
-        """Start the short period one poll_period_s before the due time (one shot)."""
-        self._wake_timer.cancel()
-        self._update_prompt()
-
-    def _update_prompt(self) -> None:
-        """Start the short period near the due time, end it once a later sample is out."""
-        end = self._due_ns
-        newest = self._connection.newest_stamp_ns
-        now = self.get_clock().now().nanoseconds
-        delivered = newest is not None and newest >= end
-        # From two short periods before it (the wake timer fires at one) until a sample
-        # stamped after it is out: what a decision due then waits for.
-        lead = int(2e9 * self._params['poll_period_s'])
-        prompt = not delivered and end - lead <= now <= end + int(PROMPT_LIMIT_S * 1e9)
-        if prompt != self._prompt:
-            self._prompt = prompt
-            self._schedule()
-
-    def _schedule(self) -> None:
-        """Run the poll timer the state asks for; none while there is nothing to read."""
-        reading = self._connection.stream is not None
-        short = reading and (self._due_ns is None or self._prompt)
-        for timer, wanted in ((self._poll_timer, short),
-                              (self._idle_timer, reading and not short)):
-            if timer is None:
-                continue
-            if wanted and timer.is_canceled():
-                timer.reset()
-            elif not wanted and not timer.is_canceled():
-                timer.cancel()
+    def _pull_due(self) -> bool:
+        """Tell whether this tick pulls: near the due time, or after idle_poll_period_s."""
+        now = time.monotonic()
+        if self._prompt_from <= now <= self._prompt_until:
+            newest = self._connection.newest_stamp_ns
+            if newest is None or newest < self._due_ns:
+                return True
+            self._prompt_until = -math.inf      # delivered
+        return now - self._pulled_at >= self._params['idle_poll_period_s']
 
     def _publish_chunk(self, chunk: Chunk, now: float) -> None:
         """Convert and publish one stamped chunk; count what is dropped."""
