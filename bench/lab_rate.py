@@ -58,6 +58,8 @@ Usage::
 
     python -m bench.lab_rate [--long] [--seconds S] [--only NAME ...] [--repeat N]
                              [--no-burst] [--set NAME:=VALUE ...]
+
+``LAB_RATE_LOG=FILE`` writes the node processes' log lines of the last scenario there.
 """
 
 import argparse
