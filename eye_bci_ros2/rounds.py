@@ -39,6 +39,9 @@ MAX_ROUND_SAMPLES = 1 << 21
 #: below it and are rebuilt at once.
 LAZY_REBUILD_SAMPLES = 4096
 LAZY_QUIET_S = 0.01
+#: While such a backlog is still arriving the stream has not stalled: the stall timeout
+#: waits for it, at most this much longer, s.
+BACKLOG_LIMIT_S = 10.0
 
 #: Recent samples kept for a round that starts at a stamp in the past, at most.
 MAX_RECENT_SAMPLES = 1 << 17
@@ -769,7 +772,8 @@ class RoundScheduler:
         Close a held decision past its deadline or a round whose stream went quiet.
 
         A round left stale by a backlog (:data:`LAZY_REBUILD_SAMPLES`) is rebuilt first,
-        once no batch came for :data:`LAZY_QUIET_S`.
+        once no batch came for :data:`LAZY_QUIET_S`; while its batches keep coming the
+        stream has not stalled (at most :data:`BACKLOG_LIMIT_S` past the stall timeout).
 
         Call it periodically (the node: every 20 ms).
         :returns: the decision made, if any.
@@ -778,8 +782,9 @@ class RoundScheduler:
         if round_ is None:
             return None
         stall_at = round_.start + self.settings.window_s + self.settings.stall_timeout_s
-        if round_.stale and round_.pending is None and not round_.window_closed and (
-                now - round_.arrived >= LAZY_QUIET_S or now >= stall_at):
+        if round_.stale and round_.pending is None and not round_.window_closed:
+            if now - round_.arrived < LAZY_QUIET_S and now < stall_at + BACKLOG_LIMIT_S:
+                return None     # a backlog is arriving: not stalled, not yet rebuilt
             decision = self._reclassify(round_, now)
             if decision is not None or self._round is not round_:
                 return decision
