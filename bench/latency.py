@@ -229,9 +229,13 @@ def _cpu_seconds(process: psutil.Process) -> float:
 
 
 def _bridge_command(name: str, source_id: str, poll_period_s: Optional[float]) -> List[str]:
+    # The marked sample decides at a time the arbiter cannot announce (choice/due): the
+    # bridge pulls every poll_period_s throughout, the path a due decision takes.
+    poll = default_poll_period() if poll_period_s is None else poll_period_s
     command = [sys.executable, '-m', 'eye_bci_ros2.nodes.lsl_gaze_bridge', '--ros-args',
                '-p', 'profile:=xy_pixels', '-p', f'stream_name:={name}',
-               '-p', f'source_id:={source_id}', '-p', 'stats_period_s:=0.0']
+               '-p', f'source_id:={source_id}', '-p', 'stats_period_s:=0.0',
+               '-p', f'idle_poll_period_s:={poll!r}']
     if poll_period_s is not None:
         command += ['-p', f'poll_period_s:={poll_period_s!r}']
     return command + ['--log-level', 'warn']

@@ -311,6 +311,19 @@ class FixationEvidence:
                 return self.decision
         return None
 
+    def next_due(self) -> Optional[float]:
+        """
+        Return the stamp at which the current fixation can first decide early, s, or None.
+
+        Its first sample + ``dwell_s``, while it is fresh and nothing is decided: the
+        choice_arbiter announces it (``choice/due``) so that the gaze of that moment is
+        pulled promptly.
+        """
+        current = self._current
+        if self.decision is not None or current is None or not current.fresh:
+            return None
+        return current.first + self.dwell_s
+
     def early(self, confidence: float) -> Optional[Decision]:
         """Return the early decision if made (samples are tested as they arrive)."""
         return self.decision

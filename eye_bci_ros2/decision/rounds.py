@@ -37,6 +37,16 @@ MAX_FUTURE_S = 60.0
 
 #: A round holding this many samples closes at once (bounds memory on a runaway stream).
 MAX_ROUND_SAMPLES = 1 << 21
+#: A batch out of stamp order rebuilds a round holding at least this many samples once
+#: the batches stop coming (no batch for LAZY_QUIET_S at a tick), not at once: a backlog
+#: that arrives in many batches (a stalled sender's burst, max_chunk samples each) then
+#: costs one rebuild, not one per batch.  Ordinary rounds (2 s of a 2000 Hz tracker) stay
+#: below it and are rebuilt at once.
+LAZY_REBUILD_SAMPLES = 4096
+LAZY_QUIET_S = 0.01
+#: While such a backlog is still arriving the stream has not stalled: the stall timeout
+#: waits for it, at most this much longer, s.
+BACKLOG_LIMIT_S = 10.0
 
 #: Recent samples kept for a round that starts at a stamp in the past, at most.
 MAX_RECENT_SAMPLES = 1 << 17
@@ -358,6 +368,10 @@ class _Round:
         # A decision made but not yet final (reorder_s > 0), and until when it may wait.
         self.pending: Optional[Decision] = None
         self.deadline = math.inf
+        # The evidence lacks samples logged since: rebuilt by a tick (LAZY_REBUILD_SAMPLES);
+        # when the last batch arrived (s).
+        self.stale = False
+        self.arrived = -math.inf
 
 
 class _Classifier(NamedTuple):
@@ -663,7 +677,7 @@ class RoundScheduler:
     def _steady(self, round_: _Round, stamps: np.ndarray) -> bool:
         """Tell whether a batch can be weighed at once (:meth:`add_samples`)."""
         history = self._history_stamps
-        return (round_.pending is None and not round_.window_closed
+        return (round_.pending is None and not round_.window_closed and not round_.stale
                 and stamps[0] >= round_.log.max_stamp
                 and (not history or stamps[0] >= history[-1])
                 and len(round_.log) + len(stamps) < MAX_ROUND_SAMPLES
@@ -770,15 +784,26 @@ class RoundScheduler:
         """
         Close a held decision past its deadline or a round whose stream went quiet.
 
+        A round left stale by a backlog (:data:`LAZY_REBUILD_SAMPLES`) is rebuilt first,
+        once no batch came for :data:`LAZY_QUIET_S`; while its batches keep coming the
+        stream has not stalled (at most :data:`BACKLOG_LIMIT_S` past the stall timeout).
+
         Call it periodically (the node: every 20 ms).
         :returns: the decision made, if any.
         """
         round_ = self._round
         if round_ is None:
             return None
+        stall_at = round_.start + self.settings.window_s + self.settings.stall_timeout_s
+        if round_.stale and round_.pending is None and not round_.window_closed:
+            if now - round_.arrived < LAZY_QUIET_S and now < stall_at + BACKLOG_LIMIT_S:
+                return None     # a backlog is arriving: not stalled, not yet rebuilt
+            decision = self._reclassify(round_, now)
+            if decision is not None or self._round is not round_:
+                return decision
         if round_.pending is not None:
             return self._finish(round_.pending) if now >= round_.deadline else None
-        if now >= round_.start + self.settings.window_s + self.settings.stall_timeout_s:
+        if now >= stall_at:
             round_.window_closed = True
             return self._finish(round_.evidence.decide(self.settings.method))
         return None
@@ -808,6 +833,9 @@ class RoundScheduler:
             round_.window_closed = round_.window_closed or closes
             return None   # held for late regions, or already decided at the window end
         round_.window_closed = closes
+        if not closes and len(log) >= LAZY_REBUILD_SAMPLES:
+            round_.stale, round_.arrived = True, now    # rebuilt by tick() once drained
+            return None
         return self._reclassify(round_, now)
 
     def _shown_since(self, stamp: float) -> float:
@@ -858,6 +886,7 @@ class RoundScheduler:
                 if evidence.add(points[lo:hi], stamps[lo:hi], regions, confidence) is not None:
                     break
         round_.evidence = evidence
+        round_.stale = False
         if evidence.decision is not None:
             return evidence.decision
         if round_.window_closed and until >= round_.start + settings.window_s:

@@ -7,7 +7,10 @@ Subscribes ``gaze/samples`` (sensor_msgs/PointCloud2 batches, frame
 (visualization_msgs/MarkerArray, latched) and ``choice/request``
 (std_msgs/Empty); publishes ``choice`` (std_msgs/String, the region's label:
 its text if set, else ``ns/id``) and ``choice/none`` (std_msgs/String, why a
-round ended without a choice; input mode gaze), so a menu can ask again.
+round ended without a choice; input mode gaze), so a menu can ask again; and
+``choice/due`` (builtin_interfaces/Time, latched): when the open round's
+decision can next come (round start + ``dwell_s``, then the window end), so
+the bridge pulls gaze promptly then and in bigger batches otherwise.
 
 The rounds (when they start and end, which samples and regions they weigh,
 when a decision is final, what is dropped as implausible) are
@@ -45,6 +48,7 @@ position = posterior) of at least ``confirm_threshold`` for it).
 
 from typing import Optional
 
+from builtin_interfaces.msg import Time
 from rclpy.node import Node
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Empty, String
@@ -56,13 +60,14 @@ from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings, RoundScheduler
 from eye_bci_ros2.nodes.arbiter_feedback import FEEDBACK_PARAMETERS, FeedbackPublisher
 from eye_bci_ros2.nodes.arbiter_fusion import FUSION_PARAMETERS, FusionInput
-from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
+from eye_bci_ros2.nodes.conversions import gaze_cdr, marker_array_to_regions, ns_to_stamp
 from eye_bci_ros2.nodes.graph_watch import GraphWatch
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings, QuietRepeats
 from eye_bci_ros2.nodes.parameters import param_specs, SettingsParameters
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
-                                       LATCHED_QOS, NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC)
+from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, DECISION_DUE_TOPIC, EVENT_QOS, GAZE_QOS,
+                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
+                                       REGIONS_TOPIC, REQUEST_TOPIC)
 
 #: Period of the timer that closes quiet rounds and releases held decisions, s.
 TICK_S = 0.02
@@ -93,7 +98,14 @@ class ChoiceArbiter(Node):
         self._rounds = RoundScheduler(self._decision.settings, self._publish, self._log)
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
         self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
-        self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
+        # When the open round's decision can next come, for the bridge's batching
+        # (topics.DECISION_DUE_TOPIC): (round start, due) last announced.
+        self._due_publisher = self.create_publisher(Time, DECISION_DUE_TOPIC, LATCHED_QOS)
+        self._announced: Optional[tuple] = None
+        # Taken serialized and read with numpy (conversions.GazeCdr): no Python message.
+        self._gaze_cdr = gaze_cdr()
+        self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS,
+                                 raw=True)
         # Says so when a second pipeline shares this graph (two eye_bci on one domain).
         self.graph_watch = GraphWatch(self, outputs=[CHOICE_TOPIC], inputs=[GAZE_SAMPLES_TOPIC])
         self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
@@ -159,19 +171,20 @@ class ChoiceArbiter(Node):
 
     # -- inputs -----------------------------------------------------------------------------
 
-    def _on_gaze(self, msg: PointCloud2) -> None:
+    def _on_gaze(self, data: bytes) -> None:
         try:
-            stamps, points = gaze_batch_arrays(msg)
+            stamps, points, stamped = self._gaze_cdr.read(data)
         except ValueError as error:
             self._log('warning', 'gaze_bad', str(error))
             return
         try:
             now = self._now()
-            if not (msg.header.stamp.sec or msg.header.stamp.nanosec):
+            if not stamped:
                 stamps = stamps + now   # unstamped: taken as arriving now (offsets kept)
             if len(points):
                 self._feedback.gaze_at(float(points[-1, 0]), float(points[-1, 1]), now)
             self._rounds.add_samples(stamps, points, now)
+            self._announce_due(now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'gaze_error', f'gaze batch ignored: {error}')
 
@@ -188,6 +201,7 @@ class ChoiceArbiter(Node):
             self._rounds.add_regions(region_set, now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'regions_error', f'failed to apply regions: {error}')
+        self._announce_due()
         self._fusion.offered(labels)
 
     def _on_request(self, msg: Empty) -> None:
@@ -196,10 +210,40 @@ class ChoiceArbiter(Node):
             self._rounds.request(self._now())
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'request_error', f'failed to start a round: {error}')
+        self._announce_due()
+
+    def _announce_due(self, now: Optional[float] = None) -> None:
+        """
+        Publish when the open round's decision can next come (choice/due), if that changed.
+
+        With the early decision: the earliest one (round start + dwell_s: every rule's
+        deciding run or fixation spans dwell_s) until the node clock passes it, and the
+        time the current fixation can first decide (the fixation rule's ``next_due``)
+        while no sample stamped after it has come; else the window end.
+        """
+        start = self._rounds.round_start
+        if start is None:
+            return
+        settings = self._rounds.settings
+        due = start + settings.window_s
+        if settings.early_decision:
+            early = start + settings.dwell_s
+            if now is None or now < early:
+                due = min(due, early)
+            evidence = self._rounds.evidence
+            next_due = getattr(evidence, 'next_due', None)
+            fixation_due = next_due() if next_due is not None else None
+            if fixation_due is not None and fixation_due > evidence.last_stamp:
+                due = min(due, fixation_due)
+        if (start, due) != self._announced:
+            self._announced = (start, due)
+            self._due_publisher.publish(ns_to_stamp(int(round(due * 1e9))))
 
     def _on_tick(self) -> None:
         try:
-            self._rounds.tick(self._now())
+            now = self._now()
+            self._rounds.tick(now)
+            self._announce_due(now)
         except Exception as error:  # noqa: B902 - a node never dies on a timer
             self._log('warning', 'tick_error', f'failed to close a round: {error}')
 

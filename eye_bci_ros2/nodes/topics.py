@@ -40,6 +40,11 @@ MENU_ANSWER_TOPIC = 'choice_menu/answer'
 CHOICE_TOPIC = 'choice'
 NO_CHOICE_TOPIC = 'choice/none'
 REQUEST_TOPIC = 'choice/request'
+#: When the open round's decision can next come (builtin_interfaces/Time, a sample stamp on
+#: the ROS clock, LATCHED_QOS; choice_arbiter -> lsl_gaze_bridge): the earliest early
+#: decision, then the window end.  The gaze stamped up to it is wanted promptly then, so
+#: the bridge pulls at its short period around it and in bigger batches otherwise.
+DECISION_DUE_TOPIC = 'choice/due'
 
 #: What the person is shown of the selection while it happens (choice_arbiter ->
 #: RViz): visualization_msgs/MarkerArray in the options' frame, one halo per option

@@ -210,3 +210,26 @@ def test_options_that_appear_under_a_resting_gaze_are_not_chosen_when_asked_at_o
     scheduler.add_samples(stamps[40:], points[40:], now=stamps[-1])
     scheduler.tick(now=stamps[-1] + 5.0)
     assert decisions and decisions[-1].label is None
+
+
+def test_next_due_is_when_the_current_fresh_fixation_can_first_decide():
+    """What the arbiter announces on choice/due: the fixation's first sample + dwell_s."""
+    stamps, points = path([(0.3, AWAY, AWAY), (0.04, AWAY, CENTRES['left']),
+                           (0.1, CENTRES['left'], CENTRES['left'])], rate=600.0)
+    evidence = SETTINGS.evidence(0.0)
+    evidence.add(points, stamps, options(), SETTINGS.confidence)
+    due = evidence.next_due()
+    # The landing on 'left' began after the saccade (0.34 s) and lasted 0.1 s < dwell_s.
+    assert due is not None and 0.3 + SETTINGS.dwell_s < due < 0.36 + SETTINGS.dwell_s
+    more_stamps, more_points = path([(0.3, CENTRES['left'], CENTRES['left'])], rate=600.0)
+    decision = evidence.add(more_points, more_stamps + stamps[-1], options(),
+                            SETTINGS.confidence)
+    assert decision is not None and decision.label == 'left'
+    assert evidence.next_due() is None          # decided: nothing more is due
+
+
+def test_a_resting_gaze_is_never_due():
+    stamps, points = path([(0.5, CENTRES['left'], CENTRES['left'])], rate=600.0)
+    evidence = SETTINGS.evidence(0.0)
+    evidence.add(points, stamps, options(), SETTINGS.confidence)
+    assert evidence.next_due() is None
