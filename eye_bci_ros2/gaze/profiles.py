@@ -440,35 +440,48 @@ def convert(samples: np.ndarray, mapping: GazeMapping,
     if samples.ndim != 2 or samples.shape[1] != mapping.channel_count:
         raise ValueError(f'expected samples of shape (N, {mapping.channel_count}), '
                          f'got {samples.shape}')
-    x_eyes = samples[:, mapping.x_index].astype(np.float64)
-    y_eyes = samples[:, mapping.y_index].astype(np.float64)
-    valid = np.isfinite(x_eyes) & np.isfinite(y_eyes)
-    eyes = valid.sum(axis=1)
-    finite = eyes > 0
-    with np.errstate(invalid='ignore', divide='ignore'):
-        xy = np.stack([np.where(valid, x_eyes, 0.0).sum(axis=1),
-                       np.where(valid, y_eyes, 0.0).sum(axis=1)], axis=1) / eyes[:, None]
-    if mapping.flip_span is not None:
-        xy[:, 1] = mapping.flip_span - xy[:, 1]
-    xy *= mapping.scale
-    if correction is not None:
-        xy = apply_correction(xy, correction)
-    # The averaged point can still overflow to inf from huge finite inputs.
-    finite &= np.isfinite(xy).all(axis=1)
+    # One errstate for the whole batch, and the average over the eyes without masking when
+    # every eye is tracked (the common case): the cost is per call at tracker rates (a batch
+    # every poll), so few numpy calls, whatever the batch's size.
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
+        x_eyes = samples[:, mapping.x_index].astype(np.float64)
+        y_eyes = samples[:, mapping.y_index].astype(np.float64)
+        valid = np.isfinite(x_eyes) & np.isfinite(y_eyes)
+        if valid.all():
+            finite = np.ones(len(samples), dtype=bool)
+            xy = np.empty((len(samples), 2))
+            np.sum(x_eyes, axis=1, out=xy[:, 0])
+            np.sum(y_eyes, axis=1, out=xy[:, 1])
+            xy /= x_eyes.shape[1]
+        else:
+            eyes = valid.sum(axis=1)
+            finite = eyes > 0
+            xy = np.stack([np.where(valid, x_eyes, 0.0).sum(axis=1),
+                           np.where(valid, y_eyes, 0.0).sum(axis=1)], axis=1) / eyes[:, None]
+        if mapping.flip_span is not None:
+            xy[:, 1] = mapping.flip_span - xy[:, 1]
+        xy *= mapping.scale
+        if correction is not None:
+            xy = apply_correction(xy, correction)
+        # The averaged point can still overflow to inf from huge finite inputs.
+        finite &= np.isfinite(xy).all(axis=1)
 
-    confident = np.ones(len(samples), dtype=bool)
-    if mapping.confidence_index is not None:
-        confidence = samples[:, mapping.confidence_index].astype(np.float64)
-        with np.errstate(invalid='ignore'):
+        confident = None
+        if mapping.confidence_index is not None:
+            confidence = samples[:, mapping.confidence_index].astype(np.float64)
             confident = confidence >= mapping.min_confidence
 
-    width, height = mapping.screen_size
-    margin = mapping.margin
-    with np.errstate(invalid='ignore'):
+        width, height = mapping.screen_size
+        margin = mapping.margin
         onscreen = ((xy[:, 0] >= -margin) & (xy[:, 0] <= width + margin)
                     & (xy[:, 1] >= -margin) & (xy[:, 1] <= height + margin))
 
-    keep = finite & confident & onscreen
+    keep = finite & onscreen if confident is None else finite & confident & onscreen
+    if keep.all():
+        dropped = {'nonfinite': 0, 'low_confidence': 0, 'offscreen': 0}
+        return GazeBatch(xy=xy, keep=keep, dropped=dropped)
+    if confident is None:
+        confident = np.ones(len(samples), dtype=bool)
     dropped = {
         'nonfinite': int(np.count_nonzero(~finite)),
         'low_confidence': int(np.count_nonzero(finite & ~confident)),

@@ -49,10 +49,14 @@ then its window end), it pulls every ``poll_period_s`` only from just before
 that time until a sample stamped after it is published, and every
 ``idle_poll_period_s`` (20 ms) otherwise: at 1200 Hz about 60 batches a
 second instead of 500, while the sample a decision waits for is still pulled
-within ``poll_period_s`` (``python -m bench.lab_rate``).  One timer at
-``poll_period_s`` runs throughout and skips the pulls not due (a cheap
-check): timers are never cancelled and reset per round (rclpy's
-EventsExecutor has missed timers after a reset).
+within ``poll_period_s`` (``python -m bench.lab_rate``).  One poll timer
+runs throughout; its period is changed in place (``timer_period_ns``: rcl
+applies it from the tick after next) to ``idle_poll_period_s`` between due
+times and back to ``poll_period_s`` two idle periods before one, so the
+empty 2 ms ticks are gone; timers are never cancelled and reset per round
+(rclpy's EventsExecutor has missed timers after a reset).  A due time
+announced less than an idle period ahead is pulled for from the next tick
+(at most ``idle_poll_period_s`` later).
 
 Bursts: a backlog (a sender that stalled and then pushed seconds of gaze at
 once) waits in the inlet's buffer, which liblsl fills without loss up to
@@ -268,6 +272,8 @@ class LslGazeBridge(Node):
         self._due_ns: Optional[int] = None
         self._prompt_from = self._prompt_until = -math.inf
         self._pulled_at = -math.inf
+        # The poll timer's period now, ns (set in place by _pace).
+        self._period_ns = 0
         self.create_subscription(Time, DECISION_DUE_TOPIC, self._on_due, LATCHED_QOS)
         self._resolve_timer = None
         self._stats_timer = None
@@ -363,6 +369,7 @@ class LslGazeBridge(Node):
             if self._poll_timer is not None:
                 self.destroy_timer(self._poll_timer)
             self._poll_timer = self.create_timer(self._params['poll_period_s'], self._poll)
+            self._period_ns = self._poll_timer.timer_period_ns
             if self._connection.stream is None:
                 self._poll_timer.cancel()   # no wake-ups while there is nothing to read
         if 'resolve_period_s' in changed:
@@ -415,8 +422,11 @@ class LslGazeBridge(Node):
 
     def _poll(self) -> None:
         """Pull what the inlet holds, convert and publish it (when due: module doc)."""
-        if self._due_ns is not None and not self._pull_due():
-            return
+        if self._due_ns is not None:
+            due = self._pull_due()
+            self._pace(time.monotonic())
+            if not due:
+                return
         self._pulled_at = time.monotonic()
         try:
             for chunk in self._connection.acquire():
@@ -443,6 +453,8 @@ class LslGazeBridge(Node):
         # stream stopped): what a decision due then waits for.
         self._prompt_from = due - 2.0 * self._params['poll_period_s']
         self._prompt_until = due + PROMPT_LIMIT_S
+        if self._poll_timer is not None:
+            self._pace(time.monotonic())
 
     def _pull_due(self) -> bool:
         """Tell whether this tick pulls: near the due time, or after idle_poll_period_s."""
@@ -452,7 +464,27 @@ class LslGazeBridge(Node):
             if newest is None or newest < self._due_ns:
                 return True
             self._prompt_until = -math.inf      # delivered
-        return now - self._pulled_at >= self._params['idle_poll_period_s']
+        # Half an idle period: the timer itself runs at idle_poll_period_s there, and a tick
+        # a little early after a late one still pulls (not one idle period later).
+        return now - self._pulled_at >= 0.5 * self._params['idle_poll_period_s']
+
+    def _pace(self, now: float) -> None:
+        """
+        Set the poll timer's period for what is due (module doc, "Batches").
+
+        ``poll_period_s`` from two idle periods before the short span (a period set now
+        applies from the tick after next) until its end; ``idle_poll_period_s`` otherwise.
+        Changed in place, never by cancel and reset (module doc).
+
+        :param now: s of time.monotonic().
+        """
+        short = self._params['poll_period_s']
+        idle = max(short, self._params['idle_poll_period_s'])
+        near = self._prompt_from - 2.0 * idle <= now <= self._prompt_until
+        period_ns = int(round((short if near else idle) * 1e9))
+        if period_ns != self._period_ns:
+            self._poll_timer.timer_period_ns = period_ns
+            self._period_ns = period_ns
 
     def _publish_chunk(self, chunk: Chunk, now: float) -> None:
         """Convert and publish one stamped chunk; count what is dropped."""
