@@ -44,7 +44,7 @@ import sys
 import threading
 import time
 import traceback
-from typing import Any, Callable, Dict, List, Optional, Sequence, TextIO
+from typing import Callable, Dict, List, Optional, Sequence, TextIO
 
 from bench.timing import machine_info
 
@@ -122,7 +122,7 @@ def run_arguments(name: str, mode: str) -> tuple:
 
 def data_folder(name: str, folders: Dict[str, Optional[str]]) -> tuple:
     """
-    The recordings folder section ``name`` is given, or why it cannot run.
+    Find the recordings folder section ``name`` is given, or say why it cannot run.
 
     :param folders: kind -> folder named on the command line (None: find it).
     :returns: ``(folder or None, reason or None)``; ``(None, None)`` when the
@@ -371,7 +371,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     machine = results['machine']
     print(f"machine: {machine['processor']}, {machine['cpus_available']} of "
           f"{machine['cpu_count']} CPUs, Python {machine['python']}, numpy {machine['numpy']}; "
-          f"{args.mode} run of {len(names)} section(s)", flush=True)
+          f'{args.mode} run of {len(names)} section(s)', flush=True)
     run = {
         'command': ' '.join(['python -m bench.run_all'] + list(
             sys.argv[1:] if argv is None else argv)),

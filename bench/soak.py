@@ -65,6 +65,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from bench.timing import machine_info
 from eye_bci_ros2.camera_model import RvizCamera
+from eye_bci_ros2.menu import ProtocolSettings
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import cube_marker, gaze_batch_arrays
@@ -74,7 +75,6 @@ from eye_bci_ros2.nodes.runner import executor_kind, make_executor, spin_until
 from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, GAZE_QOS,
                                        GAZE_SAMPLES_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
                                        REQUEST_TOPIC)
-from eye_bci_ros2.menu import ProtocolSettings
 from eye_bci_ros2.rounds import ArbiterSettings
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer, SOURCE_SIZE
 from eye_bci_ros2.sim.person import IDEAL_EYE, PRO_TRACKER
@@ -368,7 +368,7 @@ class Soak:
         return self.results(elapsed, pushed, expected)
 
     def _expected(self, pushed: dict) -> Optional[int]:
-        """Valid samples pushed from the first one the bridge received, or None if not found."""
+        """Count the valid samples pushed from the first the bridge received (None: not found)."""
         head = pushed['head'].astype(float)
         if self.first_point is None or not len(head):
             return None
@@ -380,7 +380,7 @@ class Soak:
         return pushed['pushed'] - pushed['nan'] - int(matches[0])
 
     def _screen_size(self) -> np.ndarray:
-        """The bridge's screen, px (it scales source px to it)."""
+        """Return the bridge's screen, px (it scales source px to it)."""
         width = self.bridge.get_parameter('screen_width').value
         height = self.bridge.get_parameter('screen_height').value
         return np.array([width, height], dtype=float)
@@ -494,7 +494,7 @@ def summary_lines(results: dict) -> List[str]:
     ]
     duration = rounds['duration_s']
     if duration['count']:
-        lines.append(f"  round duration (request -> outcome): median "
+        lines.append('  round duration (request -> outcome): median '
                      f"{duration['median'] * 1e3:.0f} ms, p95 {duration['p95'] * 1e3:.0f} ms, "
                      f"max {duration['max'] * 1e3:.0f} ms; a round open "
                      f"{100 * rounds['open_fraction']:.0f} % of the time")
@@ -505,7 +505,7 @@ def summary_lines(results: dict) -> List[str]:
         lines.append(f"  {name} process: RSS {memory['rss_start_mb']:.1f} -> "
                      f"{memory['rss_end_mb']:.1f} MB (max {memory['rss_max_mb']:.1f}), growth "
                      f"{memory['rss_growth_mb_per_min']:+.2f} MB/min after the warm-up"
-                     f"{cpu_text}")
+                     + cpu_text)
     lines.append('  verdict: ' + ('no sample lost, no wrong round, memory flat'
                                   if passed(results) else 'FAILED: see above'))
     return lines

@@ -241,8 +241,8 @@ def test_table_has_one_row_per_size_and_the_chosen_columns():
     assert run_all.format_table('latency', {'p50_ms': 3.0}) == ['latency: {"p50_ms": 3.0}']
 
 
-def test_run_all_prints_each_section_as_it_finishes_with_progress(tmp_path, monkeypatch,
-                                                                   capsys):
+def test_run_all_prints_each_section_as_it_finishes_with_progress(
+        tmp_path, monkeypatch, capsys):
     output = tmp_path / 'results.json'
     seen = {}
 
