@@ -40,6 +40,7 @@ import importlib
 import json
 import math
 import os
+import resource
 import sys
 import threading
 import time
@@ -144,6 +145,13 @@ def data_folder(name: str, folders: Dict[str, Optional[str]]) -> tuple:
     return None, None   # found, or the module's unavailable() says why not
 
 
+def cpu_seconds() -> float:
+    """CPU time of this process and of its finished child processes so far, s (user + system)."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 def _minutes(seconds: float) -> str:
     """``m:ss``."""
     return f'{int(seconds // 60)}:{int(seconds % 60):02d}'
@@ -188,6 +196,8 @@ def run_benchmarks(names: Sequence[str], quick: bool = False, log: Optional[Text
         JSON file), so that results appear as they come.
     :returns: ``{'sections': {name: section}, 'skipped': {name: reason},
         'errors': {name: traceback text}, 'seconds': {name: wall time},
+        'cpu_seconds': {name: CPU time of this process and the child processes it waited
+        for, user + system: on a busy machine, what the section itself cost},
         'shortened': {name: what the run left out},
         'columns': {name: TABLE_COLUMNS or None},
         'formatters': {name: format_lines or None}}``.
@@ -197,10 +207,11 @@ def run_benchmarks(names: Sequence[str], quick: bool = False, log: Optional[Text
     if mode not in MODES:
         raise ValueError(f'mode must be one of {MODES}, got {mode!r}')
     outcome: Dict[str, Dict] = {'sections': {}, 'skipped': {}, 'errors': {}, 'seconds': {},
-                                'shortened': {}, 'columns': {}, 'formatters': {}}
+                                'cpu_seconds': {}, 'shortened': {}, 'columns': {},
+                                'formatters': {}}
     begun = time.perf_counter()
     for number, name in enumerate(names, 1):
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), cpu_seconds()
         where = f'[{number}/{len(names)} {_minutes(start - begun)}] {name}'
         reason = None
         try:
@@ -239,8 +250,11 @@ def run_benchmarks(names: Sequence[str], quick: bool = False, log: Optional[Text
             outcome['errors'][name] = traceback.format_exc()
             print(f'{name}: FAILED\n{outcome["errors"][name]}', file=log)
         outcome['seconds'][name] = round(time.perf_counter() - start, 2)
-        print(f'{where}: done in {_minutes(outcome["seconds"][name])} (run so far '
-              f'{_minutes(time.perf_counter() - begun)})', file=log, flush=True)
+        outcome['cpu_seconds'][name] = round(cpu_seconds() - cpu_start, 2)
+        print(f'{where}: done in {_minutes(outcome["seconds"][name])}, CPU '
+              f'{_minutes(outcome["cpu_seconds"][name])} (run so far '
+              f'{_minutes(time.perf_counter() - begun)}; load average '
+              f'{os.getloadavg()[0]:.1f})', file=log, flush=True)
         if on_section is not None:
             on_section(name, outcome)
     return outcome
@@ -376,7 +390,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         'command': ' '.join(['python -m bench.run_all'] + list(
             sys.argv[1:] if argv is None else argv)),
         'mode': args.mode, 'quick': args.mode == 'quick', 'benchmarks': names,
-        'seconds': {}, 'shortened': {}, 'skipped': {}, 'errors': {},
+        'seconds': {}, 'cpu_seconds': {}, 'load_average': [], 'shortened': {}, 'skipped': {},
+        'errors': {},
     }
     results['run'] = run
 
@@ -395,7 +410,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 print(f'\n{name}: skipped ({outcome["skipped"][name]})', flush=True)
             else:
                 print(f'\n{name}: FAILED (traceback on stderr)', flush=True)
-        run.update(seconds=outcome['seconds'], skipped=outcome['skipped'],
+        run['load_average'].append(round(os.getloadavg()[0], 2))   # the machine was busy?
+        run.update(seconds=outcome['seconds'], cpu_seconds=outcome['cpu_seconds'],
+                   skipped=outcome['skipped'],
                    shortened={k: v for k, v in outcome['shortened'].items() if v},
                    errors={key: text.strip().splitlines()[-1]
                            for key, text in outcome['errors'].items()})
@@ -415,7 +432,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
           f"{_minutes(run['total_seconds'])}, {len(outcome['skipped'])} skipped, "
           f"{len(outcome['errors'])} failed")
     for name, seconds in outcome['seconds'].items():
-        print(f'  {name:<16} {_minutes(seconds):>6}  {outcome["shortened"].get(name, "")}')
+        print(f'  {name:<16} {_minutes(seconds):>6} (CPU {_minutes(outcome["cpu_seconds"][name])})'
+              f'  {outcome["shortened"].get(name, "")}')
     for name, reason in outcome['skipped'].items():
         print(f'  {name:<16} skipped: {reason}')
     if wrong:
