@@ -74,8 +74,8 @@ from eye_bci_ros2.scene import load_scene
 from eye_bci_ros2.sim.person import (CONSUMER_TRACKER, GazeParams, GazeSimulator,
                                      ORIGINAL_TOBII_4C)
 from eye_bci_ros2.tolerance import DEFAULT_RATIO, GazeErrorModel, TolerantRegions
-from eye_bci_ros2.validation import (apply_correction, fit_correction, samples_per_target,
-                                     target_layout)
+from eye_bci_ros2.validation import (apply_correction, CorrectionRefused, fit_correction,
+                                     IDENTITY, samples_per_target, target_layout)
 
 #: The gaze-error model of the tolerant rule (defaults: 0.8 deg, 0.3 deg, k = 2).
 MODEL = GazeErrorModel()
@@ -249,7 +249,10 @@ def _validated(params: GazeParams, trial_seed: int) -> Tuple[float, ...]:
         1.5 * len(targets), [(float(t), tuple(xy)) for t, xy in zip(onsets, targets)],
         start_s=float(onsets[0]))
     samples = samples_per_target(trace.t, trace.xy, onsets, onsets + 1.5)
-    return tuple(fit_correction(targets, samples, screen=params.person.screen).values)
+    try:
+        return tuple(fit_correction(targets, samples, screen=params.person.screen).values)
+    except CorrectionRefused:   # a fit that would not help: the bridge keeps none
+        return IDENTITY
 
 
 def _midway_trials(count: int, size: float, seeds, params: GazeParams,
