@@ -66,10 +66,23 @@ REGISTRY: Dict[str, str] = {
 }
 
 #: The default run of a section: ``(keyword arguments of run(), what that leaves out of
-#: the complete run)``.  A section not named runs complete.  The sizes keep what each
-#: section measures (every rate, scenario, rule and person) and shorten only how many
-#: times it is measured; docs/performance.md has the time of each section.
-DEFAULT_RUN: Dict[str, tuple] = {}
+#: the complete run)``; the arguments may be a function of the section's module (for
+#: its own constants).  A section not named runs complete.  The sizes keep what each
+#: section measures (every rate, scenario, rule and person) and shorten how many times
+#: it is measured (trials, sizes, seconds); docs/performance.md has the time of each
+#: section in both runs.  The figures in the docs come from the complete runs.
+DEFAULT_RUN: Dict[str, tuple] = {
+    'real_gaze': ({'sizes': (100, 200)},
+                  'options of 100 and 200 px only (complete: 16, 32, 64, 100, 200)'),
+    'decision': (lambda module: {'trials': 50, 'tuning_trials': 25, 'fast_trials': 8,
+                                 'grid': module.QUICK_GRID},
+                 '50 test trials per cell (complete: 200), 25 tuning trials (100), 8 at '
+                 '1200 Hz (30); the count rule tuned over 4 early-decision settings (60)'),
+    'tolerance': ({'trials': 30}, '30 trials per cell (complete: 100); the binary search '
+                                  'complete'),
+    'ssvep': ({'cpu_duration_s': 20.0},
+              'the CPU part decodes 20 s of EEG per set-up (complete: 60 s)'),
+}
 
 #: Sections that need real recordings: name -> kind (``find_data`` folder name).
 NEEDS_DATA: Dict[str, str] = {'real_gaze': 'real_gaze', 'correction_fit': 'real_gaze',
@@ -107,17 +120,18 @@ def load(name: str):
     return module
 
 
-def run_arguments(name: str, mode: str) -> tuple:
+def run_arguments(name: str, mode: str, module=None) -> tuple:
     """
     Keyword arguments of section ``name``'s ``run()`` in ``mode``, and what they leave out.
 
+    :param module: the section's module (for arguments that name its constants).
     :returns: ``(kwargs, shortened)``; ``shortened`` is '' for a complete run.
     """
     if mode == 'quick':
         return {'quick': True}, 'quick: smoke sizes, rough numbers'
     if mode == 'default' and name in DEFAULT_RUN:
         kwargs, shortened = DEFAULT_RUN[name]
-        return dict(kwargs), shortened
+        return dict(kwargs(module) if callable(kwargs) else kwargs), shortened
     return {}, ''
 
 
@@ -231,7 +245,7 @@ def run_benchmarks(names: Sequence[str], quick: bool = False, log: Optional[Text
             if on_section is not None:
                 on_section(name, outcome)
             continue
-        kwargs, shortened = run_arguments(name, mode)
+        kwargs, shortened = run_arguments(name, mode, module)
         if folder is not None:
             kwargs['data'] = folder
         outcome['shortened'][name] = shortened

@@ -6,6 +6,7 @@ benchmarks compute and on the shape of ``bench_results.json``.
 """
 
 import gc
+import inspect
 import io
 import json
 import math
@@ -310,3 +311,13 @@ def test_a_long_section_reports_that_it_is_still_running(monkeypatch):
     outcome = run_all.run_benchmarks(['slow'], log=Log(), heartbeat_s=0.01)
 
     assert outcome['sections']['slow'] == {'waited': {'said': True}}
+
+
+@pytest.mark.parametrize('name', sorted(run_all.DEFAULT_RUN))
+def test_every_default_run_names_arguments_its_section_takes(name):
+    module = run_all.load(name)
+    kwargs, shortened = run_all.run_arguments(name, 'default', module)
+
+    inspect.signature(module.run).bind(**kwargs)   # raises on an unknown argument
+    assert kwargs and shortened   # a shortened run says what it left out
+    assert run_all.run_arguments(name, 'full', module) == ({}, '')
