@@ -5,8 +5,8 @@ Run the benchmarks, print each section as it finishes and write ``bench_results.
 section at a size that still says what it measures (fewer trials, rounds or
 rates than the complete run; each section's output says what was shortened)
 so that it finishes in about ten minutes on a 2-core machine.  ``--full`` runs
-the complete tables (tens of minutes), ``--quick`` the smoke sizes (seconds;
-rough numbers).  Progress (which section, how many done, elapsed time, and a
+the complete tables (tens of minutes), ``--quick`` each section's smoke sizes
+(rough numbers, for checking the plumbing).  Progress (which section, how many done, elapsed time, and a
 line every :data:`HEARTBEAT_S` while a long section runs) goes to stderr; each
 section's table goes to stdout as soon as it finishes, and the JSON file is
 rewritten after every section, so an interrupted run keeps what finished.
@@ -256,8 +256,10 @@ def run_benchmarks(names: Sequence[str], quick: bool = False, log: Optional[Text
             outcome['formatters'][name] = getattr(module, 'format_lines', None)
             with _Heartbeat(name, log, heartbeat_s):
                 section = module.run(**kwargs)
-            if isinstance(section, dict) and set(section) == {'skipped'}:
-                outcome['skipped'][name] = str(section['skipped'])   # it found no data
+            if isinstance(section, dict) and set(section) == {'skipped'}:   # it found no data
+                why = section['skipped']
+                outcome['skipped'][name] = str(why.get('reason', why) if isinstance(why, dict)
+                                               else why)
             else:
                 outcome['sections'][name] = section
         except Exception:  # a failing benchmark must not hide the others
@@ -359,7 +361,8 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     size.add_argument('--full', action='store_true',
                       help='the complete tables: every trial, round and size (tens of minutes)')
     size.add_argument('--quick', action='store_true',
-                      help='smoke sizes and few repeats (about 5 minutes; numbers are rough)')
+                      help="each section's smoke sizes (rough numbers, for checking the "
+                           'plumbing; not shorter than the default run everywhere)')
     parser.add_argument('--only', action='append', default=[], metavar='NAME',
                         help=f'run only these benchmarks (repeat or comma-separate); '
                              f'one of: {", ".join(REGISTRY)}')
