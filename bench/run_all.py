@@ -2,14 +2,15 @@
 Run the benchmarks, print each section as it finishes and write ``bench_results.json``.
 
 ``make bench`` runs ``python -m bench.run_all``: the **default run**, every
-section at a size that still says what it measures (fewer trials, rounds or
-rates than the complete run; each section's output says what was shortened)
+section at a size that still says what it measures (fewer trials, sizes or
+seconds than the complete run; each section's output says what was shortened)
 so that it finishes in about ten minutes on a 2-core machine.  ``--full`` runs
 the complete tables (tens of minutes), ``--quick`` each section's smoke sizes
-(rough numbers, for checking the plumbing).  Progress (which section, how many done, elapsed time, and a
-line every :data:`HEARTBEAT_S` while a long section runs) goes to stderr; each
-section's table goes to stdout as soon as it finishes, and the JSON file is
-rewritten after every section, so an interrupted run keeps what finished.
+(rough numbers, for checking the plumbing).  Progress (which section, how many
+done, elapsed time, and a line every :data:`HEARTBEAT_S` while a long section
+runs) goes to stderr; each section's table goes to stdout as soon as it
+finishes, and the JSON file is rewritten after every section, so an
+interrupted run keeps what finished.
 
 Every benchmark is a module with ``run(quick: bool = False, **sizes) -> dict``
 returning its section of the results (``{row: {metric: value}}``, e.g.
