@@ -3,14 +3,14 @@ Benchmark: gaze samples classified into screen regions per second.
 
 These paths are measured against R = 3, 10 and 100 regions:
 
-* batch: :meth:`eye_bci_ros2.geometry.PolygonSet.contains` on a large array
+* batch: :meth:`eye_bci_ros2.projection.geometry.PolygonSet.contains` on a large array
   of samples in chunks of :data:`CHUNK` (bounded memory: the (chunk, R * K)
   edge-value matrix stays in cache), reduced to one region index per sample;
 * per message: one sample at a time through the per-sample classification
-  of the arbiter's core (:meth:`eye_bci_ros2.rounds.RegionSet.classify_one`,
-  or :class:`~eye_bci_ros2.geometry.PolygonSet` on a (1, 2) array while that
+  of the arbiter's core (:meth:`eye_bci_ros2.decision.rounds.RegionSet.classify_one`,
+  or :class:`~eye_bci_ros2.projection.geometry.PolygonSet` on a (1, 2) array while that
   module does not exist); and, as ``per_message_tracker_samples_per_s``, one
-  sample per :meth:`eye_bci_ros2.rounds.RoundScheduler.add_sample` call,
+  sample per :meth:`eye_bci_ros2.decision.rounds.RoundScheduler.add_sample` call,
   the choice_arbiter node's work per gaze message without ROS (classification
   plus the round's bookkeeping);
 * reference: the original way, a Python loop over samples and regions
@@ -28,11 +28,11 @@ import numpy as np
 
 from bench import reference_original
 from bench.timing import measure
-from eye_bci_ros2 import geometry
 
-from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE, ORIGINAL_RULE, RoundScheduler
-from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
+from eye_bci_ros2.decision.regions import RegionSet
+from eye_bci_ros2.decision.rounds import ArbiterSettings, COUNT_RULE, ORIGINAL_RULE, RoundScheduler
+from eye_bci_ros2.projection import geometry
+from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
 
 #: Metrics shown in the printed table (the JSON has them all).
 TABLE_COLUMNS = ('samples_per_s', 'per_message_samples_per_s',
@@ -63,7 +63,7 @@ def make_regions(count: int, seed: int = 0) -> np.ndarray:
     :param seed: random seed.
     :returns: shape (R, 6, 2), screen px; even rows are hexagons, odd rows
         quadrilaterals padded by repeating their last vertex (as
-        :func:`eye_bci_ros2.geometry.box_silhouettes` pads them).  Each fits a
+        :func:`eye_bci_ros2.projection.geometry.box_silhouettes` pads them).  Each fits a
         cell of a grid over the screen and spans 60-200 px (less when the
         cells are smaller than 200 px).
     """
@@ -117,7 +117,7 @@ def classify_batch(polygon_set: geometry.PolygonSet, points: np.ndarray,
 
     :param polygon_set: the prepared regions.
     :param points: shape (N, 2), screen px.
-    :param chunk: samples per :meth:`~eye_bci_ros2.geometry.PolygonSet.contains` call.
+    :param chunk: samples per :meth:`~eye_bci_ros2.projection.geometry.PolygonSet.contains` call.
     :returns: shape (N,) int, the first region containing the sample, -1 for none.
     """
     labels = np.empty(len(points), dtype=np.intp)
@@ -142,9 +142,9 @@ def per_message_tracker(polygons: np.ndarray) -> Optional[Callable[[list], objec
     Return ``f(points)`` feeding samples one by one to the arbiter's core, or None without it.
 
     ``f`` opens a round on ``polygons`` in a fresh
-    :class:`eye_bci_ros2.rounds.RoundScheduler` (window long enough for
+    :class:`eye_bci_ros2.decision.rounds.RoundScheduler` (window long enough for
     every sample, no early decision, the original rule), passes each sample to
-    :meth:`~eye_bci_ros2.rounds.RoundScheduler.add_sample` as the
+    :meth:`~eye_bci_ros2.decision.rounds.RoundScheduler.add_sample` as the
     choice_arbiter node does per gaze message (stamps 1 ms apart), then closes
     the round and returns its decision.
     """

@@ -26,10 +26,11 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.calibration import fit_intrinsic, fit_projection, intrinsic_from_projection
-from eye_bci_ros2.calibration import pixel_errors
-from eye_bci_ros2.camera_model import rviz_intrinsic
-from eye_bci_ros2.geometry import look_at
+from eye_bci_ros2.projection.calibration import (fit_intrinsic, fit_projection,
+                                                 intrinsic_from_projection)
+from eye_bci_ros2.projection.calibration import pixel_errors
+from eye_bci_ros2.projection.camera_model import rviz_intrinsic
+from eye_bci_ros2.projection.geometry import look_at
 
 #: Case name -> largest point height above the map, m.
 CASES = {'flat map (heights within 1 cm)': 0.01, 'heights up to 3 m': 3.0}

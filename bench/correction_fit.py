@@ -6,9 +6,9 @@ For every 9-point validation recording in the data folder (the ETDQualitizer
 recording :func:`eye_bci_ros2.recordings.gaze.load_gaze` reads with 9 or more
 targets), the gaze of each target while it is shown still (from ``--settle``
 s after it stops) is averaged, and each kind of correction of
-:func:`eye_bci_ros2.validation.fit_correction` (offset, affine,
+:func:`eye_bci_ros2.gaze.validation.fit_correction` (offset, affine,
 second-order) is fitted to all targets but one and judged at the one left
-out (:func:`eye_bci_ros2.validation.held_out_errors`).  Reported per
+out (:func:`eye_bci_ros2.gaze.validation.held_out_errors`).  Reported per
 recording, degrees of visual angle: the error before any correction, each
 kind's mean held-out error, and what ``gaze_validation``'s ``kind: auto``
 does with the recording (the kind it fits and its held-out error, or why it
@@ -30,10 +30,10 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from eye_bci_ros2.gaze.validation import (CorrectionRefused, fit_correction, held_out_errors,
+                                          KINDS, measure, MIN_TARGETS, samples_per_target)
 from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.gaze import find_recordings, GazeRecording, load_gaze
-from eye_bci_ros2.validation import (CorrectionRefused, fit_correction, held_out_errors,
-                                     KINDS, measure, MIN_TARGETS, samples_per_target)
 
 #: Default time after a target stops moving before its gaze is used, s (the ETDQualitizer
 #: dot shrinks in place for 0.4 s before it counts as still: the eye is there already).
@@ -45,7 +45,7 @@ def evaluate(recording: GazeRecording, settle_s: float = SETTLE_S) -> Dict[str, 
     Return one recording's row: errors before, per kind held out, and the auto outcome.
 
     :returns: ``{'tracker', 'targets', 'before_deg', '<kind>_deg' per kind of
-        :data:`~eye_bci_ros2.validation.KINDS`, 'auto', 'auto_deg', 'reason'}``
+        :data:`~eye_bci_ros2.gaze.validation.KINDS`, 'auto', 'auto_deg', 'reason'}``
         (``auto`` = the kind fitted or 'refused'; ``reason`` = why refused, or
         the fit's note).
     """

@@ -6,7 +6,7 @@ A simulated person (:data:`eye_bci_ros2.sim.person.CONSUMER_TRACKER`: 90 Hz,
 blinks and 1 % lost samples) chooses one of 3, 4 or 9 square targets of
 60, 100, 150 or 200 px on a 1920x1080 screen (23.8 inch at 600 mm, 38 px per
 degree at the centre).  The decisions are made by
-:class:`eye_bci_ros2.rounds.RoundEvidence`, the object the
+:class:`eye_bci_ros2.decision.rounds.RoundEvidence`, the object the
 ``choice_arbiter`` node uses, fed the valid samples in stamp order (lost
 samples are NaN and dropped, as the LSL bridge does): this is the node's
 decision logic on simulated time, without ROS.
@@ -62,8 +62,8 @@ Rules:
 * ``vote``: majority of the in-region samples of the same window.
 * ``node_default``: the node with ``early_decision: true`` and every other
   parameter at its default (:data:`NODE_DEFAULT`: the
-  :class:`~eye_bci_ros2.rounds.ArbiterSettings` defaults, the node's: the
-  fixation rule, :mod:`eye_bci_ros2.fixation`).  Not tuned here: reported
+  :class:`~eye_bci_ros2.decision.rounds.ArbiterSettings` defaults, the node's: the
+  fixation rule, :mod:`eye_bci_ros2.decision.fixation`).  Not tuned here: reported
   beside ``best``.
 * ``best``: the tolerant sample-count rule (:data:`COUNT_EARLY`, the default
   before the fixation rule) with its early decision, the configuration
@@ -106,11 +106,11 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from eye_bci_ros2.decision.regions import RegionSet
+from eye_bci_ros2.decision.rounds import ArbiterSettings, COUNT_RULE
 from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
 from eye_bci_ros2.experiments.trials import decide_trial, ORIGINAL, settings_for
 from eye_bci_ros2.recordings.gaze_statistics import MIN_VELOCITY_DEG_S
-from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeParams, GazeSimulator
 
 #: The simulated person and tracker.
@@ -310,7 +310,8 @@ def landing_onset(t: np.ndarray, eye_xy: np.ndarray, centre: np.ndarray, side: n
     :param eye_xy: the true eye, screen px, shape (N, 2).
     :param centre: the target's centre at each sample, px, shape (N, 2).
     :param side: the target's side at each sample, px, shape (N,).
-    :param screen: the :class:`~eye_bci_ros2.visual_angle.ScreenGeometry` (pixels per degree
+    :param screen: the
+        :class:`~eye_bci_ros2.projection.visual_angle.ScreenGeometry` (pixels per degree
         at its centre convert the speed; the targets are near it).
     :returns: the stamp, s, or NaN when the eye never landed there.
     """
@@ -598,7 +599,7 @@ def run(quick: bool = False, trials: Optional[int] = None, tuning_trials: Option
                 name: evaluate(rule, fast) for name, rule in rules.items()
                 if name in ('original', 'node_default', 'best')}
     section['setup'] = {
-        'decision_logic': 'eye_bci_ros2.rounds.RoundEvidence (the choice_arbiter node '
+        'decision_logic': 'eye_bci_ros2.decision.rounds.RoundEvidence (the choice_arbiter node '
                           'logic) on simulated time, valid samples in stamp order',
         'person': PARAMS.name, 'rate_hz': PARAMS.tracker.rate_hz,
         'fast_rate_hz': FAST_PARAMS.tracker.rate_hz,

@@ -69,7 +69,8 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.gaze_profiles import PROFILES
+from eye_bci_ros2.decision.rounds import COUNT_RULE, ORIGINAL_RULE
+from eye_bci_ros2.gaze.profiles import PROFILES
 from eye_bci_ros2.nodes import lsl_gaze_bridge
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
@@ -78,7 +79,6 @@ from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.runner import make_executor, spin_for, spin_until
 from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, LATCHED_QOS,
                                        REGIONS_TOPIC, REQUEST_TOPIC)
-from eye_bci_ros2.rounds import COUNT_RULE, ORIGINAL_RULE
 from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
 
 #: Push rate of the simulated tracker, Hz.
@@ -229,9 +229,13 @@ def _cpu_seconds(process: psutil.Process) -> float:
 
 
 def _bridge_command(name: str, source_id: str, poll_period_s: Optional[float]) -> List[str]:
+    # The marked sample decides at a time the arbiter cannot announce (choice/due): the
+    # bridge pulls every poll_period_s throughout, the path a due decision takes.
+    poll = default_poll_period() if poll_period_s is None else poll_period_s
     command = [sys.executable, '-m', 'eye_bci_ros2.nodes.lsl_gaze_bridge', '--ros-args',
                '-p', 'profile:=xy_pixels', '-p', f'stream_name:={name}',
-               '-p', f'source_id:={source_id}', '-p', 'stats_period_s:=0.0']
+               '-p', f'source_id:={source_id}', '-p', 'stats_period_s:=0.0',
+               '-p', f'idle_poll_period_s:={poll!r}']
     if poll_period_s is not None:
         command += ['-p', f'poll_period_s:={poll_period_s!r}']
     return command + ['--log-level', 'warn']

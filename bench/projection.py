@@ -3,7 +3,7 @@ Benchmark: re-projecting M cube markers to screen regions after a camera move.
 
 The timed operation is what ``marker_projector`` does when a new camera pose
 arrives: build the analytic RViz intrinsic and the External (``look_at``), then
-:func:`eye_bci_ros2.geometry.box_silhouettes` for all markers.  It is compared
+:func:`eye_bci_ros2.projection.geometry.box_silhouettes` for all markers.  It is compared
 with :func:`bench.reference_original.silhouettes_original`, the original
 per-marker, per-corner way, measured in the same run on the same markers; for
 large M the reference runs on the first markers only and its time is scaled
@@ -23,8 +23,8 @@ import numpy as np
 
 from bench import reference_original
 from bench.timing import measure
-from eye_bci_ros2 import geometry
-from eye_bci_ros2.camera_model import rviz_intrinsic
+from eye_bci_ros2.projection import geometry
+from eye_bci_ros2.projection.camera_model import rviz_intrinsic
 
 #: Metrics shown in the printed table (the JSON has them all).
 TABLE_COLUMNS = ('ms', 'ms_min', 'reference_ms', 'speedup', 'reference_extrapolated',
@@ -85,7 +85,7 @@ def reproject(markers: Markers, eye) -> Tuple[np.ndarray, np.ndarray]:
     Screen regions of ``markers`` seen from ``eye`` (the fast path under test).
 
     :returns: ``(polygons (M, 6, 2) image px, visible (M,))`` as
-        :func:`eye_bci_ros2.geometry.box_silhouettes` gives them.
+        :func:`eye_bci_ros2.projection.geometry.box_silhouettes` gives them.
     """
     intrinsic = rviz_intrinsic(*IMAGE_SIZE)
     external = geometry.look_at(eye, FOCUS, UP)

@@ -23,7 +23,7 @@ for the recording's screen (size, mm, viewing distance):
   option midway on the glide, from the glide's start to the dot's rest).
 
 The rules compared: the node's default (the fixation rule with its early
-decision, :mod:`eye_bci_ros2.fixation`), the same at the window end only, the
+decision, :mod:`eye_bci_ros2.decision.fixation`), the same at the window end only, the
 previous default (tolerant sample counts with the share test and an early
 decision on a 20 ms run) and the original report's rule.  ``--curve`` adds the
 trade of the default rule: right against wrong as ``confidence`` changes.
@@ -46,12 +46,12 @@ from typing import Dict, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from eye_bci_ros2.decision.regions import RegionSet
+from eye_bci_ros2.decision.rounds import ArbiterSettings, COUNT_RULE
 from eye_bci_ros2.experiments.trials import decide_trial, ORIGINAL
+from eye_bci_ros2.projection.visual_angle import px_per_degree_at
 from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.gaze import find_recordings, GazeRecording, load_gaze
-from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE
-from eye_bci_ros2.visual_angle import px_per_degree_at
 
 #: Option sizes, px, and option counts of the intent rounds.
 SIZES = (16, 32, 64, 100, 200)

@@ -10,7 +10,7 @@ External`` and applied to the corner; gaze samples are then tested one at a
 time, region by region, in Python.  The only changes are the ones a fair
 comparison needs: all 8 corners of each box (the original took the 4 vertices
 of a thin cube's face) and their convex hull (monotone chain, in Python), so
-that it computes the same regions as :func:`eye_bci_ros2.geometry.box_silhouettes`.
+that it computes the same regions as :func:`eye_bci_ros2.projection.geometry.box_silhouettes`.
 
 Nothing here is used by the nodes: it is deliberately slow.
 """
@@ -22,7 +22,7 @@ import numpy as np
 
 Point2 = Tuple[float, float]
 
-#: Same threshold as :data:`eye_bci_ros2.geometry.MIN_DEPTH` (m).
+#: Same threshold as :data:`eye_bci_ros2.projection.geometry.MIN_DEPTH` (m).
 MIN_DEPTH = 1e-6
 
 
@@ -89,7 +89,7 @@ def box_corners_original(position: Sequence[float], quaternion_xyzw: Sequence[fl
 
     Corner ``i`` has local offset ``(+-sx/2, +-sy/2, +-sz/2)`` with bit 0 of
     ``i`` for +x, bit 1 for +y, bit 2 for +z (same order as
-    :data:`eye_bci_ros2.geometry.CORNER_SIGNS`).
+    :data:`eye_bci_ros2.projection.geometry.CORNER_SIGNS`).
     """
     rotation = rotation_original(quaternion_xyzw)
     corners = []

@@ -12,7 +12,7 @@ SSVEP benchmarks on the simulated subjects: accuracy / ITR, Midas touch, decoder
 2. ``rounds``: the room -> table task (4 then 3 options) through the online
    decoder (:class:`eye_bci_ros2.ssvep.online.OnlineDecoder`: FBCCA with the
    default settings, and ensemble TRCA fitted on 5 trials per option with
-   ``min_window_s`` 0.5) and the hybrid fusion (:class:`eye_bci_ros2.fusion.ChoiceFusion`,
+   ``min_window_s`` 0.5) and the hybrid fusion (:class:`eye_bci_ros2.decision.fusion.ChoiceFusion`,
    default settings), in *intent* rounds (the person looks at and attends one
    option) and *Midas-touch* rounds (the person looks over the options for
    :data:`ROUND_S` s, 0.25-0.5 s per glance, attending whatever the gaze is on,
@@ -43,8 +43,8 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
+from eye_bci_ros2.decision.fusion import ChoiceFusion, FusionSettings
 from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
-from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
 from eye_bci_ros2.sim.eeg import (calibration_session, EegSimulator, narrowband_snr_db,
                                   REALISTIC_SUBJECTS, SUBJECTS)
 from eye_bci_ros2.ssvep.decoders import (fbcca_null, FbccaDecoder, null_windows, sideband_hz,
@@ -267,7 +267,7 @@ def _cpu(full: bool, duration: float = CPU_DURATION_S) -> Dict[str, Dict]:
             # The FBCCA null is measured once per set-up (cached): timed on its own.
             setup = time.process_time()
             fbcca_null(rate, len(names), 5, 5, (6.0, 90.0), 50.0, null_windows(1.0, 2.0),
-                       sideband_hz(1.0))
+                       sideband_hz(1.0), tuple(float(f) for f in stimuli.frequencies))
             setup_s = time.process_time() - setup
             start = time.process_time()
             for k, first in enumerate(range(0, len(times), chunk)):

@@ -19,9 +19,14 @@ clone).
    choice of the stimulus trials, choices in rest trials, median decision
    time after the cue; and leave-subject-out: each subject decided with the
    ``rest_z`` (:data:`REST_Z_GRID`) that does best on the *other* subjects
-   within the goals' limits (FBCCA, replayed from the recorded evidence).
-3. ``hybrid``: the same rounds through the hybrid fusion
-   (:class:`~eye_bci_ros2.fusion.ChoiceFusion`, default settings) with the
+   within the goals' limits (FBCCA, replayed from the recorded evidence);
+   and the recorded evidence replayed under other decision constants
+   (:data:`REPLAY_GRID`: ``rest_z``, ``threshold``, ``hold_s``).
+3. ``statistic``: the FBCCA evidence statistic's spread on real EEG
+   nobody attends (rest trials, unattended options) beside its white-noise
+   null, and the attended option's median z, at 1, 2 and 4 s windows.
+4. ``hybrid``: the same rounds through the hybrid fusion
+   (:class:`~eye_bci_ros2.decision.fusion.ChoiceFusion`, default settings) with the
    gaze resting on an option from :data:`GAZE_AT_S` after the cue: in rest
    trials on each option in turn (looking without attending: must not
    choose), in stimulus trials on the attended one (must be confirmed).
@@ -49,12 +54,13 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from eye_bci_ros2.decision.fusion import ChoiceFusion, FusionSettings
 from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
-from eye_bci_ros2.fusion import ChoiceFusion, FusionSettings
-from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EEG_DATA_ENV,
-                                         EegRecording, find_eeg_recordings, load_eeg)
-from eye_bci_ros2.ssvep.decision import DecisionRule
-from eye_bci_ros2.ssvep.decoders import FbccaDecoder, TrcaModel
+from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EEG_DATA_ENV, EegRecording,
+                                         find_eeg_recordings, load_eeg)
+from eye_bci_ros2.ssvep.decision import DecisionRule, HeldDecision
+from eye_bci_ros2.ssvep.decoders import (fbcca_null, FbccaDecoder, sideband_hz, sideband_statistic,
+                                         TrcaModel, with_sidebands)
 from eye_bci_ros2.ssvep.filters import filter_recording
 from eye_bci_ros2.ssvep.online import OnlineDecoder, OnlineSettings
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
@@ -71,7 +77,13 @@ OFFLINE_START_S = 1.5
 GOAL_WRONG = 0.01
 GOAL_REST = 0.02
 #: ``rest_z`` values the leave-subject-out evaluation chooses from.
-REST_Z_GRID = (1.5, 2.0, 2.5, 3.0, 3.5, 4.0)
+REST_Z_GRID = (1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0)
+#: (``rest_z``, ``threshold``, ``hold_s``) the recorded evidence is replayed under (all
+#: subjects): the trade between right choices, wrong ones and choices on nothing; the
+#: former default (2.5, 0.95, no hold) among them.
+REPLAY_GRID = ((2.5, 0.95, 0.0), (2.0, 0.95, 0.0), (1.0, 0.95, 0.5), (2.0, 0.95, 0.5))
+#: Window lengths the FBCCA statistic is compared with its white-noise null at, s.
+STATISTIC_WINDOWS_S = (1.0, 2.0, 4.0)
 #: When the gaze reaches the option in the hybrid rounds, after the cue, s.
 GAZE_AT_S = 1.0
 #: Calibration trial length, s.
@@ -120,6 +132,42 @@ def _offline(recording: EegRecording, model: Optional[TrcaModel]) -> Dict[float,
     return hits
 
 
+def _statistic(recordings: Sequence[EegRecording], settings: OnlineSettings) -> Dict[str, Dict]:
+    """
+    Compare the FBCCA evidence statistic on real EEG with its white-noise null, by window.
+
+    Windows from ``onset_s`` after each cue: the statistic of every option in
+    rest trials and of the unattended options in stimulus trials (the real
+    null: its standard deviation), and the attended option's z against that
+    real null (median).  White noise: :func:`~eye_bci_ros2.ssvep.decoders.fbcca_null`.
+    """
+    rows = {}
+    delta = sideband_hz(settings.min_window_s)
+    for length in STATISTIC_WINDOWS_S:
+        null, attended = [], []
+        for recording in recordings:
+            frequencies = np.array(recording.frequencies)
+            fbcca = FbccaDecoder(with_sidebands(frequencies, delta), recording.rate)
+            filtered = filter_recording(recording.eeg_uv, recording.rate)
+            n = int(round(length * recording.rate))
+            for cue, hz in recording.trials:
+                start = int(round((cue + settings.onset_s) * recording.rate))
+                values = sideband_statistic(fbcca.scores(filtered[:, start:start + n]))
+                own = frequencies == hz
+                null += values[~own].tolist()
+                attended += values[own].tolist()
+        null, attended = np.array(null), np.array(attended)
+        first = recordings[0]
+        white = fbcca_null(first.rate, len(first.channels), settings.bands, settings.harmonics,
+                           settings.band, settings.notch_hz, (length,), delta)
+        rows[f'{length:g} s'] = {
+            'real_null_sd': round(float(null.std()), 3),
+            'white_noise_sd': round(float(white.std[0]), 3),
+            'attended_median_z': round(float(np.median((attended - null.mean()) / null.std())),
+                                       2)}
+    return rows
+
+
 def _online(recording: EegRecording, settings: OnlineSettings,
             model: Optional[TrcaModel]) -> List[Dict]:
     """Stream a session through the online decoder; one round per trial."""
@@ -151,7 +199,7 @@ def _online(recording: EegRecording, settings: OnlineSettings,
             continue
         if len(result.posterior):
             trial['steps'].append((float(now), result.labels, result.posterior.tolist(),
-                                   result.evidence.tolist(), result.window_s))
+                                   result.evidence.tolist(), result.window_s, result.end_s))
         if result.choice is not None and trial['choice'] is None:
             trial['choice'], trial['after_s'] = result.choice, float(now - trial['cue'])
     return outcome
@@ -175,7 +223,7 @@ def _hybrid(trials: List[Dict]) -> Dict:
             fusion.new_round(labels)
             got = None
             gazed = False
-            for t, step_labels, posterior, _, _ in trial['steps']:
+            for t, step_labels, posterior, _, _, _ in trial['steps']:
                 if not gazed and t >= trial['cue'] + GAZE_AT_S:
                     got = fusion.gaze(candidate, t, 1.0) or got
                     gazed = True
@@ -196,14 +244,16 @@ def _replay(trials: List[Dict], rule: DecisionRule) -> List[Dict]:
     """
     Decide the rounds again under another rule, from their recorded evidence.
 
-    The rule is a pure function of each step's evidence z and window, and a
-    round takes its first choice, so this equals streaming them again.
+    The decision is a function of the steps' evidence z, windows and times
+    (:class:`~eye_bci_ros2.ssvep.decision.HeldDecision`), and a round takes its
+    first choice, so this equals streaming them again.
     """
     replayed = []
     for trial in trials:
         choice = after = None
-        for t, labels, _, z, window_s in trial['steps']:
-            index = rule.decide(np.array(z), window_s)
+        held = HeldDecision(rule)
+        for t, labels, _, z, window_s, end_s in trial['steps']:
+            index = held.update(np.array(z), window_s, end_s)
             if index is not None:
                 choice, after = labels[index], t - trial['cue']
                 break
@@ -327,9 +377,17 @@ def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str]
                 per_subject[subject] = online
                 for w in WINDOWS_S:
                     offline_all[w] += offline[w]
+        if decoder == 'fbcca':
+            for length, row in _statistic([r for listed in groups.values() for r in listed],
+                                          settings).items():
+                results[f'fbcca statistic {length}'] = row
         if online_all:
             results[f'{decoder} online all'] = _online_row(online_all)
             results[f'{decoder} hybrid all'] = _hybrid(online_all)
+            for rest_z, threshold, hold_s in REPLAY_GRID:  # other decision constants
+                results[f'{decoder} online replay rest_z {rest_z:g} threshold {threshold:g} '
+                        f'hold_s {hold_s:g}'] = _online_row(_replay(online_all, DecisionRule(
+                            rest_z=rest_z, threshold=threshold, hold_s=hold_s)))
             if decoder == 'fbcca' and len(per_subject) > 1:
                 for subject, row in _leave_subjects_out(per_subject).items():
                     results[f'{decoder} online leave-subject-out {subject}'] = row

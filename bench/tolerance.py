@@ -2,7 +2,7 @@
 Benchmark: whether the tolerant decision rule pays (issue 10: marker size, wrong choices).
 
 Rules compared, each on the node's own decision code
-(:class:`eye_bci_ros2.rounds.RoundEvidence`, fed the valid samples in
+(:class:`eye_bci_ros2.decision.rounds.RoundEvidence`, fed the valid samples in
 stamp order, as ``bench/decision.py`` and the accuracy test do), named in
 :data:`RULES`:
 
@@ -11,7 +11,7 @@ stamp order, as ``bench/decision.py`` and the accuracy test do), named in
   inside-only classification, today's code;
 * ``tol_*``: the same code given a :class:`TolerantRegions` (a ``RegionSet``
   whose ``classify`` and ``classify_one`` apply
-  :func:`eye_bci_ros2.tolerance.extend_to_nearby`), so every sample and the
+  :func:`eye_bci_ros2.decision.tolerance.extend_to_nearby`), so every sample and the
   window-end mean are classified by the tolerant rule, with the gaze-error
   model a validation of the person would give (:func:`model_for`: accuracy
   = the simulated offset, precision = the jitter, k = 2) converted to px at
@@ -19,13 +19,13 @@ stamp order, as ``bench/decision.py`` and the accuracy test do), named in
 * ``size_*``: the size-aware tolerance (counted from the option's centre:
   none for options larger than the error);
 * ``*/s``: with the **share test** (the node's ``min_share`` 0.5, in
-  :class:`eye_bci_ros2.evidence.RoundEvidence`): a window-end choice needs at
+  :class:`eye_bci_ros2.decision.evidence.RoundEvidence`): a window-end choice needs at
   least half of *all* the window's valid samples (in and out of regions) on
-  its label; an early choice needs :data:`eye_bci_ros2.evidence.EARLY_SHARE` of
+  its label; an early choice needs :data:`eye_bci_ros2.decision.evidence.EARLY_SHARE` of
   the samples of the last ``EARLY_SHARE_S`` on its label at the deciding sample.
   ``size_mean/s`` is the choice_arbiter's default rule.
 
-Every rule runs as :class:`eye_bci_ros2.rounds.ArbiterSettings`
+Every rule runs as :class:`eye_bci_ros2.decision.rounds.ArbiterSettings`
 (:func:`settings_for`) on the node's decision code.
 
 Measurements:
@@ -36,7 +36,7 @@ Measurements:
    :func:`eye_bci_ros2.experiments.accuracy_test.run_trials`, ``mean`` reproduces the
    accuracy test's 34 px) per rule; ``corrected``: the same after each
    person's 9-target validation and correction
-   (:mod:`eye_bci_ros2.validation`).  Goals: <= 12 px, <= 8 px corrected.
+   (:mod:`eye_bci_ros2.gaze.validation`).  Goals: <= 12 px, <= 8 px corrected.
 2. ``midway``: the gaze rests midway between two neighbouring options of a
    ``bench/decision.py`` layout (3, 4, 9 targets, sizes S 60..200 px, gap
    S/2) for the whole window (the person looks at neither: any choice is
@@ -65,17 +65,16 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from bench import decision
-from eye_bci_ros2.evidence import RoundEvidence
+from eye_bci_ros2.decision.evidence import RoundEvidence
+from eye_bci_ros2.decision.regions import RegionSet
+from eye_bci_ros2.decision.rounds import ArbiterSettings
+from eye_bci_ros2.decision.tolerance import DEFAULT_RATIO, GazeErrorModel, TolerantRegions
 from eye_bci_ros2.experiments import accuracy_test
+from eye_bci_ros2.gaze.validation import (apply_correction, CorrectionRefused, fit_correction,
+                                          IDENTITY, samples_per_target, target_layout)
 from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings
-from eye_bci_ros2.scene import load_scene
-from eye_bci_ros2.sim.person import (CONSUMER_TRACKER, GazeParams, GazeSimulator,
-                                     ORIGINAL_TOBII_4C)
-from eye_bci_ros2.tolerance import DEFAULT_RATIO, GazeErrorModel, TolerantRegions
-from eye_bci_ros2.validation import (apply_correction, CorrectionRefused, fit_correction,
-                                     IDENTITY, samples_per_target, target_layout)
+from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeParams, GazeSimulator, ORIGINAL_TOBII_4C
+from eye_bci_ros2.task.scene import load_scene
 
 #: The gaze-error model of the tolerant rule (defaults: 0.8 deg, 0.3 deg, k = 2).
 MODEL = GazeErrorModel()
@@ -85,7 +84,7 @@ RATIO = DEFAULT_RATIO
 #: choice needs at least this fraction of the samples it weighed on its label (see
 #: :func:`_decide`; 0 = no share test, the original).  ``/s``: the strict variant proposed for
 #: the midway goal (ratio 0.2, share 0.5); ``size_``: the size-aware tolerance
-#: (:func:`eye_bci_ros2.tolerance.classify_tolerant` ``size_aware``), ratio 0.5.
+#: (:func:`eye_bci_ros2.decision.tolerance.classify_tolerant` ``size_aware``), ratio 0.5.
 RULES = {
     'mean': ('mean', False, RATIO, 0.0, False),
     'vote': ('vote', False, RATIO, 0.0, False),
@@ -157,7 +156,7 @@ def _decide(rule: str, points, stamps, regions: RegionSet, config: ArbiterSettin
 
     The node's decision code with the rule's settings (:func:`settings_for`):
     the regions classified by the rule (``ArbiterSettings.regions``), the share
-    test in :class:`eye_bci_ros2.evidence.RoundEvidence` (``min_share``: a
+    test in :class:`eye_bci_ros2.decision.evidence.RoundEvidence` (``min_share``: a
     window-end choice needs that share of the window's valid samples, an
     early one ``evidence.EARLY_SHARE`` of the last ``EARLY_SHARE_S``); an
     early rule goes on to the window end when the early test never passes.
@@ -196,7 +195,7 @@ def smallest(rules: Sequence[str] = tuple(RULES), trials: int = SEARCH_TRIALS,
 
     :param corrected: each person first does a 9-target validation (same
         person: same simulator seed, 1.5 s per target), the correction
-        :func:`eye_bci_ros2.validation.fit_correction` fits is applied to the
+        :func:`eye_bci_ros2.gaze.validation.fit_correction` fits is applied to the
         trial's samples (as the bridge will), and the error model is that
         validation's measured accuracy and precision.
     """

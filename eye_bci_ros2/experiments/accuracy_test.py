@@ -25,7 +25,7 @@ Two results:
 By default nothing runs in real time: the simulated person
 (:mod:`eye_bci_ros2.sim.person`) produces each trial's samples on simulated
 time, and the regions and decisions come from the same pure code the nodes
-run (:meth:`RvizCamera.box_regions`, :class:`eye_bci_ros2.rounds.RoundEvidence`),
+run (:meth:`RvizCamera.box_regions`, :class:`eye_bci_ros2.decision.rounds.RoundEvidence`),
 so the test is fast and deterministic.  Lost samples (blinks, dropouts) are
 removed before the decision, as the bridge drops them.
 
@@ -49,16 +49,16 @@ from typing import Callable, Dict, List, Optional, Sequence, TextIO, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET, RVIZ_FOV_Y_DEG,
-                                       RvizCamera)
+from eye_bci_ros2.decision.regions import RegionSet
+from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.experiments.trials import decide_trial, RULES, settings_for
-from eye_bci_ros2.geometry import polygon_signed_area
 from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings
-from eye_bci_ros2.scene import load_scene, Scene
+from eye_bci_ros2.projection.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET,
+                                                  RVIZ_FOV_Y_DEG, RvizCamera)
+from eye_bci_ros2.projection.geometry import polygon_signed_area
 from eye_bci_ros2.sim.person import GazeParams, GazeSimulator, ORIGINAL_TOBII_4C, PRESETS
+from eye_bci_ros2.task.scene import load_scene, Scene
 
 #: RViz render panel (W, H) px, its offset (X0, Y0) on the 1920x1080 screen, vertical FOV.
 PANEL_SIZE = DEFAULT_IMAGE_SIZE
@@ -590,7 +590,7 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
     from eye_bci_ros2.nodes.runner import make_executor, spin_until as spin
     from eye_bci_ros2.nodes.topics import (CAMERA_GOAL_TOPIC, CHOICES_TOPIC, EVENT_QOS,
                                            LATCHED_QOS, REQUEST_TOPIC)
-    from eye_bci_ros2.camera_model import look_at_pose
+    from eye_bci_ros2.projection.camera_model import look_at_pose
 
     scenario = RoomScenario(scene, image_size=args.image_size, screen_offset=args.screen_offset)
     method = methods[0]

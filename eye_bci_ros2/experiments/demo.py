@@ -27,7 +27,7 @@ scripted table is not on the screen: the person then looks at the table with
 the same number in the room shown; if it picks ``back``, the rooms come again
 and the person looks at the scripted room again.
 
-The protocol is the shipped nodes' (:mod:`eye_bci_ros2.menu`): the
+The protocol is the shipped nodes' (:mod:`eye_bci_ros2.task.menu`): the
 ``choice_menu`` asks (``choice/request``) only once the camera has arrived
 at the view of the new options (from ``camera/pose``) and the gaze has left
 the option just chosen (or ``look_away_s`` passed), and acts only on a choice
@@ -70,12 +70,12 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET,
-                                       optical_pose_from_ogre, RVIZ_FOV_Y_DEG, RvizCamera)
-from eye_bci_ros2.evidence import Decision
+from eye_bci_ros2.decision.evidence import Decision
+from eye_bci_ros2.decision.fusion import GAZE, HYBRID, INPUT_MODES
+from eye_bci_ros2.decision.regions import RegionSet
+from eye_bci_ros2.decision.rounds import ArbiterSettings, METHODS
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
-from eye_bci_ros2.menu import BACK_LABEL
 from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
                                             pose_to_arrays)
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
@@ -89,15 +89,17 @@ from eye_bci_ros2.nodes.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, F
                                        GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
                                        MENU_ANSWER_TOPIC, MENU_RESULT_TOPIC, REGIONS_TOPIC,
                                        REQUEST_TOPIC, RVIZ_CAMERA_POSE_TOPIC, SSVEP_STIMULI_TOPIC)
-from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, METHODS
-from eye_bci_ros2.scene import load_scene, Scene
+from eye_bci_ros2.projection.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET,
+                                                  optical_pose_from_ogre, RVIZ_FOV_Y_DEG,
+                                                  RvizCamera)
+from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
 from eye_bci_ros2.sim.eeg_outlet import EegStreamer
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
 from eye_bci_ros2.sim.person import GazeParams, ORIGINAL_TOBII_4C, PRESETS
 from eye_bci_ros2.sim.rviz_view import SimRvizView
-from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
+from eye_bci_ros2.task.menu import BACK_LABEL
+from eye_bci_ros2.task.scene import load_scene, Scene
 
 #: The person's screen, px (the Linux machine of the original report).
 SCREEN_SIZE = (DEFAULT_VIEWING.width_px, DEFAULT_VIEWING.height_px)
@@ -117,8 +119,8 @@ QUICK_PERSON = ORIGINAL_TOBII_4C.with_changes(
 ASK_MODES = ('on-arrival', 'on-change')
 #: Answers per step the time limit of the whole run allows for.
 MAX_ATTEMPTS = 3
-#: What may choose (the arbiter's input_mode).
-INPUTS = ('gaze', 'ssvep', 'hybrid')
+#: What may choose (the arbiter's input_mode): fusion's modes.
+INPUTS = INPUT_MODES
 #: Gaze samples that must reach the pipeline before the experiment starts.
 WARMUP_SAMPLES = 20
 
@@ -169,7 +171,7 @@ class DemoOptions:
     stream_timeout_s: float = 15.0
     pictures: bool = True
     verbose: bool = False
-    input_mode: str = 'gaze'
+    input_mode: str = GAZE
     subject: str = 's4'
 
 
@@ -541,7 +543,7 @@ class ExperimentDriver(Node):
             elapsed = self.now_s() - self.shown_at
             # SSVEP waits for the response to build up (the decoder's onset_s) and a
             # window of EEG each time it is asked: twice the time.
-            timeout = self.options.timeout_s * (1 if self.options.input_mode == 'gaze' else 2)
+            timeout = self.options.timeout_s * (1 if self.options.input_mode == GAZE else 2)
             if elapsed > timeout:
                 raise DemoError(
                     f'no answer within {timeout:g} s of the options '
@@ -554,7 +556,7 @@ class ExperimentDriver(Node):
         gaze = decision if decision is not None and decision.label == label else None
         if gaze is None:
             gaze = Decision(label, self.options.input_mode, 0, 0, 0.0, math.nan)
-        elif self.options.input_mode != 'gaze':
+        elif self.options.input_mode != GAZE:
             gaze = replace(gaze, method=self.options.input_mode)
         selection = self._record(gaze, answered_at)
         self.selections.append(selection)
@@ -763,7 +765,7 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
             view = SimRvizView(context=context, parameter_overrides=[
                 Parameter('transition_time_s', value=float(options.transition_s))])
             nodes.append(view)
-            if options.input_mode != 'gaze':
+            if options.input_mode != GAZE:
                 eeg_id = f'eye_bci_demo_eeg-{uuid.uuid4()}'
                 subject = next(s for s in SUBJECTS if s.name == options.subject)
                 eeg = EegStreamer(EegSimulator(subject, seed=options.seed), source_id=eeg_id)
@@ -771,7 +773,7 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                 nodes.append(SsvepStimulusMap(context=context))
                 nodes.append(SsvepDecoder(context=context, parameter_overrides=[
                     Parameter('source_id', value=eeg_id),
-                    Parameter('keep_scoring', value=options.input_mode == 'hybrid')]))
+                    Parameter('keep_scoring', value=options.input_mode == HYBRID)]))
             driver = ExperimentDriver(scene, script, streamer, named['choice_arbiter'], options,
                                       eeg=eeg, menu=named['choice_menu'], context=context)
             nodes.append(driver)

@@ -4,12 +4,12 @@ Decide a simulated trial with the choice_arbiter's own decision code: the one tr
 The accuracy test (:mod:`eye_bci_ros2.experiments.accuracy_test`),
 ``bench/decision.py`` and ``bench/tolerance.py`` simulate a person on
 simulated time and decide every trial with :func:`decide_trial`, which does
-what :class:`eye_bci_ros2.rounds.RoundScheduler` does inside one round:
-a :class:`~eye_bci_ros2.evidence.RoundEvidence` made by
+what :class:`eye_bci_ros2.decision.rounds.RoundScheduler` does inside one round:
+a :class:`~eye_bci_ros2.decision.evidence.RoundEvidence` made by
 :meth:`ArbiterSettings.evidence`, the valid samples of the window in stamp
 order, the early decision when ``settings.early_decision`` is on (stopping at
 the first sample that passes), else ``settings.method`` at the window end.
-A rule is therefore an :class:`~eye_bci_ros2.rounds.ArbiterSettings`: the
+A rule is therefore an :class:`~eye_bci_ros2.decision.rounds.ArbiterSettings`: the
 node's parameters, one home.
 
 Times are s of sample stamps; the round starts at ``start`` (0 in the
@@ -21,9 +21,9 @@ from typing import Optional, Sequence, Union
 
 import numpy as np
 
-from eye_bci_ros2.evidence import Decision
-from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.rounds import ArbiterSettings, ORIGINAL_RULE
+from eye_bci_ros2.decision.evidence import Decision
+from eye_bci_ros2.decision.regions import RegionSet
+from eye_bci_ros2.decision.rounds import ArbiterSettings, ORIGINAL_RULE
 
 #: Rule names the experiments accept: the original rule, the node's window rules and its
 #: early decision (the node's classification: tolerant by default).

@@ -37,7 +37,6 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.validate_topic_name import validate_topic_name
 
-from eye_bci_ros2.camera_model import look_at_pose, optical_pose_from, POSE_CONVENTIONS
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
@@ -46,6 +45,8 @@ from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
 from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, LATCHED_QOS, RVIZ_CAMERA_POSE_TOPIC,
                                        RVIZ_POSE_QOS)
+from eye_bci_ros2.projection.camera_model import look_at_pose, optical_pose_from, POSE_CONVENTIONS
+from eye_bci_ros2.projection.geometry import WORLD_FRAME
 
 #: Default static view: the overview of the default scene (config/scene.yaml,
 #: a 20 m x 12 m map), from 17 m up and 8 m south of the map centre (10, 6, 0),
@@ -80,7 +81,7 @@ def static_view(values: Dict[str, Any]) -> Tuple[List[float], List[float], List[
     :param values: the node's parameter values.
     :returns: ``(eye, focus, up, source)`` where source says where it came from.
     :raises ValueError: an unreadable or unusable ``rviz_config`` (see
-        :func:`eye_bci_ros2.rviz_config.read_rviz_config`), or one whose fixed
+        :func:`eye_bci_ros2.projection.rviz_config.read_rviz_config`), or one whose fixed
         frame is not ``world_frame``.
     """
     view = rviz_view(values)
@@ -112,7 +113,7 @@ def _check_topic(value: Any) -> Optional[str]:
 
 
 PARAMETERS: List[ParamSpec] = [
-    ParamSpec('world_frame', 'map',
+    ParamSpec('world_frame', WORLD_FRAME,
               'Frame of camera/pose: the RViz fixed frame the markers are in.',
               check=check_frame_id),
     ParamSpec('pose_topic', RVIZ_CAMERA_POSE_TOPIC,

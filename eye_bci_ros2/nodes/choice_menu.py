@@ -1,13 +1,13 @@
 """
 The hierarchical room -> table menu of the original experiment, with a protocol a person can trust.
 
-Offers the rooms of a scene (``scene_file``, see :mod:`eye_bci_ros2.scene`)
+Offers the rooms of a scene (``scene_file``, see :mod:`eye_bci_ros2.task.scene`)
 as cube markers with the overview camera view; when a room is chosen, moves
 the camera to that room's view and offers its tables and a ``back`` option
 (``back_option``); when a table is chosen, reports the outcome
 ('kitchen/table_2') and starts over at the rooms (``repeat``) or finishes
 (offers nothing).  When to ask and which choices count is the pure
-:class:`eye_bci_ros2.menu.MenuProtocol` (its module doc has the rules): the
+:class:`eye_bci_ros2.task.menu.MenuProtocol` (its module doc has the rules): the
 question (``choice/request``) is asked once the camera has arrived at the
 step's goal (or settled), the gaze has left the option just chosen (or
 ``look_away_s`` passed) and the gaze is not off screen for ``pause_after_s``
@@ -47,7 +47,7 @@ Topics:
   ``validation/result`` std_msgs/String (its JSON line) and offers the rooms
   only after the validation (a refused one is run again up to
   ``validation_retries`` times, then the menu goes on; see
-  :mod:`eye_bci_ros2.menu`).
+  :mod:`eye_bci_ros2.task.menu`).
 
 ``ask_on_arrival`` false restores the previous menu: every valid choice
 counts at once and it asks only after an unusable choice or an unchanged offer.
@@ -65,11 +65,9 @@ from rclpy.node import Node
 from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.camera_model import look_at_pose
-from eye_bci_ros2.menu import (Action, Answer, Log, MenuProtocol, Offer, ProtocolSettings,
-                               Request, Result, ROOMS_NS, TABLES_NS, Validate)
-from eye_bci_ros2.nodes.conversions import (arrays_to_pose, cube_marker,
-                                            marker_array_to_regions, pose_to_arrays)
+from eye_bci_ros2.gaze.validation import ValidationOutcome
+from eye_bci_ros2.nodes.conversions import (arrays_to_pose, cube_marker, marker_array_to_regions,
+                                            pose_to_arrays)
 from eye_bci_ros2.nodes.log_throttle import QuietRepeats, WARN_PERIOD_S
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
@@ -80,8 +78,11 @@ from eye_bci_ros2.nodes.topics import (CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC, CHO
                                        MENU_RESULT_TOPIC, MENU_STATE_TOPIC, NO_CHOICE_TOPIC,
                                        REGIONS_TOPIC, REQUEST_TOPIC, VALIDATION_RESULT_TOPIC,
                                        VALIDATION_START_TOPIC, VIEW_QOS)
-from eye_bci_ros2.scene import CubeMarker, load_scene, Scene, View
-from eye_bci_ros2.validation import ValidationOutcome
+from eye_bci_ros2.projection.camera_model import look_at_pose
+from eye_bci_ros2.projection.geometry import WORLD_FRAME
+from eye_bci_ros2.task.menu import (Action, Answer, Log, MenuProtocol, Offer, ProtocolSettings,
+                                    Request, Result, ROOMS_NS, TABLES_NS, Validate)
+from eye_bci_ros2.task.scene import CubeMarker, load_scene, Scene, View
 
 __all__ = ['ChoiceMenu', 'main', 'resolve_scene_path', 'ROOMS_NS', 'TABLES_NS']
 
@@ -140,7 +141,7 @@ class ChoiceMenu(Node):
                       'config/scene.yaml); setting it reloads and starts over',
                       check=self._check_scene_file),
             ParamSpec('repeat', defaults.repeat, _PROTOCOL_PARAMETERS['repeat'][0]),
-            ParamSpec('world_frame', 'map',
+            ParamSpec('world_frame', WORLD_FRAME,
                       "Frame of the markers and camera goals; must match the scene's "
                       'frame_id', check=check_frame_id),
         ]
@@ -197,7 +198,7 @@ class ChoiceMenu(Node):
 
     @property
     def state(self) -> str:
-        """Return what the menu waits for (:attr:`eye_bci_ros2.menu.MenuProtocol.state`)."""
+        """Return what the menu waits for (:attr:`eye_bci_ros2.task.menu.MenuProtocol.state`)."""
         return self._protocol.state
 
     def _now(self) -> float:

@@ -25,13 +25,22 @@ sent).  A per-point time ``t`` relative to the header stamp is how lidar
 drivers stamp their points, so generic PointCloud2 tools read it; float64
 keeps every sample's point exactly as the bridge computed it and its own
 stamp exact over chunks of any length (24 bytes a sample: 48 kB/s at 2000 Hz).
+
+The bridge publishes and the arbiter takes these messages serialized
+(:class:`GazeCdr`: the CDR bytes built and read with numpy, a few
+microseconds a batch, where rclpy's Python message costs about 30 us each
+way): the bytes on the wire are exactly those of :func:`gaze_batch`'s
+message, and every other subscriber sees an ordinary PointCloud2.
 """
 
-from typing import List, Sequence, Tuple
+import functools
+import struct
+from typing import List, Optional, Sequence, Tuple
 
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, PointStamped, Pose
 import numpy as np
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import PointCloud2, PointField
 from std_msgs.msg import Header
 from visualization_msgs.msg import Marker, MarkerArray
@@ -67,6 +76,16 @@ def gaze_batch(stamps_ns: np.ndarray, xy: np.ndarray,
     :param stamps_ns: shape (N,) int, N >= 1, acquisition times, ns on the ROS clock.
     :param xy: shape (N, 2), screen px.
     """
+    first, points = _gaze_points(stamps_ns, xy)
+    return PointCloud2(
+        header=Header(stamp=ns_to_stamp(first), frame_id=frame_id), height=1,
+        width=len(points), fields=GAZE_FIELDS, is_bigendian=False,
+        point_step=GAZE_DTYPE.itemsize, row_step=GAZE_DTYPE.itemsize * len(points),
+        data=points.tobytes(), is_dense=True)
+
+
+def _gaze_points(stamps_ns: np.ndarray, xy: np.ndarray) -> Tuple[int, np.ndarray]:
+    """Return a batch's first stamp, ns, and its points (N,) of :data:`GAZE_DTYPE`."""
     stamps_ns = np.asarray(stamps_ns, dtype=np.int64).reshape(-1)
     xy = np.asarray(xy, dtype=float).reshape(-1, 2)
     if not len(stamps_ns) or len(stamps_ns) != len(xy):
@@ -76,11 +95,7 @@ def gaze_batch(stamps_ns: np.ndarray, xy: np.ndarray,
     points = np.empty(len(xy), dtype=GAZE_DTYPE)
     points['x'], points['y'] = xy[:, 0], xy[:, 1]
     points['t'] = (stamps_ns - first) * 1e-9
-    return PointCloud2(
-        header=Header(stamp=ns_to_stamp(first), frame_id=frame_id), height=1,
-        width=len(points), fields=GAZE_FIELDS, is_bigendian=False,
-        point_step=GAZE_DTYPE.itemsize, row_step=GAZE_DTYPE.itemsize * len(points),
-        data=points.tobytes(), is_dense=True)
+    return first, points
 
 
 def gaze_batch_arrays(message: PointCloud2) -> Tuple[np.ndarray, np.ndarray]:
@@ -110,6 +125,129 @@ def gaze_batch_arrays(message: PointCloud2) -> Tuple[np.ndarray, np.ndarray]:
     stamps = stamp_to_ns(message.header.stamp) * 1e-9 + points['t']
     xy = np.stack([points['x'], points['y']], axis=1)
     return stamps, xy
+
+
+class GazeCdr:
+    """
+    ``gaze/samples`` messages as CDR bytes, built and read with numpy (module doc).
+
+    The constant bytes (the fields, :data:`GAZE_FIELDS`) are laid out once per
+    frame, padding zeroed (rclpy leaves it undefined); a batch fills in its
+    stamp, width, row_step and data.  Reading checks every constant byte but
+    the padding, and the sizes; anything else (another publisher's layout, a
+    frame other than ``screen``, a malformed message) goes through rclpy and
+    :func:`gaze_batch_arrays`, so it is refused with the same reason.
+    """
+
+    #: XCDR1 little-endian encapsulation header.
+    ENCAPSULATION = b'\x00\x01\x00\x00'
+
+    def __init__(self, frame_id: str = SCREEN_FRAME):
+        """Lay out the constant bytes of ``frame_id``'s messages."""
+        frame = frame_id.encode() + b'\x00'
+        # Offsets count from the end of the encapsulation header (CDR alignment).
+        head = bytearray(8) + struct.pack('<I', len(frame)) + frame
+        head += bytes(_align4(len(head)) - len(head))
+        self._width_at = len(head) + 4
+        head += struct.pack('<II', 1, 0)
+        # (start, end) of the bytes that must match, relative to the block after width.
+        block, self._checked = bytearray(struct.pack('<I', len(GAZE_FIELDS))), [(0, 4)]
+        for field in GAZE_FIELDS:
+            name = field.name.encode() + b'\x00'
+            checked = len(block)
+            block += struct.pack('<I', len(name)) + name
+            self._checked.append((checked, len(block)))
+            block += bytes(_align4(len(block)) - len(block))
+            checked = len(block)
+            block += struct.pack('<IB', field.offset, field.datatype)
+            self._checked.append((checked, len(block)))
+            block += bytes(_align4(len(block)) - len(block))
+            checked = len(block)
+            block += struct.pack('<I', field.count)
+            self._checked.append((checked, len(block)))
+        checked = len(block)
+        block += b'\x00'                     # is_bigendian false
+        self._checked.append((checked, len(block)))
+        block += bytes(_align4(len(block)) - len(block))
+        checked = len(block)
+        block += struct.pack('<I', GAZE_DTYPE.itemsize)
+        self._checked.append((checked, len(block)))
+        self._constant = bytes(block)
+        self._head = self.ENCAPSULATION + bytes(head) + self._constant + bytes(8)
+        self._width_at += 4
+        self._data_at = len(self._head)
+
+    def build(self, stamps_ns: np.ndarray, xy: np.ndarray) -> bytes:
+        """Return the serialized :func:`gaze_batch` of ``stamps_ns`` (N,) ns, ``xy`` (N, 2) px."""
+        first, points = _gaze_points(stamps_ns, xy)
+        count = len(points)
+        head = bytearray(self._head)
+        seconds, nanoseconds = divmod(first, _NS_PER_S)
+        struct.pack_into('<iI', head, 4, seconds, nanoseconds)
+        struct.pack_into('<I', head, self._width_at, count)
+        size = count * GAZE_DTYPE.itemsize
+        struct.pack_into('<II', head, self._data_at - 8, size, size)
+        return bytes(head) + points.tobytes() + b'\x01'
+
+    def read(self, data: bytes) -> Tuple[np.ndarray, np.ndarray, bool]:
+        """
+        Read a serialized ``gaze/samples`` message.
+
+        :returns: ``(stamps, xy, stamped)``: as :func:`gaze_batch_arrays`, and
+            whether the header carries a stamp (a zero stamp: unstamped).
+        :raises ValueError: as :func:`gaze_batch_arrays` (the reason says why).
+        """
+        fast = self._read_fast(data)
+        if fast is not None:
+            return fast
+        try:
+            message = deserialize_message(data, PointCloud2)
+        except Exception as error:  # noqa: B902 - rclpy raises several kinds
+            raise ValueError(f'gaze batch ignored: not a PointCloud2 ({error})') from None
+        stamps, xy = gaze_batch_arrays(message)
+        stamp = message.header.stamp
+        return stamps, xy, bool(stamp.sec or stamp.nanosec)
+
+    def _read_fast(self, data: bytes) -> Optional[Tuple[np.ndarray, np.ndarray, bool]]:
+        """Read a message of exactly this layout; None for anything else."""
+        if len(data) < 16 or data[:4] != self.ENCAPSULATION:
+            return None
+        length = _u32(data, 12)
+        if data[16:16 + length] not in (b'\x00', SCREEN_FRAME.encode() + b'\x00'):
+            return None
+        width_at = 4 + _align4(12 + length) + 4
+        block = width_at + 4
+        data_at = block + len(self._constant) + 8
+        if len(data) < data_at + 1:
+            return None
+        if data[block:block + len(self._constant)] != self._constant and any(
+                data[block + first:block + last] != self._constant[first:last]
+                for first, last in self._checked):
+            return None   # another layout (padding, rclpy leaves it undefined, may differ)
+        count = _u32(data, width_at - 4) * _u32(data, width_at)
+        size = count * GAZE_DTYPE.itemsize
+        if _u32(data, data_at - 8) != size or _u32(data, data_at - 4) != size \
+                or len(data) != data_at + size + 1:
+            return None
+        seconds, nanoseconds = struct.unpack_from('<iI', data, 4)
+        values = np.frombuffer(data, dtype='<f8', count=3 * count, offset=data_at)
+        stamps = (seconds * _NS_PER_S + nanoseconds) * 1e-9 + values[2::3]
+        xy = values.reshape(count, 3)[:, :2].copy()
+        return stamps, xy, bool(seconds or nanoseconds)
+
+
+def _align4(offset: int) -> int:
+    return (offset + 3) & ~3
+
+
+def _u32(data: bytes, offset: int) -> int:
+    return struct.unpack_from('<I', data, offset)[0]
+
+
+@functools.lru_cache(maxsize=8)
+def gaze_cdr(frame_id: str = SCREEN_FRAME) -> GazeCdr:
+    """Return the :class:`GazeCdr` of ``frame_id`` (made once)."""
+    return GazeCdr(frame_id)
 
 
 def gaze_point(stamp_ns: int, x: float, y: float,

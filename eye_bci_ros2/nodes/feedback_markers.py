@@ -1,12 +1,12 @@
 """
-``choices/feedback`` (visualization_msgs/MarkerArray) from :class:`eye_bci_ros2.feedback.Feedback`.
+The ``choices/feedback`` MarkerArray from a :class:`~eye_bci_ros2.decision.feedback.Feedback`.
 
 One CUBE per offered option marker, in the option marker's frame (the world
 frame), with the **same ns and id** as the option (so show it on its own RViz
 display): a halo at the option's pose, slightly larger in the option's plane
 and thinner than it so the option shows through, coloured by the highlight
 state (grey: none, yellow: gazed, green: chosen) and growing with the
-progress of the decision (:func:`eye_bci_ros2.feedback.halo_scale`).  An
+progress of the decision (:func:`eye_bci_ros2.decision.feedback.halo_scale`).  An
 option no longer offered gets a DELETE (same ns and id) once.
 
 :class:`OptionMarkers` keeps the options of the ``choices`` topic with RViz2's
@@ -19,7 +19,7 @@ from typing import Iterable, List, Optional, Sequence, Set, Tuple
 from builtin_interfaces.msg import Time
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.feedback import Feedback, halo_scale, NONE, STATE_COLOURS
+from eye_bci_ros2.decision.feedback import Feedback, halo_scale, NONE, STATE_COLOURS
 from eye_bci_ros2.nodes.conversions import cube_marker, marker_label, pose_to_arrays
 from eye_bci_ros2.nodes.marker_store import Key, MarkerStore
 

@@ -1,7 +1,7 @@
 """
 Node ``gaze_validation``: validate the tracker through the running nodes, fit and apply a fix.
 
-The procedure (:mod:`eye_bci_ros2.validation` holds the arithmetic):
+The procedure (:mod:`eye_bci_ros2.gaze.validation` holds the arithmetic):
 
 1. waits for ``camera/pose`` (at most ``camera_wait_s``) and reads the
    bridge's ``gaze_correction`` over its parameter service (``bridge_node``);
@@ -22,7 +22,7 @@ The procedure (:mod:`eye_bci_ros2.validation` holds the arithmetic):
    ``viewing_distance_mm``) and px;
 4. fits a correction (``kind``; with ``auto`` the kind that does best at
    targets left out of the fit: offset, affine or, with 9 targets,
-   second-order, :func:`eye_bci_ros2.validation.fit_correction`); when a
+   second-order, :func:`eye_bci_ros2.gaze.validation.fit_correction`); when a
    target got fewer than ``min_samples`` samples, the fit is implausible
    anywhere on the screen or it would not reduce the error it refuses: one
    line with the reason, nothing saved or applied (a more flexible fit that
@@ -33,7 +33,7 @@ The procedure (:mod:`eye_bci_ros2.validation` holds the arithmetic):
    bridge's ``gaze_correction`` (what ``ros2 param set`` does) and validates
    again (``validate_again``), logging the residual;
 6. publishes the outcome on ``validation/result`` (std_msgs/String: one JSON
-   line, :class:`eye_bci_ros2.validation.ValidationOutcome`, with a
+   line, :class:`eye_bci_ros2.gaze.validation.ValidationOutcome`, with a
    ``summary``).
 
 With ``on_request`` false (the default) it runs once at start and exits:
@@ -57,6 +57,11 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Empty, Header, String
 from visualization_msgs.msg import Marker, MarkerArray
 
+from eye_bci_ros2.gaze.validation import (as_matrix, compose_corrections, correction_values,
+                                          CorrectionRefused, error_model, fit_correction, IDENTITY,
+                                          implausibility, KINDS, measure, MIN_SAMPLES, MIN_TARGETS,
+                                          NODE, PARAMETER, samples_per_target, save_correction,
+                                          SETTLE_S, target_layout, ValidationOutcome)
 from eye_bci_ros2.nodes.conversions import (arrays_to_pose, gaze_batch_arrays, ns_to_stamp,
                                             pose_to_arrays, SCREEN_FRAME)
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
@@ -69,12 +74,7 @@ from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, EVENT_QOS, GAZE_QOS, G
                                        LATCHED_QOS, VALIDATION_RESULT_TOPIC,
                                        VALIDATION_START_TOPIC, VALIDATION_TARGET_TOPIC,
                                        VALIDATION_TARGETS_TOPIC)
-from eye_bci_ros2.validation import (
-    as_matrix, compose_corrections, correction_values, CorrectionRefused, error_model,
-    fit_correction, IDENTITY, implausibility, KINDS, measure, MIN_SAMPLES, MIN_TARGETS, NODE,
-    PARAMETER, samples_per_target, save_correction, SETTLE_S, target_layout,
-    ValidationOutcome)
-from eye_bci_ros2.visual_angle import degrees_to_px, ScreenGeometry
+from eye_bci_ros2.projection.visual_angle import degrees_to_px, ScreenGeometry
 
 #: Step of the procedure's timer, s.
 TICK_S = 0.02

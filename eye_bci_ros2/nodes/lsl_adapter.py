@@ -1,5 +1,5 @@
 """
-liblsl (pylsl) behind :mod:`eye_bci_ros2.lsl_connection`'s ``Lsl`` and ``Inlet`` interfaces.
+liblsl (pylsl) behind :mod:`~eye_bci_ros2.streams.lsl_connection`'s ``Lsl`` and ``Inlet``.
 
 The only module of the nodes that calls pylsl for reading: resolving, the full
 description, inlets (``recover=False``: a lost outlet raises at once), the
@@ -16,9 +16,9 @@ import numpy as np
 import pylsl
 from pylsl.util import LostError, TimeoutError as LslTimeoutError
 
-from eye_bci_ros2.lsl_connection import (INFO_TIMEOUT_S, inlet_buflen, NotReady,
-                                         RESOLVER_FORGET_S, StreamDescription, StreamLost)
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
+from eye_bci_ros2.streams.lsl_connection import (INFO_TIMEOUT_S, inlet_buflen, NotReady,
+                                                 RESOLVER_FORGET_S, StreamDescription, StreamLost)
 
 
 def channel_labels(info: pylsl.StreamInfo) -> Tuple[str, ...]:
@@ -115,7 +115,7 @@ class PylslInlet:
 
 
 class PylslBackend:
-    """liblsl for :class:`eye_bci_ros2.lsl_connection.StreamConnection`."""
+    """liblsl for :class:`eye_bci_ros2.streams.lsl_connection.StreamConnection`."""
 
     @staticmethod
     def local_clock() -> float:

@@ -3,14 +3,15 @@ Node ``lsl_gaze_bridge``: eye-tracker gaze from an LSL stream to ROS 2.
 
 Finds the LSL stream of an eye-tracker application (profile + stream type /
 name / source_id), pulls its samples in chunks, converts them to points on
-the ``screen`` (px, top-left origin; :mod:`eye_bci_ros2.gaze_profiles`) and
+the ``screen`` (px, top-left origin; :mod:`eye_bci_ros2.gaze.profiles`) and
 publishes
 
 * every valid sample on ``gaze/samples`` (sensor_msgs/PointCloud2), one
   message per pulled chunk, each sample with its own acquisition time on the
   ROS clock (:mod:`eye_bci_ros2.nodes.conversions`, "Gaze batches";
-  :mod:`eye_bci_ros2.lsl_connection` for the stamps): the cost follows the poll
-  rate, not the tracker rate;
+  :mod:`eye_bci_ros2.streams.lsl_connection` for the stamps), published serialized
+  (:class:`eye_bci_ros2.nodes.conversions.GazeCdr`): the cost follows the
+  batches (below), not the tracker rate;
 * the newest sample on ``gaze/point`` (geometry_msgs/PointStamped) at most
   ``point_rate_hz`` times a second, for people and simple tools;
 * whether the newest sample is on the screen on ``gaze/on_screen``
@@ -21,19 +22,19 @@ publishes
   stale (nothing for ``stale_timeout_s``) or is lost.
 
 ``gaze_correction`` (6 doubles, row-major 2 x 3 affine on screen px, or
-12: those, then second-order terms; :func:`eye_bci_ros2.validation.as_matrix`;
-:data:`eye_bci_ros2.validation.IDENTITY` = none) is applied to every sample
+12: those, then second-order terms; :func:`eye_bci_ros2.gaze.validation.as_matrix`;
+:data:`eye_bci_ros2.gaze.validation.IDENTITY` = none) is applied to every sample
 after the screen scaling and before the off-screen check
-(:func:`eye_bci_ros2.validation.apply_correction`); ``gaze_validation``
+(:func:`eye_bci_ros2.gaze.validation.apply_correction`); ``gaze_validation``
 fits it and sets it through the parameter service, and saves it as a
 parameter file for ``--params-file``.  An implausible correction (scale,
 rotation or shift anywhere on the screen beyond
-:func:`eye_bci_ros2.validation.implausibility`'s limits) is refused with the reason.
+:func:`eye_bci_ros2.gaze.validation.implausibility`'s limits) is refused with the reason.
 
 The stream is found, kept or switched, and its samples stamped, by
-:class:`eye_bci_ros2.lsl_connection.StreamConnection` (the same connection
+:class:`eye_bci_ros2.streams.lsl_connection.StreamConnection` (the same connection
 the SSVEP decoder uses; its module doc gives the rules) with the gaze profile
-of :mod:`eye_bci_ros2.gaze_stream`: a stream is taken only when its channels
+of :mod:`eye_bci_ros2.gaze.stream`: a stream is taken only when its channels
 fit the profile (a Pupil Capture stream under ``xy_pixels`` is refused, with
 ``profile:=pupil_capture`` named), and of several fitting streams from
 different sources none is taken until ``source_id`` or ``stream_name``
@@ -41,11 +42,23 @@ picks one.  Nothing blocks the executor for long: resolving runs in
 liblsl's background, chunks are pulled with a zero timeout, and the only
 waits are reading a stream's full description once (at most 0.2 s).
 
+Batches.  Without a choice_arbiter the bridge pulls every ``poll_period_s``
+(2 ms: a sample waits at most that long).  Once an arbiter announces when its
+decision can next come (``choice/due``: a round's earliest early decision,
+then its window end), it pulls every ``poll_period_s`` only from just before
+that time until a sample stamped after it is published, and every
+``idle_poll_period_s`` (20 ms) otherwise: at 1200 Hz about 60 batches a
+second instead of 500, while the sample a decision waits for is still pulled
+within ``poll_period_s`` (``python -m bench.lab_rate``).  One timer at
+``poll_period_s`` runs throughout and skips the pulls not due (a cheap
+check): timers are never cancelled and reset per round (rclpy's
+EventsExecutor has missed timers after a reset).
+
 Bursts: a backlog (a sender that stalled and then pushed seconds of gaze at
 once) waits in the inlet's buffer, which liblsl fills without loss up to
-:data:`eye_bci_ros2.lsl_connection.INLET_BUFFER_S` of gaze, and is published
+:data:`eye_bci_ros2.streams.lsl_connection.INLET_BUFFER_S` of gaze, and is published
 in chunks of ``max_chunk`` samples, at most
-:data:`eye_bci_ros2.lsl_connection.MAX_PULLS_PER_POLL` chunks per poll.
+:data:`eye_bci_ros2.streams.lsl_connection.MAX_PULLS_PER_POLL` chunks per poll.
 Stamps stay acquisition times, so a drained backlog is exactly as old as it
 is.  A quiet stream is kept while it is advertised (Tobii Stream Engine
 sends nothing while it sees no eyes) and ``gaze/on_screen`` turns false.
@@ -56,28 +69,33 @@ import math
 import time
 from typing import Any, Dict, Optional
 
+from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PointStamped
 import numpy as np
 from rclpy.node import Node
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Bool
 
-from eye_bci_ros2.gaze_profiles import (
-    ANY, build_config, convert, DEFAULT_PROFILE, DROP_REASONS, GazeConfig, GazeMapping,
-    NO_CONFIDENCE, ORIGINS, PROFILE_NAMES, resolve_mapping, UNITS)
-from eye_bci_ros2.gaze_stream import GazeStreamProfile
-from eye_bci_ros2.lsl_connection import (Chunk, ConnectionSettings, StreamConnection,
-                                         StreamDescription)
-from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_point
+from eye_bci_ros2.gaze.profiles import (ANY, build_config, convert, DEFAULT_PROFILE, DROP_REASONS,
+                                        GazeConfig, GazeMapping, NO_CONFIDENCE, ORIGINS,
+                                        PROFILE_NAMES, resolve_mapping, UNITS)
+from eye_bci_ros2.gaze.stream import GazeStreamProfile
+from eye_bci_ros2.gaze.validation import (as_matrix, correction_values, IDENTITY, implausibility,
+                                          is_identity, PARAMETER as CORRECTION_PARAMETER)
+from eye_bci_ros2.nodes.conversions import gaze_cdr, gaze_point, stamp_to_ns
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC, GAZE_QOS,
-                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, VIEW_QOS)
-from eye_bci_ros2.validation import (as_matrix, correction_values, IDENTITY, implausibility,
-                                     is_identity, PARAMETER as CORRECTION_PARAMETER)
-from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
+from eye_bci_ros2.nodes.topics import (DECISION_DUE_TOPIC, GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC,
+                                       GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS, VIEW_QOS)
+from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
+from eye_bci_ros2.streams.lsl_connection import (Chunk, ConnectionSettings, StreamConnection,
+                                                 StreamDescription)
+
+#: After a decision's due time, the short poll period is kept at most this long for a sample
+#: stamped after it (a stream that stopped), s: longer than the arbiter's stall timeout.
+PROMPT_LIMIT_S = 1.0
 
 #: Counters kept and logged by the bridge.
 COUNTERS = ('received', 'published') + DROP_REASONS + ('layout', 'bad_stamp')
@@ -163,6 +181,15 @@ PARAMETERS = (
               'period of pulling samples from LSL, s; a sample waits up to this long in the '
               'inlet, so it bounds the added latency (see the README, Performance)',
               value_range=(0.001, 1.0)),
+    ParamSpec('idle_poll_period_s', 0.02,
+              'period of pulling samples while no decision is due, s: once a '
+              'choice_arbiter announces when its decisions can come (choice/due: the '
+              'earliest early decision, the window end), samples are pulled every '
+              'poll_period_s only from just before each such time until a sample stamped '
+              'after it is published, and every idle_poll_period_s otherwise (the cost '
+              'follows the batches; a decision at another time waits up to this long); '
+              'without an arbiter always every poll_period_s; equal to poll_period_s: always',
+              value_range=(0.001, 1.0)),
     ParamSpec('max_chunk', 1024, 'most samples pulled at once', value_range=(1, 65536)),
     ParamSpec('point_rate_hz', 30.0,
               'most gaze/point messages (the newest sample, for people and simple tools) '
@@ -219,6 +246,7 @@ class LslGazeBridge(Node):
         self._config: GazeConfig = build_config(self._params)
         self._batch_publisher = self.create_publisher(
             PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)
+        self._gaze_cdr = gaze_cdr()
         self._point_publisher = self.create_publisher(PointStamped, GAZE_POINT_TOPIC, VIEW_QOS)
         self._on_screen_publisher = self.create_publisher(Bool, GAZE_ON_SCREEN_TOPIC,
                                                           LATCHED_QOS)
@@ -234,6 +262,13 @@ class LslGazeBridge(Node):
         self._mapping: Optional[GazeMapping] = None
         self._mapping_error = ''
         self._poll_timer = None
+        # Batches (module doc): the announced due time, ns on the ROS clock (None: no
+        # arbiter announces: every tick pulls); the short period's span for it and the
+        # last pull, s of time.monotonic().
+        self._due_ns: Optional[int] = None
+        self._prompt_from = self._prompt_until = -math.inf
+        self._pulled_at = -math.inf
+        self.create_subscription(Time, DECISION_DUE_TOPIC, self._on_due, LATCHED_QOS)
         self._resolve_timer = None
         self._stats_timer = None
         self._connection = StreamConnection(
@@ -379,7 +414,10 @@ class LslGazeBridge(Node):
     # -- pulling and publishing ------------------------------------------------------
 
     def _poll(self) -> None:
-        """Pull what the inlet holds, convert and publish it."""
+        """Pull what the inlet holds, convert and publish it (when due: module doc)."""
+        if self._due_ns is not None and not self._pull_due():
+            return
+        self._pulled_at = time.monotonic()
         try:
             for chunk in self._connection.acquire():
                 self._publish_chunk(chunk, time.monotonic())
@@ -388,6 +426,33 @@ class LslGazeBridge(Node):
                                       throttle_duration_sec=WARN_PERIOD_S)
         if self._connection.stream is None:
             self._poll_timer.cancel()
+
+    # -- batches: the short poll period when a decision is due ---------------------------
+
+    def _on_due(self, msg: Time) -> None:
+        """Take when the arbiter's next decision can come (module doc, "Batches")."""
+        if self._due_ns is None:
+            self.get_logger().info(
+                f'{DECISION_DUE_TOPIC} announced: pulling every '
+                f"{self._params['idle_poll_period_s']:g} s, and every "
+                f"{self._params['poll_period_s']:g} s when a decision is due")
+        self._due_ns = stamp_to_ns(msg)
+        # The ROS clock's due time on the monotonic clock the ticks read.
+        due = time.monotonic() + (self._due_ns - self.get_clock().now().nanoseconds) * 1e-9
+        # From two short periods before it until a sample stamped after it is out (or the
+        # stream stopped): what a decision due then waits for.
+        self._prompt_from = due - 2.0 * self._params['poll_period_s']
+        self._prompt_until = due + PROMPT_LIMIT_S
+
+    def _pull_due(self) -> bool:
+        """Tell whether this tick pulls: near the due time, or after idle_poll_period_s."""
+        now = time.monotonic()
+        if self._prompt_from <= now <= self._prompt_until:
+            newest = self._connection.newest_stamp_ns
+            if newest is None or newest < self._due_ns:
+                return True
+            self._prompt_until = -math.inf      # delivered
+        return now - self._pulled_at >= self._params['idle_poll_period_s']
 
     def _publish_chunk(self, chunk: Chunk, now: float) -> None:
         """Convert and publish one stamped chunk; count what is dropped."""
@@ -422,7 +487,9 @@ class LslGazeBridge(Node):
         if not len(batch.xy):
             return
         stamps_ns = stamps_ns[batch.keep]
-        self._batch_publisher.publish(gaze_batch(stamps_ns, batch.xy))
+        # Serialized (conversions.GazeCdr): the same bytes as gaze_batch's message, built
+        # without rclpy's Python message.
+        self._batch_publisher.publish(self._gaze_cdr.build(stamps_ns, batch.xy))
         self._counters['published'] += len(batch.xy)
         rate = self._params['point_rate_hz']
         if rate > 0.0 and now - self._point_at >= 1.0 / rate:

@@ -36,9 +36,6 @@ from rclpy.node import Node
 from rclpy.time import Time
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.camera_model import (DEFAULT_PANEL_OFFSET, OrthographicCamera,
-                                       parse_intrinsic, rviz_intrinsic, RvizCamera)
-from eye_bci_ros2.geometry import external_from_pose
 from eye_bci_ros2.nodes.conversions import pose_to_arrays, regions_to_marker_array
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.marker_store import Box, Key, MarkerStore
@@ -47,6 +44,9 @@ from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
 from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, CHOICES_QOS, CHOICES_TOPIC, LATCHED_QOS,
                                        REGIONS_TOPIC)
+from eye_bci_ros2.projection.camera_model import (DEFAULT_PANEL_OFFSET, OrthographicCamera,
+                                                  parse_intrinsic, rviz_intrinsic, RvizCamera)
+from eye_bci_ros2.projection.geometry import external_from_pose, WORLD_FRAME
 
 #: Largest render panel side accepted, px.
 MAX_IMAGE_SIDE = 16384
@@ -169,7 +169,7 @@ def _intrinsic_values(value: Any) -> Optional[str]:
 
 
 PARAMETERS: List[ParamSpec] = [
-    ParamSpec('world_frame', 'map',
+    ParamSpec('world_frame', WORLD_FRAME,
               'RViz fixed frame: only markers (and camera poses) in this frame are projected.',
               check=check_frame_id),
     ParamSpec('image_width', 1280, 'Width W of the RViz render panel, px.',

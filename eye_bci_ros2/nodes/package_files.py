@@ -8,7 +8,7 @@ core stays free of ROS (docs/DESIGN.md, "Layers").
 from pathlib import Path
 import sys
 
-from eye_bci_ros2.scene import DEFAULT_SCENE_NAME
+from eye_bci_ros2.task.scene import DEFAULT_SCENE_NAME
 
 #: The ROS package name (its share directory holds the installed config/).
 PACKAGE_NAME = 'eye_bci_ros2'

@@ -26,17 +26,22 @@ as an alias and fails in ``rclpy.init``.  :func:`quote_param_rules` quotes
 such values in the command line first (the executables' ``main`` use it).
 """
 
+import dataclasses
 from dataclasses import dataclass
 import difflib
-import math
 import sys
-from typing import Any, Callable, Dict, Iterable, List, Optional, Tuple
+from typing import Any, Callable, Dict, Generic, Iterable, List, Optional, Tuple, Type, TypeVar
 import weakref
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rcl_interfaces.msg import ParameterType, SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+
+from eye_bci_ros2.base.settings import declarations, Setting
+# Re-exported for the nodes' parameter tables: the checks live in eye_bci_ros2.base.validators.
+from eye_bci_ros2.base.validators import frame_id as check_frame_id  # noqa: F401
+from eye_bci_ros2.base.validators import vector3 as check_vector3  # noqa: F401
 
 #: A check returns None when the value is fine, else the reason it is not.
 Check = Callable[[Any], Optional[str]]
@@ -215,6 +220,70 @@ def declare_parameters(
     return values
 
 
+def param_spec(setting: Setting) -> ParamSpec:
+    """
+    Return the parameter row of a declared setting (:mod:`eye_bci_ros2.base.settings`).
+
+    Name, default, description and choices as declared; the range is the
+    closure of the declared interval (rclpy checks it); the declaration's own
+    check refuses the rest (an open end, a wrong choice) with its reason.
+    """
+    interval = setting.interval
+    return ParamSpec(setting.name, setting.default, setting.description,
+                     value_range=interval.closure if interval is not None else None,
+                     choices=setting.choices, check=setting.problem)
+
+
+def param_specs(settings: Any) -> Tuple[ParamSpec, ...]:
+    """Return the parameter rows of a settings dataclass (or of declarations), in order."""
+    if isinstance(settings, type):
+        settings = declarations(settings)
+    return tuple(param_spec(setting) for setting in settings)
+
+
+S = TypeVar('S')
+
+
+class SettingsParameters(Generic[S]):
+    """
+    A settings dataclass kept as a node's parameters: declared, checked, live, typed.
+
+    Declares one parameter per field (:func:`param_specs`); a set that makes
+    no valid settings object (a field, or the whole: the dataclass's
+    ``__post_init__``) is refused with its reason; an accepted one replaces
+    :attr:`settings` and calls ``on_change``.
+
+    :param node: the node.
+    :param settings_class: the settings dataclass (every field declared).
+    :param on_change: called with (new settings, ``{name: value}`` changed)
+        after a successful set; not for the initial values.
+    :raises ValueError: start-up overrides that make no valid settings.
+    """
+
+    def __init__(self, node: Node, settings_class: Type[S],
+                 on_change: Optional[Callable[[S, Dict[str, Any]], None]] = None):
+        """Declare the parameters and build the settings from their start-up values."""
+        self._class = settings_class
+        self._on_change = on_change
+        #: The parameter rows (for help texts and tools).
+        self.specs = param_specs(settings_class)
+        values = declare_parameters(node, self.specs, self._changed, self._problem)
+        #: The settings in force; read them, replace them only through the parameters.
+        self.settings: S = settings_class(**values)
+
+    def _problem(self, values: Dict[str, Any]) -> Optional[str]:
+        try:
+            self._class(**values)
+        except ValueError as error:
+            return str(error)
+        return None
+
+    def _changed(self, changed: Dict[str, Any]) -> None:
+        self.settings = dataclasses.replace(self.settings, **changed)
+        if self._on_change is not None:
+            self._on_change(self.settings, changed)
+
+
 def _coerce_on_set(node: Node, specs: Dict[str, ParamSpec]) -> None:
     """
     Convert every set of ``specs`` on ``node`` before rclpy checks its type.
@@ -293,15 +362,27 @@ def _coerce_overrides(node: Node, specs: Dict[str, ParamSpec]) -> None:
 
     :raises ValueError: an override of a type that does not convert, with a reason.
     """
-    overrides = getattr(node, '_parameter_overrides', None)
-    if not isinstance(overrides, dict):
-        return
+    overrides = start_up_overrides(node)
     for name, spec in specs.items():
         if name in overrides:
             reason = type_problem(spec, overrides[name])
             if reason:
                 raise ValueError(f'invalid parameter override: {reason}')
             overrides[name] = coerce_parameter(spec, overrides[name])
+
+
+def start_up_overrides(node: Node) -> Dict[str, Parameter]:
+    """
+    Return the node's start-up overrides, ``{name: Parameter}`` (the dict itself).
+
+    rclpy (7.1, Jazzy) keeps them only in the private ``Node._parameter_overrides``
+    (filled from ``--ros-args -p``, ``--params-file`` and ``parameter_overrides=``)
+    and has no public way to read one before its parameter is declared, nor an
+    override of a name never declared: this is the one place that reads it.
+    An rclpy without it gives an empty dict (no conversion, no typo warnings).
+    """
+    overrides = getattr(node, '_parameter_overrides', None)
+    return overrides if isinstance(overrides, dict) else {}
 
 
 #: Parameters that rclpy and ROS tools may give any node; never a user's typo.
@@ -342,7 +423,7 @@ def unknown_overrides(nodes: Iterable[Node]) -> Dict[str, str]:
         declared.update(node.list_parameters([], 0).names)
     unknown: Dict[str, str] = {}
     for node in nodes:
-        for name in getattr(node, '_parameter_overrides', {}) or {}:
+        for name in start_up_overrides(node):
             if name in declared or name in _ROS_PARAMETERS or name.startswith(_QOS_PREFIX):
                 continue
             unknown.setdefault(name, unknown_name_text(name, declared))
@@ -394,25 +475,6 @@ def _quote_rule(rule: str) -> str:
     if not separator or not value or value[0] not in _YAML_INDICATORS:
         return rule
     return name + separator + "'" + value.replace("'", "''") + "'"
-
-
-def check_frame_id(value: Any) -> Optional[str]:
-    """Reject an empty frame id or one with a leading slash (tf2 refuses both)."""
-    if not str(value).strip():
-        return 'must not be empty'
-    if str(value).startswith('/'):
-        return f"'{value}' must not start with '/'"
-    return None
-
-
-def check_vector3(value: Any) -> Optional[str]:
-    """Reject anything but 3 finite numbers (x, y, z)."""
-    if value is None or len(value) != 3:
-        count = 0 if value is None else len(value)
-        return f'needs 3 finite numbers (x, y, z): exactly 3 numbers expected, got {count}'
-    if not all(math.isfinite(v) for v in value):
-        return 'needs 3 finite numbers (x, y, z): contains NaN or infinite values'
-    return None
 
 
 def _plain(value: Any) -> Any:

@@ -55,7 +55,9 @@ from rclpy.utilities import remove_ros_args
 
 from eye_bci_ros2.nodes.parameters import quote_param_rules, warn_unknown_overrides
 
-#: rcl's error type (a bad params file, a malformed --ros-args rule).
+#: rcl's error type (a bad params file, a malformed --ros-args rule).  rclpy raises it
+#: from ``rclpy.init`` but exports it only from its private C extension
+#: (``rclpy.impl.implementation_singleton``); this is the one place that imports it.
 RCLError = _rclpy.RCLError
 
 #: Executor names, default first.
@@ -197,8 +199,7 @@ def help_text(modules: Sequence[str], usage: str, options: Sequence[str] = ()) -
             parts.append(f'  {name}: {text}')
     else:
         parts.append(plain_text((loaded[0].__doc__ or '').strip()))
-        specs = [spec for table in ('PARAMETERS', 'FEEDBACK_PARAMETERS')
-                 for spec in getattr(loaded[0], table, ())]
+        specs = list(getattr(loaded[0], 'PARAMETERS', ()))
         if not specs:
             parts += ['', 'parameters: ros2 param describe on the running node, or '
                       'docs/parameters.md']

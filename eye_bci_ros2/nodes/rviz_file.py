@@ -13,7 +13,7 @@ from functools import lru_cache
 from typing import Any, Dict, Optional
 
 from eye_bci_ros2.nodes.parameters import ParamSpec
-from eye_bci_ros2.rviz_config import read_rviz_config, RvizView
+from eye_bci_ros2.projection.rviz_config import read_rviz_config, RvizView
 
 
 def rviz_config_spec(uses: str) -> ParamSpec:
@@ -36,7 +36,7 @@ def rviz_view(values: Dict[str, Any]) -> Optional[RvizView]:
 
     :param values: the node's parameters (``rviz_config``, ``world_frame``).
     :raises ValueError: an unreadable or unusable file (see
-        :func:`eye_bci_ros2.rviz_config.read_rviz_config`), or one whose fixed
+        :func:`eye_bci_ros2.projection.rviz_config.read_rviz_config`), or one whose fixed
         frame is not ``world_frame``.
     """
     path = values.get('rviz_config') or ''

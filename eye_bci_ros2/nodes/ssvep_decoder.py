@@ -17,7 +17,7 @@ the regions' stamp, the stimulus epoch and the request (node clock), and
 ends with its choice (:mod:`eye_bci_ros2.ssvep.online`).
 
 The stream is found, kept or switched and its samples stamped on the ROS
-clock by :class:`eye_bci_ros2.lsl_connection.StreamConnection`, the same
+clock by :class:`eye_bci_ros2.streams.lsl_connection.StreamConnection`, the same
 connection (and the same time rule) as the gaze bridge's, with the EEG
 profile of :mod:`eye_bci_ros2.ssvep.eeg_stream`; a timer lets it look for
 the stream, a second one pulls with a zero timeout, so nothing blocks the
@@ -39,24 +39,23 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.lsl_connection import ConnectionSettings, StreamConnection, StreamDescription
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.ssvep_messages import (msg_to_stimulus_map, scores_to_msg,
-                                               time_to_seconds)
+from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map, scores_to_msg, time_to_seconds
 from eye_bci_ros2.nodes.topics import (EVENT_QOS, LATCHED_QOS, REGIONS_TOPIC, REQUEST_TOPIC,
                                        SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC,
                                        SSVEP_STIMULI_TOPIC)
-from eye_bci_ros2.ssvep.decision import DEFAULT_GAIN, DEFAULT_REST_Z, RULES
+from eye_bci_ros2.ssvep.decision import DEFAULT_GAIN, DEFAULT_HOLD_S, DEFAULT_REST_Z, RULES
 from eye_bci_ros2.ssvep.decoders import DECODERS, TrcaModel
 from eye_bci_ros2.ssvep.eeg_stream import EegStreamProfile
-from eye_bci_ros2.ssvep.layouts import (ANY, LAYOUT_NAMES, LAYOUTS, parse_channels,
-                                        resolve_channels)
+from eye_bci_ros2.ssvep.layouts import ANY, LAYOUT_NAMES, LAYOUTS, parse_channels, resolve_channels
 from eye_bci_ros2.ssvep.online import DEFAULT_ONSET_S, OnlineDecoder, OnlineSettings
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
+from eye_bci_ros2.streams.lsl_connection import (ConnectionSettings, StreamConnection,
+                                                 StreamDescription)
 
 
 def _channels_text(value) -> Optional[str]:
@@ -101,6 +100,9 @@ PARAMETERS = (
     ParamSpec('rest_z', DEFAULT_REST_Z, "evidence z at which 'nothing attended' is as likely "
               'as one option (higher: fewer choices when nobody attends, slower ones)',
               value_range=(0.0, 20.0)),
+    ParamSpec('hold_s', DEFAULT_HOLD_S, 'an option is chosen once its evidence has reached '
+              "'threshold' in every decision step over this long, s (an SSVEP lasts, chance "
+              'crossings do not; 0 = at the first step)', value_range=(0.0, 10.0)),
     ParamSpec('onset_s', DEFAULT_ONSET_S, "a round's EEG window starts this long after the "
               'round (gaze shift and SSVEP build-up), s', value_range=(0.0, 10.0)),
     ParamSpec('notch_hz', 50.0, 'line frequency to notch (and its harmonics), Hz; 0 = none',
@@ -138,6 +140,7 @@ def _settings(values: Dict[str, Any]) -> OnlineSettings:
         decoder=values['decoder'], window_s=values['window_s'],
         min_window_s=values['min_window_s'], threshold=values['threshold'],
         rule=values['rule'], gain=values['gain'], rest_z=values['rest_z'],
+        hold_s=values['hold_s'],
         onset_s=values['onset_s'], settle_s=values['settle_s'], bands=values['bands'],
         harmonics=values['harmonics'], band=tuple(values['band']),
         notch_hz=values['notch_hz'],
@@ -300,8 +303,9 @@ class SsvepDecoder(Node):
             if stream.nominal_srate <= 0:
                 raise ValueError('the stream has an irregular rate (nominal 0 Hz); SSVEP '
                                  'needs a regular sampling rate')
+            # The FBCCA null is measured in the background: no decision step waits for it.
             self._decoder = OnlineDecoder(stream.nominal_srate, names, _settings(self._params),
-                                          self._model)
+                                          self._model, background_null=True)
         except ValueError as error:
             self._bind_error = str(error)
             self.get_logger().warning(f'cannot decode {stream.describe()}: {error}; no SSVEP '

@@ -23,8 +23,8 @@ from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.ssvep_messages import stimulus_map_to_msg
 from eye_bci_ros2.nodes.topics import LATCHED_QOS, REGIONS_TOPIC, SSVEP_STIMULI_TOPIC
-from eye_bci_ros2.ssvep.stimuli import (assign_stimuli, DEFAULT_FREQUENCIES,
-                                        DEFAULT_PHASE_STEP, MAX_FREQUENCY_HZ)
+from eye_bci_ros2.ssvep.stimuli import (assign_stimuli, DEFAULT_FREQUENCIES, DEFAULT_PHASE_STEP,
+                                        MAX_FREQUENCY_HZ)
 
 
 def _frequencies(value) -> Optional[str]:

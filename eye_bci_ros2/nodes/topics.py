@@ -40,6 +40,11 @@ MENU_ANSWER_TOPIC = 'choice_menu/answer'
 CHOICE_TOPIC = 'choice'
 NO_CHOICE_TOPIC = 'choice/none'
 REQUEST_TOPIC = 'choice/request'
+#: When the open round's decision can next come (builtin_interfaces/Time, a sample stamp on
+#: the ROS clock, LATCHED_QOS; choice_arbiter -> lsl_gaze_bridge): the earliest early
+#: decision, then the window end.  The gaze stamped up to it is wanted promptly then, so
+#: the bridge pulls at its short period around it and in bigger batches otherwise.
+DECISION_DUE_TOPIC = 'choice/due'
 
 #: What the person is shown of the selection while it happens (choice_arbiter ->
 #: RViz): visualization_msgs/MarkerArray in the options' frame, one halo per option
@@ -55,7 +60,7 @@ GAZE_ON_SCREEN_TOPIC = 'gaze/on_screen'
 #: geometry_msgs/PointStamped, frame ``screen``, NaN = none; LATCHED_QOS: the simulated
 #: person follows it), its RViz markers (visualization_msgs/MarkerArray, world frame,
 #: LATCHED_QOS), a request to run (std_msgs/Empty, EVENT_QOS) and the outcome (std_msgs/String,
-#: one JSON line of eye_bci_ros2.validation.ValidationOutcome, EVENT_QOS).
+#: one JSON line of eye_bci_ros2.gaze.validation.ValidationOutcome, EVENT_QOS).
 VALIDATION_TARGET_TOPIC = 'validation/target'
 VALIDATION_TARGETS_TOPIC = 'validation/targets'
 VALIDATION_START_TOPIC = 'validation/start'

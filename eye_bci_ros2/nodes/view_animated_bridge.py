@@ -33,7 +33,8 @@ from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import CAMERA_GOAL_TOPIC, LATCHED_QOS
-from eye_bci_ros2.view_animation import view_from_optical_pose
+from eye_bci_ros2.projection.geometry import WORLD_FRAME
+from eye_bci_ros2.projection.view_animation import view_from_optical_pose
 
 #: The port's speed profiles (ViewMovement.msg constants), by name.
 SPEED_PROFILES = ('DECLINING', 'RISING', 'WAVE', 'FULL', 'QUADRATIC', 'EXPONENTIAL')
@@ -46,7 +47,7 @@ TRAJECTORY_QOS = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 
 PARAMETERS: List[ParamSpec] = [
-    ParamSpec('world_frame', 'map',
+    ParamSpec('world_frame', WORLD_FRAME,
               "RViz's fixed frame: goals must be in it (no tf2 here).", check=check_frame_id),
     ParamSpec('trajectory_topic', DEFAULT_TRAJECTORY_TOPIC,
               'ViewTrajectory topic of rviz_plugin_view_animated (N = its instance, from 1).',

@@ -5,7 +5,7 @@ A :class:`GazeRecording` is what every consumer (the real-gaze benchmark, the
 replay outlet, the simulated person's check against real data) reads: sample
 stamps and screen points (the ``screen`` frame of docs/DESIGN.md: px, origin
 top-left, x right, y down; NaN where the tracker lost the eyes), the screen
-the person looked at (:class:`~eye_bci_ros2.visual_angle.ScreenGeometry`) and
+the person looked at (:class:`~eye_bci_ros2.projection.visual_angle.ScreenGeometry`) and
 the target schedule (:class:`TargetSchedule`).
 
 Formats read (``load_gaze`` picks by the file name, :func:`find_recordings`
@@ -25,7 +25,7 @@ lists a folder):
   ``onset_s,x_px,y_px[,still_s]`` (``still_s``: when the target stops moving,
   default its onset).  The screen comes from ``# screen_px: 1920x1080``,
   ``# screen_mm: 531.3x298.9`` and ``# distance_mm: 650`` comment lines at the
-  top of the gaze file (defaults: :data:`~eye_bci_ros2.visual_angle.DEFAULT_VIEWING`).
+  top of the gaze file (defaults: :data:`~eye_bci_ros2.projection.visual_angle.DEFAULT_VIEWING`).
 * ``*.xdf`` from LabRecorder: its gaze stream, in the layout of the tracker
   application that sent it (:mod:`eye_bci_ros2.recordings.xdf`; no targets).
 
@@ -44,7 +44,7 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, ScreenGeometry
+from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, ScreenGeometry
 
 PathLike = Union[str, os.PathLike]
 

@@ -72,8 +72,8 @@ import warnings
 
 import numpy as np
 
+from eye_bci_ros2.projection.visual_angle import ScreenGeometry
 from eye_bci_ros2.recordings.gaze import GazeRecording
-from eye_bci_ros2.visual_angle import ScreenGeometry
 
 #: A spike leaves both neighbours by more than this, deg.
 SPIKE_DEG = 2.0

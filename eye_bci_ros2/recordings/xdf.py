@@ -4,9 +4,9 @@ Gaze from an XDF file recorded by LabRecorder (the LSL ecosystem's recorder): pu
 An XDF file holds every stream LabRecorder saw (EEG, markers, gaze, ...).
 :func:`load_xdf_gaze` picks the gaze stream and reads it with the layout of
 the tracker application that sent it (a profile of
-:mod:`eye_bci_ros2.gaze_profiles`, found from the stream's type and name, or
+:mod:`eye_bci_ros2.gaze.profiles`, found from the stream's type and name, or
 given), through the bridge's own conversion (:func:`~eye_bci_ros2.
-gaze_profiles.convert`), into a :class:`~eye_bci_ros2.recordings.gaze.
+gaze.profiles.convert`), into a :class:`~eye_bci_ros2.recordings.gaze.
 GazeRecording` in the ``screen`` frame.  Samples the bridge would drop
 (lost eyes, low confidence, far off the screen) become NaN, so the
 recording keeps every stamp.
@@ -14,7 +14,7 @@ recording keeps every stamp.
 Stamps are the recorded LSL stamps (no de-jittering: a replay sends them as
 the tracker did), from 0 at the first sample.  An XDF file says nothing of
 the screen or of targets: the screen is given (default
-:data:`~eye_bci_ros2.visual_angle.DEFAULT_VIEWING`) and the target schedule
+:data:`~eye_bci_ros2.projection.visual_angle.DEFAULT_VIEWING`) and the target schedule
 is empty.
 
 ``pyxdf`` (PyPI) reads the file; it is imported only when an XDF file is loaded.
@@ -27,10 +27,10 @@ from typing import Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
-from eye_bci_ros2.gaze_profiles import (build_config, convert, PROFILE_NAMES, resolve_mapping,
+from eye_bci_ros2.gaze.profiles import (build_config, convert, PROFILE_NAMES, resolve_mapping,
                                         stream_matches)
+from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, ScreenGeometry
 from eye_bci_ros2.recordings.gaze import GazeRecording, RecordingError, TargetSchedule
-from eye_bci_ros2.visual_angle import DEFAULT_VIEWING, ScreenGeometry
 
 PathLike = Union[str, os.PathLike]
 

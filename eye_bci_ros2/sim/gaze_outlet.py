@@ -4,7 +4,7 @@ Stream a simulated person's gaze over Lab Streaming Layer, as the original sende
 The original system sent gaze from a Tobii 4C on a Windows machine (a
 1366x768 screen) to the Linux machine showing RViz (1920x1080) over LSL.  The
 stream made here has the ``xy_pixels`` layout the bridge's default profile
-reads (:mod:`eye_bci_ros2.gaze_profiles`): type ``Gaze``, 2 float32 channels
+reads (:mod:`eye_bci_ros2.gaze.profiles`): type ``Gaze``, 2 float32 channels
 x, y in pixels of the 1366x768 source screen, top-left origin.  The bridge
 scales them back to the 1920x1080 screen.  Samples the tracker lost (blinks,
 dropouts) are sent as NaN, which the bridge drops, unless ``send_lost`` is
@@ -48,10 +48,10 @@ import numpy as np
 import pylsl
 import yaml
 
-from eye_bci_ros2.gaze_profiles import DEFAULT_PROFILE, PROFILES
+from eye_bci_ros2.gaze.profiles import DEFAULT_PROFILE, PROFILES
 from eye_bci_ros2.sim.lsl_outlet import OutletThread, stream_info
-from eye_bci_ros2.sim.person import (
-    CONSUMER_TRACKER, GazeParams, GazeSimulator, GazeTrace, IDEAL_EYE, PRESETS, Target)
+from eye_bci_ros2.sim.person import (CONSUMER_TRACKER, GazeParams, GazeSimulator, GazeTrace,
+                                     IDEAL_EYE, PRESETS, Target)
 
 #: The original sender's screen (the Windows machine), px.
 SOURCE_SIZE = (1366, 768)

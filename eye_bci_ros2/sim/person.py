@@ -90,8 +90,9 @@ from typing import Callable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+from eye_bci_ros2.base.validators import ensure
+from eye_bci_ros2.projection.visual_angle import ScreenGeometry
 from eye_bci_ros2.recordings import gaze as recorded
-from eye_bci_ros2.visual_angle import ScreenGeometry
 
 #: A target: screen px (x, y), or None when there is nothing to look at.
 Target = Optional[Sequence[float]]
@@ -121,12 +122,6 @@ CATCH_UP_DEG = 1.5
 PURSUIT_STEP_S = 0.01
 #: A target slower than this is still, deg/s.
 STILL_DEG_S = 0.5
-
-
-def _check(condition: bool, message: str) -> None:
-    """Raise ValueError(message) unless condition holds."""
-    if not condition:
-        raise ValueError(message)
 
 
 @dataclass(frozen=True)
@@ -228,35 +223,35 @@ class PersonParams:
             value = getattr(self, f.name)
             if f.name in ('screen', 'offset_direction_deg'):
                 continue
-            _check(isinstance(value, Real) and math.isfinite(value) and value >= 0,
+            ensure(isinstance(value, Real) and math.isfinite(value) and value >= 0,
                    f'{f.name} must be a finite number >= 0, got {value!r}')
         if self.offset_direction_deg is not None:
-            _check(math.isfinite(self.offset_direction_deg),
+            ensure(math.isfinite(self.offset_direction_deg),
                    f'offset_direction_deg must be finite, got {self.offset_direction_deg}')
-        _check(self.offset_deg < 30 and self.jitter_deg < 30 and self.drift_deg < 30,
+        ensure(self.offset_deg < 30 and self.jitter_deg < 30 and self.drift_deg < 30,
                'offset_deg, jitter_deg and drift_deg must be below 30 degrees')
-        _check(self.latency_ms >= self.latency_min_ms,
+        ensure(self.latency_ms >= self.latency_min_ms,
                f'latency_ms ({self.latency_ms}) must be >= latency_min_ms '
                f'({self.latency_min_ms})')
-        _check(self.drift_period_s > 0, 'drift_period_s must be > 0')
-        _check(self.wander_tau_s > 0, 'wander_tau_s must be > 0')
-        _check(self.field_deg < 30 and self.wander_deg < 30,
+        ensure(self.drift_period_s > 0, 'drift_period_s must be > 0')
+        ensure(self.wander_tau_s > 0, 'wander_tau_s must be > 0')
+        ensure(self.field_deg < 30 and self.wander_deg < 30,
                'field_deg and wander_deg must be below 30 degrees')
-        _check(0 < self.saccade_gain <= 1.5,
+        ensure(0 < self.saccade_gain <= 1.5,
                f'saccade_gain must be in (0, 1.5], got {self.saccade_gain}')
-        _check(self.pursuit_gain <= 1.2, f'pursuit_gain must be <= 1.2, got {self.pursuit_gain}')
-        _check(self.landing_sd < 1, f'landing_sd must be < 1, got {self.landing_sd}')
-        _check(self.pso_fraction < 0.5, f'pso_fraction must be < 0.5, got {self.pso_fraction}')
+        ensure(self.pursuit_gain <= 1.2, f'pursuit_gain must be <= 1.2, got {self.pursuit_gain}')
+        ensure(self.landing_sd < 1, f'landing_sd must be < 1, got {self.landing_sd}')
+        ensure(self.pso_fraction < 0.5, f'pso_fraction must be < 0.5, got {self.pso_fraction}')
         for name in ('anticipation_prob', 'spike_prob'):
-            _check(getattr(self, name) < 1, f'{name} must be < 1, got {getattr(self, name)}')
-        _check(self.saccade_max_ms > 0, 'saccade_max_ms must be > 0')
-        _check(0 < self.blink_min_ms <= self.blink_max_ms,
+            ensure(getattr(self, name) < 1, f'{name} must be < 1, got {getattr(self, name)}')
+        ensure(self.saccade_max_ms > 0, 'saccade_max_ms must be > 0')
+        ensure(0 < self.blink_min_ms <= self.blink_max_ms,
                f'need 0 < blink_min_ms <= blink_max_ms, got {self.blink_min_ms}, '
                f'{self.blink_max_ms}')
-        _check(self.blink_rate_per_min * (self.blink_min_ms + self.blink_max_ms) / 2 < 60000,
+        ensure(self.blink_rate_per_min * (self.blink_min_ms + self.blink_max_ms) / 2 < 60000,
                'blinks would take up all the time: lower blink_rate_per_min or the durations')
-        _check(self.loss_prob < 1, f'loss_prob must be < 1, got {self.loss_prob}')
-        _check(isinstance(self.screen, ScreenGeometry), 'screen must be a ScreenGeometry')
+        ensure(self.loss_prob < 1, f'loss_prob must be < 1, got {self.loss_prob}')
+        ensure(isinstance(self.screen, ScreenGeometry), 'screen must be a ScreenGeometry')
 
     @property
     def blink_fraction(self) -> float:
@@ -288,11 +283,11 @@ class TrackerParams:
 
     def __post_init__(self):
         """Reject impossible timing."""
-        _check(isinstance(self.rate_hz, Real) and 0 < self.rate_hz <= 10000,
+        ensure(isinstance(self.rate_hz, Real) and 0 < self.rate_hz <= 10000,
                f'rate_hz must be in (0, 10000], got {self.rate_hz!r}')
         for name in ('timing_jitter_ms', 'delay_ms'):
             value = getattr(self, name)
-            _check(isinstance(value, Real) and math.isfinite(value) and value >= 0,
+            ensure(isinstance(value, Real) and math.isfinite(value) and value >= 0,
                    f'{name} must be a finite number >= 0, got {value!r}')
 
 
@@ -427,7 +422,7 @@ def _as_target(xy: Target, what: str) -> Optional[np.ndarray]:
     if xy is None:
         return None
     array = np.asarray(xy, dtype=float)
-    _check(array.shape == (2,) and bool(np.all(np.isfinite(array))),
+    ensure(array.shape == (2,) and bool(np.all(np.isfinite(array))),
            f'{what} must be None or a finite (x, y) in screen px, got {xy!r}')
     return array
 
@@ -509,7 +504,7 @@ class _Run:
             appears; not a catch-up saccade during pursuit).
         """
         xy = _as_target(xy, 'target')
-        _check(math.isfinite(t), f'target time must be finite, got {t}')
+        ensure(math.isfinite(t), f'target time must be finite, got {t}')
         t = max(float(t), self.last_event_t, self.t_last)
         if xy is None:
             if self.aimed is None and self.has_event:
@@ -687,9 +682,9 @@ class _Run:
             empty = np.empty((0, 2))
             return GazeTrace(np.empty(0), empty, empty.copy(), np.zeros(0, bool),
                              np.zeros(0, bool), np.zeros(0, bool))
-        _check(bool(np.all(np.isfinite(t))), 'sample times must be finite')
-        _check(bool(np.all(np.diff(t) >= 0)), 'sample times must be in increasing order')
-        _check(t[0] >= self.t_last, 'sample times must come after the samples already made')
+        ensure(bool(np.all(np.isfinite(t))), 'sample times must be finite')
+        ensure(bool(np.all(np.diff(t) >= 0)), 'sample times must be in increasing order')
+        ensure(t[0] >= self.t_last, 'sample times must come after the samples already made')
         self._plan(t[-1])
         onsets = np.array(self.onsets)
         index = np.searchsorted(onsets, t, side='right') - 1
@@ -761,9 +756,9 @@ class GazeSimulator:
     """
 
     def __init__(self, params: GazeParams = CONSUMER_TRACKER, seed: int = 0):
-        _check(isinstance(params, GazeParams),
+        ensure(isinstance(params, GazeParams),
                f'params must be a GazeParams (e.g. CONSUMER_TRACKER), got {type(params)}')
-        _check(isinstance(seed, (int, np.integer)) and seed >= 0,
+        ensure(isinstance(seed, (int, np.integer)) and seed >= 0,
                f'seed must be an integer >= 0, got {seed!r}')
         self.params = params
         self.seed = int(seed)
@@ -835,7 +830,7 @@ class GazeSimulator:
         :returns: shape (N,), N = ceil(duration_s * rate_hz), seconds, with the
             tracker's timing jitter.
         """
-        _check(math.isfinite(duration_s) and duration_s >= 0,
+        ensure(math.isfinite(duration_s) and duration_s >= 0,
                f'duration_s must be >= 0, got {duration_s}')
         count = int(math.ceil(duration_s * self.params.tracker.rate_hz - 1e-9))
         return _Run(self, start_s, None).nominal_times(0, count)
@@ -859,7 +854,7 @@ class GazeSimulator:
                t0: Optional[float]) -> GazeTrace:
         """Run :meth:`trace` with blinks counted from t0 (default: the first sample)."""
         t = np.asarray(t, dtype=float)
-        _check(t.ndim == 1, f't must have shape (N,), got {t.shape}')
+        ensure(t.ndim == 1, f't must have shape (N,), got {t.shape}')
         if t0 is None:
             t0 = t[0] if len(t) else 0.0
         run = _Run(self, t0, initial_xy)
@@ -888,7 +883,7 @@ class GazeSimulator:
             raise ValueError('schedule must be a list of (t_start_s, (x, y) or None) '
                              'or a callable target(t)') from None
         times = [time for time, _ in entries]
-        _check(all(a <= b for a, b in zip(times, times[1:])),
+        ensure(all(a <= b for a, b in zip(times, times[1:])),
                'schedule entries must be in time order')
         for time, target in entries:
             run.add_target(target, time)
@@ -899,7 +894,7 @@ class GazeSimulator:
         if len(t) == 0:
             return
         goals = np.asarray(target(t), dtype=float)
-        _check(goals.shape == (len(t), 2),
+        ensure(goals.shape == (len(t), 2),
                f'target(t) must return shape ({len(t)}, 2), got {goals.shape}')
         if run.person.pursuit_gain > 0:
             GazeSimulator._pursue(run, t, target)
@@ -938,7 +933,7 @@ class GazeSimulator:
         grid = np.arange(t[0], t[-1] + PURSUIT_STEP_S, PURSUIT_STEP_S)
         now = np.asarray(target(grid), dtype=float)
         before = np.asarray(target(grid - person.pursuit_latency_ms / 1e3), dtype=float)
-        _check(now.shape == (len(grid), 2) and before.shape == (len(grid), 2),
+        ensure(now.shape == (len(grid), 2) and before.shape == (len(grid), 2),
                f'target(t) must return shape (N, 2), got {now.shape}')
         shown = np.isfinite(now).all(axis=1)
         with np.errstate(invalid='ignore'):
@@ -976,7 +971,7 @@ class GazeSimulator:
         :param initial_xy: where the eye points until the first target, px
             (default: screen centre).
         """
-        _check(math.isfinite(t0), f't0 must be finite, got {t0}')
+        ensure(math.isfinite(t0), f't0 must be finite, got {t0}')
         self._run = _Run(self, t0, initial_xy)
 
     def set_target(self, xy: Target, t: float) -> None:

@@ -15,8 +15,7 @@ import argparse
 from pathlib import Path
 from typing import Optional, Sequence, Tuple
 
-from eye_bci_ros2.recordings.gaze import (find_recordings, GazeRecording, load_gaze,
-                                          RecordingError)
+from eye_bci_ros2.recordings.gaze import find_recordings, GazeRecording, load_gaze, RecordingError
 from eye_bci_ros2.recordings.gaze_statistics import gaze_statistics, GazeStatistics
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeParams, PRESETS, record_schedule
 

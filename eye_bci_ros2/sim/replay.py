@@ -7,7 +7,7 @@ to the running nodes one sample at a time, each with its own stamp (the
 recording's time from its first sample, on ``pylsl.local_clock()`` from the
 start of the replay) and at the moment it is due, as tracker applications
 push.  The stream has the layout of a chosen tracker application (a profile
-of :mod:`eye_bci_ros2.gaze_profiles`, encoded by
+of :mod:`eye_bci_ros2.gaze.profiles`, encoded by
 :mod:`eye_bci_ros2.sim.tracker_layout`), so the bridge reads it with that
 profile's defaults.  Lost samples go out as NaN (the bridge counts them as
 'nonfinite'), except for ``tobii_stream_engine``, whose application sends
@@ -24,7 +24,7 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from eye_bci_ros2.gaze_profiles import PROFILES
+from eye_bci_ros2.gaze.profiles import PROFILES
 from eye_bci_ros2.recordings.gaze import GazeRecording
 from eye_bci_ros2.sim.lsl_outlet import OutletThread
 from eye_bci_ros2.sim.tracker_layout import encode, profile_stream_info

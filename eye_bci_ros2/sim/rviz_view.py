@@ -5,7 +5,7 @@ RViz itself cannot run here (no display, no Ogre), so this node mocks the
 part of it the pipeline depends on: the camera.  It holds an RViz view
 (eye, focus, up), moves to each goal on ``camera/goal`` over
 ``transition_time_s`` with the cosine ease of rviz_animated_view_controller
-(see :mod:`eye_bci_ros2.view_animation`), and publishes the camera pose on
+(see :mod:`eye_bci_ros2.projection.view_animation`), and publishes the camera pose on
 ``rviz/current_camera_pose`` in the Ogre convention (looks along -Z, +Y up),
 as ports of that controller do: at ``publish_rate_hz`` while moving, once
 when it arrives, and once at start-up (latched, so late subscribers get the
@@ -27,15 +27,15 @@ import numpy as np
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
-from eye_bci_ros2 import geometry
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import CAMERA_GOAL_TOPIC, LATCHED_QOS, RVIZ_CAMERA_POSE_TOPIC
-from eye_bci_ros2.view_animation import (
-    as_view, ogre_pose, view_from_optical_pose, ViewAnimation, ViewTuple)
+from eye_bci_ros2.projection import geometry
+from eye_bci_ros2.projection.view_animation import (as_view, ogre_pose, view_from_optical_pose,
+                                                    ViewAnimation, ViewTuple)
 
 #: Initial view: the overview of the default config/scene.yaml.
 DEFAULT_EYE = (10.0, -2.0, 17.0)
@@ -67,7 +67,7 @@ PARAMETERS = (
     ParamSpec('publish_rate_hz', 30.0,
               'Rate of rviz/current_camera_pose while the camera moves, Hz',
               value_range=(1.0, 240.0)),
-    ParamSpec('world_frame', 'map',
+    ParamSpec('world_frame', geometry.WORLD_FRAME,
               'Fixed frame of the view; goals in another frame are ignored',
               check=check_frame_id),
 )

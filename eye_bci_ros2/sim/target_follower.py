@@ -17,7 +17,7 @@ is that helper.
 
 import math
 import threading
-from typing import Callable, Optional
+from typing import Callable, Optional, Protocol, Tuple
 
 from geometry_msgs.msg import PointStamped
 import pylsl
@@ -30,18 +30,24 @@ from eye_bci_ros2.nodes.conversions import SCREEN_FRAME, stamp_to_ns
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.runner import make_executor
 from eye_bci_ros2.nodes.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
-from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
+
+
+class Looker(Protocol):
+    """What the follower moves: a simulated person told where to look (``GazeStreamer``)."""
+
+    def set_target(self, xy: Optional[Tuple[float, float]], t: Optional[float] = None) -> None:
+        """Look at screen point ``xy`` (px; None: nothing) from LSL time ``t`` (None: now)."""
 
 
 class TargetFollower(Node):
     """
-    Make a :class:`GazeStreamer`'s person look at the points of a topic.
+    Make a simulated person (a :class:`Looker`) look at the points of a topic.
 
     :param streamer: the simulated person's outlet.
     :param topic: PointStamped topic, screen px.
     """
 
-    def __init__(self, streamer: GazeStreamer, topic: str = VALIDATION_TARGET_TOPIC,
+    def __init__(self, streamer: Looker, topic: str = VALIDATION_TARGET_TOPIC,
                  **kwargs):
         """Subscribe ``topic``; ``kwargs`` go to :class:`rclpy.node.Node`."""
         super().__init__('sim_person', **kwargs)
@@ -84,7 +90,7 @@ class TargetFollower(Node):
         self.targets += 1
 
 
-def follow_in_background(streamer: GazeStreamer,
+def follow_in_background(streamer: Looker,
                          topic: str = VALIDATION_TARGET_TOPIC) -> Callable[[], None]:
     """
     Run a :class:`TargetFollower` for ``streamer`` in a daemon thread.

@@ -1,7 +1,7 @@
 """
 Gaze as each eye-tracker application lays it out on LSL: stream description and samples.
 
-Each profile of :mod:`eye_bci_ros2.gaze_profiles` names an application;
+Each profile of :mod:`eye_bci_ros2.gaze.profiles` names an application;
 :func:`profile_stream_info` describes a stream as that application does (type,
 channel count and format, nominal rate, channel labels with eye, type and
 unit) and :func:`encode` turns screen points into the samples it would send.
@@ -16,7 +16,7 @@ from typing import Optional, Sequence
 import numpy as np
 import pylsl
 
-from eye_bci_ros2.gaze_profiles import PROFILES
+from eye_bci_ros2.gaze.profiles import PROFILES
 from eye_bci_ros2.sim.lsl_outlet import stream_info
 
 #: Screen the bridge maps gaze onto by default, px.
@@ -32,7 +32,7 @@ def profile_stream_info(profile: str, name: str, source_id: str, rate: Optional[
     """
     Describe a stream as the profile's application does.
 
-    :param profile: a name in :data:`eye_bci_ros2.gaze_profiles.PROFILES`.
+    :param profile: a name in :data:`eye_bci_ros2.gaze.profiles.PROFILES`.
     :param name: stream name.
     :param source_id: source id.
     :param rate: nominal rate, Hz; default: what the application advertises

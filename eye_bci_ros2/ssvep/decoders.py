@@ -22,8 +22,8 @@ window that starts later is compared with the template from
 """
 
 from dataclasses import dataclass, field
-from functools import lru_cache
-from typing import Optional, Sequence, Tuple
+import threading
+from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 from scipy import linalg
@@ -63,14 +63,31 @@ def reference_basis(references: np.ndarray) -> np.ndarray:
     return np.linalg.qr(y)[0]
 
 
+#: Directions of a window's channel space with less than this share of its largest
+#: variance are left out of the canonical correlations (linearly dependent channels,
+#: e.g. an average reference): they would correlate with anything.
+RANK_FLOOR = 1e-10
+
+
 def _correlations_with_basis(x: np.ndarray, qy: np.ndarray) -> np.ndarray:
-    """Canonical correlations of x (B, n, C) with orthonormal bases qy (K, n, R)."""
+    """
+    Canonical correlations of x (B, n, C) with orthonormal bases qy (K, n, R).
+
+    x is whitened through its C x C covariance (eigendecomposition) rather than a
+    QR of the n x C window: the same correlations, but a matrix product instead of
+    a Householder factorisation of a 2000 x 32 window at 1000 Hz (most of the
+    decoder's CPU before).
+    """
     x = x - x.mean(axis=1, keepdims=True)
-    qx, _ = np.linalg.qr(x)
     k, n, r = qy.shape
+    gram = np.swapaxes(x, 1, 2) @ x  # (B, C, C)
+    values, vectors = np.linalg.eigh(gram)
+    keep = values > RANK_FLOOR * values[:, -1:]
+    scale = np.where(keep, 1.0 / np.sqrt(np.where(keep, values, 1.0)), 0.0)
     # (B, C, n) @ (n, K R): one BLAS product instead of an einsum.
     flat = np.moveaxis(qy, 1, 0).reshape(n, k * r)
-    product = (np.swapaxes(qx, 1, 2) @ flat).reshape(qx.shape[0], qx.shape[2], k, r)
+    product = np.swapaxes(vectors, 1, 2) @ (np.swapaxes(x, 1, 2) @ flat)
+    product = (scale[:, :, None] * product).reshape(x.shape[0], x.shape[2], k, r)
     rho = np.linalg.svd(np.moveaxis(product, 2, 1), compute_uv=False)[..., 0]
     return np.clip(rho, 0.0, 1.0)
 
@@ -137,23 +154,36 @@ def sideband_hz(min_window_s: float) -> float:
     return 1.0 / float(min_window_s)
 
 
+#: Sidebands on each side of an option, at 1, 2, ... x :func:`sideband_hz`: their mean
+#: is the statistic's denominator, so more of them make it less noisy (two per side: on
+#: the real recordings 13 more right choices than with one, docs/ssvep.md; further out
+#: the neighbourhood would stop being the option's own).
+SIDEBANDS_PER_SIDE = 2
+
+
 def with_sidebands(frequencies: Sequence[float], delta: float) -> np.ndarray:
-    """Return the K frequencies, then each minus ``delta``, then each plus it, (3K,), Hz."""
+    """
+    Return the K frequencies, then their sidebands, ((1 + 2 S) K,), Hz.
+
+    The sidebands, S = :data:`SIDEBANDS_PER_SIDE`: each frequency minus
+    ``delta``, then each plus it, then minus and plus ``2 delta``, ...
+    """
     f = np.asarray(frequencies, dtype=float)
-    return np.concatenate([f, f - delta, f + delta])
+    return np.concatenate([f] + [f + sign * j * delta for j in range(1, SIDEBANDS_PER_SIDE + 1)
+                                 for sign in (-1.0, 1.0)])
 
 
 def sideband_statistic(scores: np.ndarray) -> np.ndarray:
     """
     FBCCA evidence statistic: log of each option's score over its sidebands' mean.
 
-    :param scores: FBCCA scores at :func:`with_sidebands` frequencies, (3K,).
+    :param scores: FBCCA scores at :func:`with_sidebands` frequencies, ((1 + 2 S) K,).
     :returns: (K,); about 0 where the spectrum is smooth (noise, the alpha
         rhythm's flank), large at a narrow-band response.
     """
     scores = np.maximum(np.asarray(scores, dtype=float), 1e-12)
-    k = len(scores) // 3
-    return np.log(scores[:k] / (0.5 * (scores[k:2 * k] + scores[2 * k:])))
+    k = len(scores) // (1 + 2 * SIDEBANDS_PER_SIDE)
+    return np.log(scores[:k] / scores[k:].reshape(-1, k).mean(axis=0))
 
 
 def null_windows(min_window_s: float, window_s: float) -> Tuple[float, ...]:
@@ -162,10 +192,20 @@ def null_windows(min_window_s: float, window_s: float) -> Tuple[float, ...]:
     return tuple(float(w) for w in np.linspace(min_window_s, window_s, count + 1))
 
 
-@lru_cache(maxsize=16)
+#: A key of :func:`fbcca_null`: (rate, channels, bands, harmonics, band, notch_hz,
+#: windows_s, delta, frequencies).
+NullKey = Tuple[float, int, int, int, Tuple[float, float], float, Tuple[float, ...], float,
+                Tuple[float, ...]]
+#: FBCCA nulls measured in this process, by key (kept: a handful of settings per process).
+_NULLS: Dict[NullKey, RestModel] = {}
+#: Nulls being measured in the background, by key.
+_MEASURING: Dict[NullKey, threading.Thread] = {}
+_NULLS_LOCK = threading.Lock()
+
+
 def fbcca_null(rate: float, channels: int, bands: int, harmonics: int,
                band: Tuple[float, float], notch_hz: float, windows_s: Tuple[float, ...],
-               delta: float) -> RestModel:
+               delta: float, frequencies: Tuple[float, ...] = ()) -> RestModel:
     """
     Measure the FBCCA sideband statistic of an unattended option on white noise.
 
@@ -173,20 +213,80 @@ def fbcca_null(rate: float, channels: int, bands: int, harmonics: int,
     an option with its own neighbourhood, so its null depends on the window
     length, channels and harmonics (degrees of freedom), hardly on the EEG's
     spectrum or size: measured on real rest EEG it matches (docs/ssvep.md).
+    Its spread is pooled over :data:`NULL_PROBES_HZ`; its mean is also measured
+    at each of ``frequencies`` (the offered options, in the same noise
+    windows): there the filters shift it (an option whose lower sidebands
+    fall on the filter bank's lower edge, e.g. 8 Hz: +0.14, 0.7 standard
+    deviations; one whose harmonic falls on the line notch, 10 Hz: -0.17).
+    Measured once per process and settings (seconds at 1000 Hz x 32 channels):
+    a live decoder asks :func:`fbcca_null_soon` instead, which never waits.
     """
+    key = _null_key(rate, channels, bands, harmonics, band, notch_hz, windows_s, delta,
+                    frequencies)
+    with _NULLS_LOCK:
+        known = _NULLS.get(key)
+    if known is None:
+        known = _measure_null(*key)
+        with _NULLS_LOCK:
+            known = _NULLS.setdefault(key, known)
+    return known
+
+
+def fbcca_null_soon(rate: float, channels: int, bands: int, harmonics: int,
+                    band: Tuple[float, float], notch_hz: float, windows_s: Tuple[float, ...],
+                    delta: float, frequencies: Tuple[float, ...] = ()) -> Optional[RestModel]:
+    """
+    :func:`fbcca_null` if already measured, else None and its measurement started.
+
+    The measurement runs in a daemon thread (numpy's factorisations release
+    the GIL, so a decision step in the meantime is not held up by it), one
+    per settings; the caller asks again at its next step.
+    """
+    key = _null_key(rate, channels, bands, harmonics, band, notch_hz, windows_s, delta,
+                    frequencies)
+    with _NULLS_LOCK:
+        if key in _NULLS:
+            return _NULLS[key]
+        if key not in _MEASURING or not _MEASURING[key].is_alive():
+            thread = threading.Thread(target=fbcca_null, args=key, daemon=True,
+                                      name='fbcca-null')
+            _MEASURING[key] = thread
+            thread.start()
+    return None
+
+
+def _null_key(rate, channels, bands, harmonics, band, notch_hz, windows_s, delta,
+              frequencies) -> NullKey:
+    return (float(rate), int(channels), int(bands), int(harmonics),
+            (float(band[0]), float(band[1])), float(notch_hz),
+            tuple(float(w) for w in windows_s), float(delta),
+            tuple(float(f) for f in frequencies))
+
+
+def _measure_null(rate: float, channels: int, bands: int, harmonics: int,
+                  band: Tuple[float, float], notch_hz: float, windows_s: Tuple[float, ...],
+                  delta: float, frequencies: Tuple[float, ...]) -> RestModel:
+    """Measure :func:`fbcca_null` (no cache)."""
     rng = np.random.default_rng(20161)
     hop = int(round(max(windows_s) * rate / 2))  # windows overlap by half: less to filter
     start = int(round(3.0 * rate))  # past the filters' settle time
     noise = rng.standard_normal((start + (NULL_WINDOWS + 1) * hop, channels))
     filtered = filter_recording(noise, rate, bands, band, notch_hz)
-    decoder = FbccaDecoder(with_sidebands(NULL_PROBES_HZ, delta), rate, bands, harmonics)
-    samples = []
+    probes = len(NULL_PROBES_HZ)
+    decoder = FbccaDecoder(with_sidebands(NULL_PROBES_HZ + tuple(frequencies), delta), rate,
+                           bands, harmonics)
+    samples, option_means = [], []
     for length in windows_s:
         n = int(round(length * rate))
-        values = [sideband_statistic(decoder.scores(
-            filtered[:, start + i * hop:start + i * hop + n])) for i in range(NULL_WINDOWS)]
-        samples.append(np.concatenate(values))
-    return RestModel.measure(windows_s, samples, 'white noise')
+        values = np.array([sideband_statistic(decoder.scores(
+            filtered[:, start + i * hop:start + i * hop + n])) for i in range(NULL_WINDOWS)])
+        samples.append(values[:, :probes].ravel())
+        option_means.append(tuple(values[:, probes:].mean(axis=0).tolist()))
+    pooled = RestModel.measure(windows_s, samples, 'white noise')
+    if not frequencies:
+        return pooled
+    return RestModel(pooled.windows_s, pooled.mean, pooled.std, pooled.source,
+                     tuple(option_means))
 
 
 def trca_filter(trials: np.ndarray) -> np.ndarray:

@@ -2,7 +2,7 @@
 Which LSL stream is the EEG amplifier's: the EEG stream profile of the LSL connection.
 
 The decoder (:mod:`eye_bci_ros2.nodes.ssvep_decoder`) reads its stream through
-:class:`eye_bci_ros2.lsl_connection.StreamConnection`, as the gaze bridge
+:class:`eye_bci_ros2.streams.lsl_connection.StreamConnection`, as the gaze bridge
 does; the stream is selected by the layout's type and name
 (:mod:`eye_bci_ros2.ssvep.layouts`) and the parameters.  The channels are not
 a reason to refuse a stream here: the decoder chooses them after connecting
@@ -11,8 +11,8 @@ and says which are missing (:func:`eye_bci_ros2.ssvep.layouts.resolve_channels`)
 
 from typing import Any, Mapping, Optional
 
-from eye_bci_ros2.lsl_connection import StreamDescription
 from eye_bci_ros2.ssvep.layouts import ANY, LAYOUTS, stream_name_matches
+from eye_bci_ros2.streams.lsl_connection import StreamDescription
 
 
 def _literal(value: str) -> Optional[str]:

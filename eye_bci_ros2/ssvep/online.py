@@ -37,6 +37,9 @@ Junk never chooses:
   (FBCCA, one note) or refused (a TRCA model fitted at another rate);
 - a stimulus map that lacks an offered option, fewer than 2 options, or a
   TRCA model without the options' stimuli decode nothing.
+- FBCCA decides nothing until its null for the decoded channels, rate and
+  stimuli is measured (``background_null``: off the decision path, once per
+  process and settings, when they are first seen).
 
 Each refusal is a :attr:`OnlineResult.problem` string the node logs.
 """
@@ -48,10 +51,10 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.ssvep.decision import (DecisionRule, DEFAULT_GAIN, DEFAULT_REST_Z,
-                                         RestModel)
-from eye_bci_ros2.ssvep.decoders import (DECODERS, fbcca_null, FbccaDecoder, null_windows,
-                                         sideband_hz, sideband_statistic, TrcaModel,
+from eye_bci_ros2.ssvep.decision import (DecisionRule, DEFAULT_GAIN, DEFAULT_HOLD_S,
+                                         DEFAULT_REST_Z, HeldDecision, RestModel)
+from eye_bci_ros2.ssvep.decoders import (DECODERS, fbcca_null, fbcca_null_soon, FbccaDecoder,
+                                         null_windows, sideband_hz, sideband_statistic, TrcaModel,
                                          with_sidebands)
 from eye_bci_ros2.ssvep.filters import StreamingFilterBank
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
@@ -77,6 +80,8 @@ RATE_PRECISE_SPAN_S = 5.0
 RATE_RESOLUTION_SHARE = 0.25
 #: Decimals of an adopted rate, Hz.
 RATE_DECIMALS = 2
+#: Samples are filtered at each step, or once this much is waiting, s.
+FILTER_BATCH_S = 0.1
 
 
 @dataclass(frozen=True)
@@ -92,6 +97,8 @@ class OnlineSettings:
     :param gain: the posterior's gain (expected evidence z of an attended option).
     :param rest_z: evidence z at which "nothing attended" is as likely as one
         option (:mod:`eye_bci_ros2.ssvep.decision`).
+    :param hold_s: an option is chosen once it has qualified in every step
+        over this long, s (:class:`eye_bci_ros2.ssvep.decision.HeldDecision`).
     :param onset_s: the window of a round starts this long after the round:
         the person's gaze reaching the option and the SSVEP building up, s.
     :param bands: FBCCA sub-bands; ``harmonics`` in its references.
@@ -114,6 +121,7 @@ class OnlineSettings:
     rule: str = 'posterior'
     gain: float = DEFAULT_GAIN
     rest_z: float = DEFAULT_REST_Z
+    hold_s: float = DEFAULT_HOLD_S
     onset_s: float = DEFAULT_ONSET_S
     bands: int = 5
     harmonics: int = 5
@@ -132,7 +140,8 @@ class OnlineSettings:
         if not 0 < self.min_window_s <= self.window_s:
             raise ValueError(f'need 0 < min_window_s ({self.min_window_s}) <= window_s '
                              f'({self.window_s})')
-        DecisionRule(self.rule, self.threshold, self.min_window_s, self.gain, self.rest_z)
+        DecisionRule(self.rule, self.threshold, self.min_window_s, self.gain, self.rest_z,
+                     self.hold_s)
         if not 0 <= self.onset_s <= 10.0:
             raise ValueError(f'onset_s must be in [0, 10] s, got {self.onset_s}')
 
@@ -176,18 +185,25 @@ class OnlineDecoder:
     :param settings: see :class:`OnlineSettings`.
     :param model: a TRCA model (needed for 'trca' / 'ensemble_trca'); its
         rate, channels and filter settings must match.
+    :param background_null: measure the FBCCA null (seconds of CPU at 1000 Hz x
+        32 channels) in the background when a count of usable channels or a set
+        of stimuli is first seen, and decide nothing until it is there (a live
+        stream: no step ever waits for it);
+        False = measure it in the step that first needs it (offline replay,
+        where steps stand for stream time, not wall time).
     """
 
     def __init__(self, rate: float, channels: Sequence[str],
                  settings: OnlineSettings = OnlineSettings(),
-                 model: Optional[TrcaModel] = None):
+                 model: Optional[TrcaModel] = None, background_null: bool = False):
         if not (math.isfinite(rate) and rate > 0):
             raise ValueError(f'the EEG stream needs a regular sampling rate, got {rate:g} Hz')
         self.rate = float(rate)
         self.channels = tuple(channels)
         self.settings = settings
         self.rule = DecisionRule(settings.rule, settings.threshold, settings.min_window_s,
-                                 settings.gain, settings.rest_z)
+                                 settings.gain, settings.rest_z, settings.hold_s)
+        self._held = HeldDecision(self.rule)
         if settings.decoder != 'fbcca':
             if model is None:
                 raise ValueError(f"decoder '{settings.decoder}' needs a TRCA model "
@@ -205,6 +221,7 @@ class OnlineDecoder:
             bands, band, notch = settings.bands, settings.band, settings.notch_hz
         self.model = model
         self._filter_settings = (bands, band, notch)
+        self._background_null = background_null
         #: The rate the stream advertises, Hz; :attr:`rate` is the one decoded at.
         self.nominal_rate = self.rate
         #: The rate the sample times show (None until measured), Hz.
@@ -260,6 +277,8 @@ class OnlineDecoder:
     def _restart(self) -> None:
         """Restart the filters from rest and empty the buffer (the rate stays measured)."""
         self._bank.reset()
+        self._pending = []
+        self._pending_count = 0
         self._written = 0
         self._previous[:] = np.nan
         self._stuck[:] = 0
@@ -280,7 +299,11 @@ class OnlineDecoder:
                              f' got {raw.shape}')
         if not len(times):
             return
-        last = self._times[(self._written - 1) % self._capacity] if self._written else None
+        last = None
+        if self._pending:
+            last = self._pending[-1][0][-1]
+        elif self._written:
+            last = self._times[(self._written - 1) % self._capacity]
         if last is not None and (times[0] - last > GAP_PERIODS / self.rate or times[0] < last):
             self.counters['gaps'] += 1
             self.reset()
@@ -300,6 +323,21 @@ class OnlineDecoder:
                 self._bad_until[channel] = times[-1] + self.settle_s
                 self._bad_why[channel] = ('NaN/inf samples' if nonfinite[:, channel].any()
                                           else 'railed')
+        # Filtered when a step needs them: one filter call per step instead of per chunk
+        # (the filters give the same output in any chunking; the calls' overhead was most
+        # of the decoder's CPU at 0.02 s chunks).
+        self._pending.append((times, raw))
+        self._pending_count += len(times)
+        if self._pending_count >= FILTER_BATCH_S * self.rate:  # no step for a while
+            self._flush()
+
+    def _flush(self) -> None:
+        """Filter the samples taken since the last step and buffer them."""
+        if not self._pending:
+            return
+        times = np.concatenate([t for t, _ in self._pending])
+        raw = np.concatenate([r for _, r in self._pending])
+        self._pending, self._pending_count = [], 0
         self._write(times, self._bank.process(raw))
 
     def _railed(self, raw: np.ndarray, nonfinite: np.ndarray) -> np.ndarray:
@@ -418,6 +456,16 @@ class OnlineDecoder:
         """Start a round at ``start_s`` among ``labels`` with these stimuli."""
         self._round = (float(start_s), tuple(labels), stimuli)
         self._done = False
+        self._held.interrupt()
+        if self.model is None and self._background_null and stimuli is not None:
+            # Start measuring this stimulus set's rest model now (every channel usable, as
+            # usual): it runs while the window's onset and shortest length pass, instead of
+            # from the first decision step on.
+            try:
+                self._null(len(self.channels),
+                           np.array([stimuli.stimulus(label)[0] for label in labels]))
+            except (KeyError, ValueError):
+                pass  # an option without a stimulus: the step says so
 
     @property
     def round_open(self) -> bool:
@@ -440,6 +488,14 @@ class OnlineDecoder:
         """Score the open round's window; None when no round is open."""
         if self._round is None or (self._done and not self.settings.keep_scoring):
             return None
+        self._flush()
+        result = self._step()
+        if not len(result.evidence):  # nothing scored: the evidence no longer holds
+            self._held.interrupt()
+        return result
+
+    def _step(self) -> OnlineResult:
+        """Score the open round's window (:meth:`step`)."""
         start_s, labels, stimuli = self._round
         result = OnlineResult(labels)
         if self._rate_problem:
@@ -480,8 +536,13 @@ class OnlineDecoder:
             result.problem = problem
             return result
         if self.model is None:
-            decoder, null = self._fbcca(frequencies, int(good.sum()))
-            all_scores = decoder.scores(window[:, :, good])
+            null = self._null(int(good.sum()), frequencies)
+            if null is None:
+                result.problem = (f'measuring the FBCCA rest model for {int(good.sum())} '
+                                  f'channels at {self.rate:g} Hz and these stimuli (up to a few '
+                                  'seconds, once)')
+                return result
+            all_scores = self._fbcca(frequencies).scores(window[:, :, good])
             scores = all_scores[:len(labels)]
             statistic = sideband_statistic(all_scores)
         else:
@@ -500,29 +561,33 @@ class OnlineDecoder:
         result.evidence = null.z(statistic, result.window_s)
         result.posterior = self.rule.probabilities(result.evidence)
         result.rest = float(1.0 - result.posterior.sum())
-        index = self.rule.decide(result.evidence, result.window_s)
+        index = self._held.update(result.evidence, result.window_s, result.end_s)
         if index is not None and not self._done:
             result.choice = labels[index]
             self._done = True
         return result
 
-    def _fbcca(self, frequencies: np.ndarray, channels: int) -> Tuple[FbccaDecoder, RestModel]:
-        """
-        FBCCA of these stimuli and their sidebands (kept while they stay), and its null.
-
-        :param channels: channels decoded in this window (the null depends on them).
-        """
+    def _fbcca(self, frequencies: np.ndarray) -> FbccaDecoder:
+        """FBCCA of these stimuli and their sidebands (kept while they stay)."""
         key = (tuple(frequencies.tolist()), self.rate)
-        delta = sideband_hz(self.settings.min_window_s)
         if self._fbcca_key != key:
             self._fbcca_key = key
-            self._fbcca_decoder = FbccaDecoder(with_sidebands(frequencies, delta), self.rate,
-                                               self._bank.bands, self.settings.harmonics)
+            self._fbcca_decoder = FbccaDecoder(
+                with_sidebands(frequencies, sideband_hz(self.settings.min_window_s)),
+                self.rate, self._bank.bands, self.settings.harmonics)
+        return self._fbcca_decoder
+
+    def _null(self, channels: int, frequencies: np.ndarray) -> Optional[RestModel]:
+        """
+        Return the FBCCA null for this many decoded channels and these stimuli at this rate.
+
+        None while it is measured in the background (``background_null``).
+        """
         bands, band, notch = self._filter_settings
-        null = fbcca_null(self.rate, channels, bands, self.settings.harmonics, tuple(band),
-                          notch, null_windows(self.settings.min_window_s,
-                                              self.settings.window_s), delta)
-        return self._fbcca_decoder, null
+        key = (self.rate, channels, bands, self.settings.harmonics, tuple(band), notch,
+               null_windows(self.settings.min_window_s, self.settings.window_s),
+               sideband_hz(self.settings.min_window_s), tuple(frequencies.tolist()))
+        return fbcca_null_soon(*key) if self._background_null else fbcca_null(*key)
 
     def _model_problem(self, labels: Sequence[str], stimuli: StimulusMap) -> Optional[str]:
         """Say why the TRCA model cannot score these options, or None."""

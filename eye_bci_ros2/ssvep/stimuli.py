@@ -31,9 +31,13 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-#: Frequencies the task assigns by default, Hz: 1 Hz apart, no option a
-#: harmonic of another up to 15 Hz, all below 30 Hz / 2 of a 60 Hz display.
-DEFAULT_FREQUENCIES = (8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 15.0)
+#: Frequencies the task assigns by default, Hz: 1 Hz apart, above the alpha band
+#: (8-12 Hz: an alpha rhythm at an option's frequency looks like its SSVEP to any
+#: decoder, and options in it decode near chance for people like those of real
+#: recordings, docs/ssvep.md) and clear of the filter bank's 8 Hz lower edge by more
+#: than two sidebands; no option a harmonic of another (26 Hz > 20 Hz); all below
+#: 30 Hz, half of a 60 Hz display's refresh.
+DEFAULT_FREQUENCIES = (13.0, 14.0, 15.0, 16.0, 17.0, 18.0, 19.0, 20.0)
 #: Phase step between neighbouring options, rad (JFPM, Chen et al. 2015: 0.35 pi).
 DEFAULT_PHASE_STEP = 0.35 * math.pi
 #: Highest stimulus frequency accepted, Hz.

@@ -24,8 +24,8 @@ from typing import List, Optional, Tuple
 import numpy as np
 import yaml
 
-from eye_bci_ros2 import calibration
-from eye_bci_ros2.geometry import look_at
+from eye_bci_ros2.projection import calibration
+from eye_bci_ros2.projection.geometry import look_at
 
 #: Exit status for bad input (malformed YAML, bad values, too few points).
 EXIT_BAD_INPUT = 2

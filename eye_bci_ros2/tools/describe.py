@@ -5,6 +5,9 @@ Creates each node on a private context, reads what it declared (value,
 description, range) and prints either the parameter tables of docs/parameters.md
 (``--markdown``) or the defaults file ``config/eye_bci.yaml`` (``--yaml``), so
 neither can drift from the code.  ``test/system/test_describe.py`` checks both.
+The parameters come from their declarations (:mod:`eye_bci_ros2.base.settings`
+for the decision's, fusion's and feedback's settings, ParamSpec tables
+elsewhere); this tool reads what the nodes made of them.
 
 Usage::
 
@@ -61,7 +64,8 @@ def describe_nodes(domain: int = 0) -> Dict[str, List[ParamInfo]]:
                 continue
             node = getattr(module, entry.node_class)(context=context)
             try:
-                described[entry.name] = [_info(node, name) for name in node._parameters
+                names = node.list_parameters([], 0).names   # in declaration order
+                described[entry.name] = [_info(node, name) for name in names
                                          if name not in _BUILTIN]
             finally:
                 node.destroy_node()

@@ -11,7 +11,7 @@ on) with RViz2 where it will be during the experiment, then::
 It prints (or writes) ``screen_offset_x/y`` (X0, Y0: the panel's top-left
 corner on the screen) and ``image_width/height`` (the panel's size) as a ROS 2
 parameter file for ``/marker_projector``, and a one-line summary on stderr.
-The detection is :func:`eye_bci_ros2.panel_finder.find_panel`.  Exit status
+The detection is :func:`eye_bci_ros2.projection.panel_finder.find_panel`.  Exit status
 1 with a one-line reason when there is no panel or the file is not an image.
 """
 
@@ -23,9 +23,9 @@ import numpy as np
 from PIL import Image, UnidentifiedImageError
 import yaml
 
-from eye_bci_ros2.panel_finder import (
-    DEFAULT_MAX_GAP, DEFAULT_MIN_SIZE, DEFAULT_TOLERANCE, find_panel, Panel, RVIZ_BACKGROUND,
-    scaled)
+from eye_bci_ros2.projection.panel_finder import (DEFAULT_MAX_GAP, DEFAULT_MIN_SIZE,
+                                                  DEFAULT_TOLERANCE, find_panel, Panel,
+                                                  RVIZ_BACKGROUND, scaled)
 
 #: Exit status for every error (no panel, unreadable file, bad option value).
 EXIT_ERROR = 1

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from bench import decision, run_all
+from eye_bci_ros2.decision.rounds import ArbiterSettings, RoundScheduler
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
-from eye_bci_ros2.rounds import ArbiterSettings, RoundScheduler
 
 METRIC_KEYS = {'accuracy', 'wrong', 'no_choice', 'median_samples', 'median_ms', 'mean_ms',
                'itr_bits_per_min', 'trials', 'not_landed'}
@@ -140,7 +140,7 @@ def test_early_decision_fed_in_node_sized_chunks_equals_one_batch():
 
 
 @pytest.mark.parametrize('scenario', decision.SCENARIOS)
-def test_benchmark_decisions_are_the_node_trackers_decisions(scenario):
+def test_benchmark_decisions_are_the_node_rounds_decisions(scenario):
     regions = decision.region_set(4, 60)
     trials = decision.simulate_trials(4, 60, range(decision.TEST_SEED, decision.TEST_SEED + 20),
                                       scenario)
@@ -149,15 +149,15 @@ def test_benchmark_decisions_are_the_node_trackers_decisions(scenario):
     for early in (True, False):
         for trial in trials:
             settings = config.replace(early_decision=early)
-            tracker = RoundScheduler(settings)
-            tracker.add_regions(regions, now=0.0)
+            rounds = RoundScheduler(settings)
+            rounds.add_regions(regions, now=0.0)
             made = None
             for stamp, (x, y) in zip(trial.stamps, trial.points):
-                made = tracker.add_sample(stamp, x, y, now=stamp + 0.01)
+                made = rounds.add_sample(stamp, x, y, now=stamp + 0.01)
                 if made is not None:
                     break
             if made is None:  # the first sample after the window closes it
-                made = tracker.add_sample(decision.WINDOW_S, 0.0, 0.0, now=decision.WINDOW_S)
+                made = rounds.add_sample(decision.WINDOW_S, 0.0, 0.0, now=decision.WINDOW_S)
             label, when = decision.decide(trial, regions, settings)
             if early:
                 assert (made.method == 'early') == (when < decision.WINDOW_S)

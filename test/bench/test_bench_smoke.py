@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from bench import arbitration, projection, reference_original, run_all, timing
-from eye_bci_ros2 import geometry
-from eye_bci_ros2.camera_model import rviz_intrinsic
+from eye_bci_ros2.projection import geometry
+from eye_bci_ros2.projection.camera_model import rviz_intrinsic
 
 PROJECTION_KEYS = {'ms', 'ms_min', 'reference_ms', 'speedup', 'reference_markers',
                    'reference_extrapolated', 'max_difference_px', 'agrees', 'visible_markers'}

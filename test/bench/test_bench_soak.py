@@ -38,6 +38,10 @@ def test_the_verdict_fails_on_a_lost_sample_a_wrong_round_or_growing_memory():
     leaking = copy.deepcopy(good)
     leaking['memory']['nodes']['flat'] = False
     assert not soak.passed(leaking)
+    short = copy.deepcopy(good)   # a check of a minute cannot tell a leak from settling
+    short['memory']['nodes']['flat'] = None
+    assert soak.passed(short)
+    assert soak.summary_lines(short)[-1].endswith('(too short a run to judge memory)')
 
 
 def test_the_summary_says_what_was_counted():

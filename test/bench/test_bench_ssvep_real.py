@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from bench import run_all, ssvep_real
-from eye_bci_ros2.recordings.eeg import (eeg_data_dir, find_eeg_recordings,
-                                         load_eeg)
+from eye_bci_ros2.recordings.eeg import eeg_data_dir, find_eeg_recordings, load_eeg
 from eye_bci_ros2.ssvep.decision import DecisionRule
 from eye_bci_ros2.ssvep.online import OnlineSettings
 

@@ -16,8 +16,8 @@ from paths import REPO
 import pytest
 import yaml
 
-from eye_bci_ros2 import calibration
-from eye_bci_ros2.geometry import look_at, project_points
+from eye_bci_ros2.projection import calibration
+from eye_bci_ros2.projection.geometry import look_at, project_points
 from eye_bci_ros2.tools.calibrate import EXIT_BAD_INPUT, main
 
 ROOT = str(REPO)

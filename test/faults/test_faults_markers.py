@@ -16,7 +16,7 @@ import pytest
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.camera_model import look_at_pose, ogre_pose_from_optical
+from eye_bci_ros2.projection.camera_model import look_at_pose, ogre_pose_from_optical
 
 pytestmark = pytest.mark.ros
 

@@ -44,7 +44,7 @@ def test_flake8(tmp_path, monkeypatch, capsys):
     output = capsys.readouterr().out
     checked = [Path(line[2:]) for line in output.splitlines() if line.startswith('* ')]
     # Guard against silently checking nothing, or checking the venv.
-    assert REPO / 'eye_bci_ros2' / 'geometry.py' in checked
+    assert REPO / 'eye_bci_ros2' / 'projection' / 'geometry.py' in checked
     assert REPO / 'test' / 'lint' / 'test_flake8.py' in checked
     assert not [path for path in checked
                 if set(path.relative_to(REPO).parts) & set(EXCLUDED_DIRS)]

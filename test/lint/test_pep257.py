@@ -30,7 +30,7 @@ def test_pep257(monkeypatch, capsys):
     checked = [Path(line.split(' ', 1)[1]) for line in output.out.splitlines()
                if line.startswith('checking ')]
     # Guard against silently checking nothing, or checking the venv.
-    assert REPO / 'eye_bci_ros2' / 'geometry.py' in checked
+    assert REPO / 'eye_bci_ros2' / 'projection' / 'geometry.py' in checked
     assert REPO / 'test' / 'lint' / 'test_pep257.py' in checked
     assert not [path for path in checked
                 if set(path.relative_to(REPO).parts) & {'.venv', *EXCLUDED_DIRS}]

@@ -10,12 +10,11 @@ from rclpy.parameter import Parameter
 from ros_harness import Collector
 from std_msgs.msg import String
 
-from eye_bci_ros2 import geometry
-from eye_bci_ros2.camera_model import look_at_pose, pose_from_optical
-from eye_bci_ros2.nodes.camera_tracker import (
-    CameraTracker, DEFAULT_EYE, DEFAULT_FOCUS)
+from eye_bci_ros2.nodes.camera_tracker import CameraTracker, DEFAULT_EYE, DEFAULT_FOCUS
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
 from eye_bci_ros2.nodes.topics import LATCHED_QOS, RVIZ_POSE_QOS
+from eye_bci_ros2.projection import geometry
+from eye_bci_ros2.projection.camera_model import look_at_pose, pose_from_optical
 
 pytestmark = pytest.mark.ros
 

@@ -3,15 +3,17 @@
 import re
 
 from arbiter_rig import ArbiterRig, to_time
+from builtin_interfaces.msg import Time
 import numpy as np
 import pytest
 from rclpy.parameter import Parameter
-from ros_harness import gaze_messages
+from ros_harness import Collector, gaze_messages
 from visualization_msgs.msg import Marker
 
+from eye_bci_ros2.decision.rounds import ArbiterSettings, COUNT_RULE
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import regions_to_marker_array
-from eye_bci_ros2.rounds import ArbiterSettings, COUNT_RULE
+from eye_bci_ros2.nodes.conversions import regions_to_marker_array, stamp_to_ns
+from eye_bci_ros2.nodes.topics import DECISION_DUE_TOPIC, LATCHED_QOS
 
 pytestmark = pytest.mark.ros
 
@@ -310,3 +312,18 @@ def test_nan_and_infinite_gaze_is_never_evidence_and_is_reported_once(graph, cap
     warnings = re.findall(r'choice_arbiter.*gaze sample \(.*\) px is NaN or infinite: taken '
                           r'as in no region \((\d+) such samples so far\)', log)
     assert warnings == ['1'], log[-2000:]
+
+
+def test_each_round_announces_when_its_decision_can_come(graph):
+    """choice/due: the earliest early decision, then the window end (the bridge's batching)."""
+    rig = Rig(graph, window_s=0.4, early_decision=True, dwell_s=0.1)
+    ends = Collector(rig.driver, Time, DECISION_DUE_TOPIC, LATCHED_QOS)
+    rig.offer({'a': (300.0, 300.0), 'b': (800.0, 300.0)})   # new choices start a round
+    rig.request()
+    start = rig.arbiter.round_start
+    early_ns, end_ns = (int(round((start + offset) * 1e9)) for offset in (0.1, 0.4))
+    # Without gaze the round stays open past its early time: then its window end is due.
+    assert graph.spin_until(lambda: any(stamp_to_ns(m) == end_ns for m in ends.messages),
+                            10.0), 'no window end announced'
+    dues = [stamp_to_ns(m) for m in ends.messages]
+    assert dues[dues.index(end_ns) - 1] == early_ns

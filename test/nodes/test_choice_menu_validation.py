@@ -7,10 +7,10 @@ from std_msgs.msg import Empty, String
 from validation_rig import make_rig
 from visualization_msgs.msg import Marker, MarkerArray
 
+from eye_bci_ros2.gaze.validation import ValidationOutcome
 from eye_bci_ros2.nodes.choice_menu import ChoiceMenu
 from eye_bci_ros2.nodes.topics import (EVENT_QOS, LATCHED_QOS, VALIDATION_RESULT_TOPIC,
                                        VALIDATION_START_TOPIC)
-from eye_bci_ros2.validation import ValidationOutcome
 
 pytestmark = pytest.mark.ros
 

@@ -2,7 +2,7 @@
 
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.feedback import build_feedback, STATE_COLOURS
+from eye_bci_ros2.decision.feedback import build_feedback, STATE_COLOURS
 from eye_bci_ros2.nodes.conversions import cube_marker
 from eye_bci_ros2.nodes.feedback_markers import (feedback_to_marker_array, FeedbackMarkers,
                                                  option_markers)

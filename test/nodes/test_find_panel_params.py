@@ -10,7 +10,7 @@ import rclpy
 from rclpy.context import Context
 
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.panel_finder import RVIZ_BACKGROUND
+from eye_bci_ros2.projection.panel_finder import RVIZ_BACKGROUND
 from eye_bci_ros2.tools import find_panel
 
 pytestmark = pytest.mark.ros

@@ -8,13 +8,12 @@ import numpy as np
 import pytest
 from validation_rig import camera_pose, make_rig, VIEW
 
-from eye_bci_ros2.camera_model import RvizCamera
+from eye_bci_ros2.gaze.validation import correction_values, load_correction, ValidationOutcome
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import pose_to_arrays
 from eye_bci_ros2.nodes.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
+from eye_bci_ros2.projection.camera_model import RvizCamera
 from eye_bci_ros2.sim.person import IDEAL_EYE, ORIGINAL_TOBII_4C
-from eye_bci_ros2.validation import (correction_values, load_correction,
-                                     ValidationOutcome)
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl, pytest.mark.slow]
 

@@ -3,7 +3,7 @@ Which LSL stream the nodes take, with real outlets: by channels, never one of se
 
 Also the one time rule: the gaze bridge and the SSVEP decoder stamp the same
 LSL time as the same ROS time (both read through
-:class:`eye_bci_ros2.lsl_connection.StreamConnection`).
+:class:`eye_bci_ros2.streams.lsl_connection.StreamConnection`).
 """
 
 from fault_rig import LogTap

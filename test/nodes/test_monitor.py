@@ -187,7 +187,7 @@ def test_command_line_once_on_the_graph(graph):
     sender.regions.publish(regions_message())
     env = dict(os.environ, ROS_DOMAIN_ID=str(graph.domain), PYTHONPATH=REPO)
     process = subprocess.Popen(
-        [sys.executable, '-m', 'eye_bci_ros2.tools.monitor', '--once', '--period', '1.5'],
+        [sys.executable, '-m', 'eye_bci_ros2.tools.monitor', '--once', '--period', '4'],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=REPO)
     graph.spin_for(0.1)
     out, err = process.communicate(timeout=60)

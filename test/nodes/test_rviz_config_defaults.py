@@ -7,7 +7,7 @@ import yaml
 
 from eye_bci_ros2.nodes.camera_tracker import DEFAULT_EYE, DEFAULT_FOCUS, DEFAULT_UP
 from eye_bci_ros2.nodes.marker_projector import PARAMETERS as PROJECTOR_PARAMETERS
-from eye_bci_ros2.rviz_config import read_rviz_config
+from eye_bci_ros2.projection.rviz_config import read_rviz_config
 
 CONFIG = Path(__file__).resolve().parents[2] / 'config' / 'eye_bci.rviz'
 

@@ -17,10 +17,10 @@ from rclpy.parameter import Parameter
 from ros_harness import Collector
 from validation_rig import camera_pose
 
+from eye_bci_ros2.gaze.validation import target_layout
 from eye_bci_ros2.nodes.gaze_validation import GazeValidation
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.nodes.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
-from eye_bci_ros2.validation import target_layout
 
 pytestmark = pytest.mark.ros
 

@@ -9,7 +9,7 @@ import pylsl
 from pylsl.util import LostError
 import pytest
 
-from eye_bci_ros2.gaze_profiles import build_config, convert, resolve_mapping, stream_matches
+from eye_bci_ros2.gaze.profiles import build_config, convert, resolve_mapping, stream_matches
 from eye_bci_ros2.sim import gaze_outlet as sim_gaze
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer, parse_script
 from eye_bci_ros2.sim.person import (CONSUMER_TRACKER, GazeSimulator, IDEAL_EYE,

@@ -5,11 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from eye_bci_ros2.sim.person import (
-    CONSUMER_TRACKER, GazeParams, GazeSimulator, IDEAL_EYE, ORIGINAL_TOBII_4C, PersonParams,
-    TrackerParams)
-from eye_bci_ros2.visual_angle import (DEFAULT_SCREEN, px_per_degree, ScreenGeometry,
-                                       visual_angle_px)
+from eye_bci_ros2.projection.visual_angle import (DEFAULT_SCREEN, px_per_degree, ScreenGeometry,
+                                                  visual_angle_px)
+from eye_bci_ros2.sim.person import (CONSUMER_TRACKER, GazeParams, GazeSimulator, IDEAL_EYE,
+                                     ORIGINAL_TOBII_4C, PersonParams, TrackerParams)
 
 SCREEN = DEFAULT_SCREEN
 #: Two places far apart on the 1920x1080 screen, px.

@@ -7,12 +7,12 @@ import numpy as np
 import pylsl
 import pytest
 
-from eye_bci_ros2.gaze_profiles import build_config, convert, resolve_mapping
+from eye_bci_ros2.gaze.profiles import build_config, convert, resolve_mapping
+from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
 from eye_bci_ros2.recordings.gaze import TargetSchedule
 from eye_bci_ros2.sim import gaze_outlet as sim_gaze
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER, record_schedule
 from eye_bci_ros2.sim.replay import GazeReplayer
-from eye_bci_ros2.visual_angle import DEFAULT_VIEWING
 
 #: Generous waits, s (2 shared cores; never a timing assertion).
 WAIT_S = 20.0

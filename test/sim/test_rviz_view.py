@@ -8,12 +8,12 @@ import pytest
 from rclpy.time import Time
 from ros_harness import Collector
 
-from eye_bci_ros2 import geometry
-from eye_bci_ros2.camera_model import look_at_pose
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
 from eye_bci_ros2.nodes.topics import LATCHED_QOS
+from eye_bci_ros2.projection import geometry
+from eye_bci_ros2.projection.camera_model import look_at_pose
+from eye_bci_ros2.projection.view_animation import as_view, ogre_pose
 from eye_bci_ros2.sim.rviz_view import SimRvizView
-from eye_bci_ros2.view_animation import as_view, ogre_pose
 
 pytestmark = pytest.mark.ros
 

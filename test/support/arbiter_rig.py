@@ -8,11 +8,11 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
+from eye_bci_ros2.decision.rounds import COUNT_RULE
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.conversions import ns_to_stamp
 from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
                                        LATCHED_QOS, REQUEST_TOPIC)
-from eye_bci_ros2.rounds import COUNT_RULE
 
 #: The tests publish a round's gaze at once, stamped up to ~1 s ahead of the clock.
 MAX_FUTURE_S = 5.0

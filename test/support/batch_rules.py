@@ -2,7 +2,7 @@
 Batch oracles of the count rules: one batch of samples, static regions, no state.
 
 The tests compare the node's incremental evidence
-(:class:`eye_bci_ros2.evidence.RoundEvidence`) with these straightforward
+(:class:`eye_bci_ros2.decision.evidence.RoundEvidence`) with these straightforward
 versions of the original ``mean`` rule and of ``vote``; nothing in the
 package uses them.
 """
@@ -12,8 +12,8 @@ from typing import Tuple
 
 import numpy as np
 
-from eye_bci_ros2.evidence import counts_summary, Decision, DEFAULT_HIT_RATE
-from eye_bci_ros2.regions import points_array, RegionSet
+from eye_bci_ros2.decision.evidence import counts_summary, Decision, DEFAULT_HIT_RATE
+from eye_bci_ros2.decision.regions import points_array, RegionSet
 
 
 def _label_counts(region_set: RegionSet, region: np.ndarray) -> Tuple[list, np.ndarray]:

@@ -1,7 +1,7 @@
 """
 Real LSL outlets laid out like each eye-tracker application, for tests and simulations.
 
-Each profile of :mod:`eye_bci_ros2.gaze_profiles` names an application; the
+Each profile of :mod:`eye_bci_ros2.gaze.profiles` names an application; the
 outlets made here advertise the same stream type, channel count, channel
 format, nominal rate and channel description (labels, eye, type, unit) as
 that application, and :func:`sample_for` encodes a screen point the way the
@@ -23,7 +23,7 @@ import uuid
 
 import pylsl
 
-from eye_bci_ros2.gaze_profiles import PROFILES
+from eye_bci_ros2.gaze.profiles import PROFILES
 from eye_bci_ros2.sim.lsl_outlet import open_outlet
 # The layouts live in the package (the replay uses them too); re-exported for the tests.
 from eye_bci_ros2.sim.tracker_layout import (  # noqa: F401
@@ -42,7 +42,7 @@ def make_outlet(profile: str, name: Optional[str] = None, source_id: Optional[st
     """
     Open an LSL outlet laid out as the profile's application lays it out.
 
-    :param profile: a name in :data:`eye_bci_ros2.gaze_profiles.PROFILES`.
+    :param profile: a name in :data:`eye_bci_ros2.gaze.profiles.PROFILES`.
     :param name: stream name; default: a unique name starting with the
         application's name (or the profile name when it has none).
     :param source_id: default: a unique id.  Reuse one to play an

@@ -10,8 +10,8 @@ from paths import REPO
 import pytest
 import yaml
 
-from eye_bci_ros2.camera_model import rviz_intrinsic
-from eye_bci_ros2.geometry import look_at, project_points
+from eye_bci_ros2.projection.camera_model import rviz_intrinsic
+from eye_bci_ros2.projection.geometry import look_at, project_points
 from eye_bci_ros2.tools.calibrate import main
 
 ROOT = str(REPO)

@@ -9,12 +9,12 @@ import os
 import numpy as np
 import pytest
 
+from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.experiments import demo
 from eye_bci_ros2.experiments.render import png_size
-from eye_bci_ros2.menu import BACK_LABEL
 from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.regions import RegionSet
-from eye_bci_ros2.scene import load_scene
+from eye_bci_ros2.task.menu import BACK_LABEL
+from eye_bci_ros2.task.scene import load_scene
 
 SCENE = load_scene(default_scene_path())
 
@@ -122,7 +122,7 @@ def test_menu_goes_from_rooms_to_the_room_view_to_its_tables(quick_run):
     assert sorted(rooms['offered']) == sorted(SCENE.room_labels)
     assert np.allclose(rooms['camera_eye'], SCENE.overview.eye, atol=1e-3)
     assert tables['step'] == 'tables' and tables['intended'] == f'{room}/{table}'
-    # The room's tables and the menu's way back (issue 10).
+    # The room's tables and the menu's way back.
     assert sorted(tables['offered']) == sorted(
         [t.marker.text for t in SCENE.room(room).tables] + [BACK_LABEL])
     # The camera had zoomed into the chosen room when the table was chosen.

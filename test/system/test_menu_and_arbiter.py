@@ -6,14 +6,13 @@ from rclpy.parameter import Parameter
 from ros_harness import Collector
 from std_msgs.msg import Empty, String
 
-from eye_bci_ros2.camera_model import look_at_pose
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.choice_menu import ChoiceMenu
 from eye_bci_ros2.nodes.conversions import arrays_to_pose
 from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, LATCHED_QOS, NO_CHOICE_TOPIC,
-                                       REQUEST_TOPIC)
-from eye_bci_ros2.scene import load_scene
+from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS, NO_CHOICE_TOPIC, REQUEST_TOPIC
+from eye_bci_ros2.projection.camera_model import look_at_pose
+from eye_bci_ros2.task.scene import load_scene
 
 pytestmark = pytest.mark.ros
 

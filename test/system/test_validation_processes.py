@@ -20,7 +20,7 @@ from lsl_outlets import unique_id
 import numpy as np
 import pytest
 
-from eye_bci_ros2.validation import load_correction, save_correction
+from eye_bci_ros2.gaze.validation import load_correction, save_correction
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl, pytest.mark.slow]
 

@@ -3,8 +3,8 @@
 import numpy as np
 
 from bench import decision, tolerance
+from eye_bci_ros2.decision.tolerance import TolerantRegions
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER, IDEAL_EYE, ORIGINAL_TOBII_4C, ScreenGeometry
-from eye_bci_ros2.tolerance import TolerantRegions
 
 SCREEN = ScreenGeometry()
 PERSON = CONSUMER_TRACKER

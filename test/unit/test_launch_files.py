@@ -26,7 +26,7 @@ LAUNCH_FILES = sorted((REPO / 'launch').glob('*.launch.py'))
 ALLOWED_IMPORTS = ('launch', 'launch_ros', 'ament_index_python', 'os')
 #: Executables of other packages a launch file may start: package -> executables.
 EXTERNAL_EXECUTABLES = {'rviz2': {'rviz2'}}
-#: Files another part of issue 12 adds (item 4, config/eye_bci.rviz): checked once they exist.
+#: Files added apart (config/eye_bci.rviz): checked once they exist.
 PENDING_SOURCES = {'share/eye_bci_ros2/config/eye_bci.rviz': REPO / 'config' / 'eye_bci.rviz'}
 
 

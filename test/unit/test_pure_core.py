@@ -25,8 +25,9 @@ def pure_modules():
 
 def test_the_pure_core_is_found():
     names = pure_modules()
-    for expected in ('eye_bci_ros2.geometry', 'eye_bci_ros2.rounds', 'eye_bci_ros2.gaze_stream',
-                     'eye_bci_ros2.camera_model', 'eye_bci_ros2.scene'):
+    for expected in ('eye_bci_ros2.projection.geometry', 'eye_bci_ros2.decision.rounds',
+                     'eye_bci_ros2.gaze.stream',
+                     'eye_bci_ros2.projection.camera_model', 'eye_bci_ros2.task.scene'):
         assert expected in names
     assert not [name for name in names if '.nodes' in name or '.sim' in name]
 
