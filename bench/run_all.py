@@ -55,7 +55,7 @@ REGISTRY: Dict[str, str] = {
     'projection': 'bench.projection',
     'arbitration': 'bench.arbitration',
     'latency': 'bench.latency',
-    'gaze_rate': 'bench.gaze_rate',
+    'lab_rate': 'bench.lab_rate',
     'real_gaze': 'bench.real_gaze',
     'decision': 'bench.decision',
     'tolerance': 'bench.tolerance',
@@ -418,7 +418,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             results[name] = outcome['sections'][name]
             print()
             if outcome['shortened'].get(name):
-                print(f'{name} (default run: {outcome["shortened"][name]}; --full for the '
+                print(f'{name} ({args.mode} run: {outcome["shortened"][name]}; --full for the '
                       'complete table)')
             print('\n'.join(section_lines(name, results[name], outcome['columns'].get(name),
                                           outcome['formatters'].get(name))), flush=True)
