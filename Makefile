@@ -25,9 +25,12 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest test -n 2 --dist loadfile $(ARGS)
 
+# About 10 minutes on 2 cores, each section printed as it finishes; the complete tables:
+# make bench ARGS=--full (see docs/performance.md for the time of each section).
 bench: $(STAMP)
 	$(PY) -m bench.run_all $(ARGS)
 
+# 10 minutes of 1200 Hz per-sample gaze with rounds back to back; a check: ARGS='--minutes 1'.
 soak: $(STAMP)
 	$(PY) -m bench.soak $(ARGS)
 

@@ -429,19 +429,20 @@ def _summary(latencies: List[float], invalid: int, lost: int, rounds: int,
     }
 
 
-def run(quick: bool = False) -> Dict[str, object]:
+def run(quick: bool = False, rounds: int = 0) -> Dict[str, object]:
     """
     Measure push -> choice latency with the bridge's default poll period at each of RATES_HZ.
 
     :param quick: QUICK_ROUNDS rounds instead of ROUNDS.
+    :param rounds: rounds per rate (0: ROUNDS, or QUICK_ROUNDS when quick).
     :returns: ``{'1200': {...}, '2000': {...}}``, each ``{'p50_ms', 'p90_ms', 'p99_ms',
         'max_ms', 'mean_ms', 'bridge_cpu_percent', 'arbiter_process_cpu_percent',
         'rounds', ..., 'push_rate_hz', 'gaze_rate_at_arbiter_hz', 'bridge_poll_period_s',
         'goal_p99_ms', 'meets_goal'}``; CPU in % of one core: the bridge process, and
         this process (choice_arbiter and the driver).
     """
-    return {f'{rate:g}': measure(QUICK_ROUNDS if quick else ROUNDS, rate=rate)
-            for rate in RATES_HZ}
+    rounds = rounds or (QUICK_ROUNDS if quick else ROUNDS)
+    return {f'{rate:g}': measure(rounds, rate=rate) for rate in RATES_HZ}
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

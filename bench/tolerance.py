@@ -70,8 +70,8 @@ from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.decision.tolerance import DEFAULT_RATIO, GazeErrorModel, TolerantRegions
 from eye_bci_ros2.experiments import accuracy_test
-from eye_bci_ros2.gaze.validation import (apply_correction, fit_correction, samples_per_target,
-                                          target_layout)
+from eye_bci_ros2.gaze.validation import (apply_correction, CorrectionRefused, fit_correction,
+                                          IDENTITY, samples_per_target, target_layout)
 from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeParams, GazeSimulator, ORIGINAL_TOBII_4C
 from eye_bci_ros2.task.scene import load_scene
@@ -248,7 +248,10 @@ def _validated(params: GazeParams, trial_seed: int) -> Tuple[float, ...]:
         1.5 * len(targets), [(float(t), tuple(xy)) for t, xy in zip(onsets, targets)],
         start_s=float(onsets[0]))
     samples = samples_per_target(trace.t, trace.xy, onsets, onsets + 1.5)
-    return tuple(fit_correction(targets, samples, screen=params.person.screen).values)
+    try:
+        return tuple(fit_correction(targets, samples, screen=params.person.screen).values)
+    except CorrectionRefused:   # a fit that would not help: the bridge keeps none
+        return IDENTITY
 
 
 def _midway_trials(count: int, size: float, seeds, params: GazeParams,

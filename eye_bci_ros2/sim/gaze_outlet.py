@@ -68,7 +68,9 @@ class GazeStreamer(OutletThread):
     A real LSL outlet fed by a :class:`GazeSimulator` from a background thread.
 
     Every ``chunk_ms`` (:class:`~eye_bci_ros2.sim.lsl_outlet.OutletThread`'s
-    fixed grid) it pushes every sample acquired up to ``now - delay_ms``.
+    fixed grid) it pushes every sample acquired up to ``now - delay_ms``, as one
+    chunk; with ``per_sample`` it wakes once per sample period instead and
+    pushes each sample with its own ``push_sample`` call and stamp.
 
     :param simulator: the person; default ``GazeSimulator(params, seed)``.
     :param params: used when ``simulator`` is None.
@@ -80,7 +82,12 @@ class GazeStreamer(OutletThread):
         person's screen px are scaled into it.
     :param nominal_rate: advertised rate, Hz; default the tracker's rate
         (0 = irregular).
-    :param chunk_ms: push period, ms.
+    :param chunk_ms: push period, ms (unused with ``per_sample``).
+    :param per_sample: push every sample on its own (``push_sample``, its own
+        stamp), waking once per sample period: what tracker applications that
+        forward each SDK callback do (App-TobiiPro, the EyeLink and Pupil
+        relays).  A late wake-up pushes the samples due since, still one call
+        each.  Default False: chunks, as the original sender did.
     :param send_lost: push lost samples as NaN (True) or leave them out.
     :param initial_xy: where the eye points until the first target, person's
         screen px (default: screen centre).
@@ -96,7 +103,8 @@ class GazeStreamer(OutletThread):
                  source_size: Sequence[int] = SOURCE_SIZE,
                  nominal_rate: Optional[float] = None, chunk_ms: float = 20.0,
                  send_lost: bool = True, initial_xy: Target = None,
-                 on_chunk: Optional[Callable[[GazeTrace], None]] = None):
+                 on_chunk: Optional[Callable[[GazeTrace], None]] = None,
+                 per_sample: bool = False):
         self.simulator = simulator if simulator is not None else GazeSimulator(params, seed)
         tracker = self.simulator.params.tracker
         screen = self.simulator.params.person.screen
@@ -116,10 +124,12 @@ class GazeStreamer(OutletThread):
         self.delay_s = tracker.delay_ms / 1e3
         self.send_lost = bool(send_lost)
         self.on_chunk = on_chunk
+        self.per_sample = bool(per_sample)
         self._initial_xy = initial_xy
         self._pending_target: Optional[Tuple[Target, Optional[float]]] = None
-        super().__init__(self._stream_info(name, stream_type, rate, source_id),
-                         chunk_ms / 1e3, 'gaze')
+        period_s = 1.0 / tracker.rate_hz if self.per_sample else chunk_ms / 1e3
+        super().__init__(self._stream_info(name, stream_type, rate, source_id), period_s,
+                         'gaze')
         #: Samples pushed, and samples the tracker lost (sent as NaN or left
         #: out), since start().
         self.samples_pushed = 0
@@ -202,7 +212,11 @@ class GazeStreamer(OutletThread):
         t, xy = chunk.t, chunk.xy
         if not self.send_lost:
             t, xy = t[~lost], xy[~lost]
-        if len(t):
+        if len(t) and self.per_sample:
+            push = self._outlet.push_sample
+            for values, stamp in zip(self.to_source(xy).tolist(), t.tolist()):
+                push(values, stamp)
+        elif len(t):
             self._outlet.push_chunk(self.to_source(xy), t.tolist())
         self.samples_pushed += len(t)
         self.samples_lost += int(np.count_nonzero(lost))

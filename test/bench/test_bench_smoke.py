@@ -6,9 +6,12 @@ benchmarks compute and on the shape of ``bench_results.json``.
 """
 
 import gc
+import inspect
+import io
 import json
 import math
 import sys
+import threading
 import types
 
 import numpy as np
@@ -237,3 +240,84 @@ def test_table_has_one_row_per_size_and_the_chosen_columns():
     assert lines[2].split() == ['10', '0.500', 'yes']
     assert lines[3].split() == ['100', '1.250', 'no']
     assert run_all.format_table('latency', {'p50_ms': 3.0}) == ['latency: {"p50_ms": 3.0}']
+
+
+def test_run_all_prints_each_section_as_it_finishes_with_progress(
+        tmp_path, monkeypatch, capsys):
+    output = tmp_path / 'results.json'
+    seen = {}
+
+    def first(quick=False, trials=100):
+        return {'row': {'trials': float(trials)}}
+
+    def second(quick=False):
+        # By now the first section's table is out and its results are on disk.
+        seen['printed'] = capsys.readouterr()
+        seen['on_disk'] = json.loads(output.read_text())
+        return {'row': {'value': 1.0}}
+
+    monkeypatch.setitem(sys.modules, 'bench_smoke_first', types.SimpleNamespace(run=first))
+    monkeypatch.setitem(sys.modules, 'bench_smoke_second', types.SimpleNamespace(run=second))
+    monkeypatch.setattr(run_all, 'REGISTRY', {'first': 'bench_smoke_first',
+                                              'second': 'bench_smoke_second'})
+    monkeypatch.setattr(run_all, 'DEFAULT_RUN', {'first': ({'trials': 7}, '7 trials of 100')})
+
+    assert run_all.main(['--output', str(output)]) == 0
+
+    assert 'trials' in seen['printed'].out and '7 trials of 100' in seen['printed'].out
+    assert '[1/2 0:00] first: running (7 trials of 100)' in seen['printed'].err
+    assert '[1/2 0:00] first: done in' in seen['printed'].err
+    assert seen['on_disk']['first'] == {'row': {'trials': 7.0}}
+    assert seen['on_disk']['run']['shortened'] == {'first': '7 trials of 100'}
+    results = json.loads(output.read_text())
+    assert results['run']['mode'] == 'default' and set(results['run']['seconds']) == {
+        'first', 'second'}
+    assert '[2/2' in capsys.readouterr().err
+
+    # --full: the complete run, nothing shortened.
+    assert run_all.main(['--full', '--only', 'first', '--output', str(output)]) == 0
+    results = json.loads(output.read_text())
+    assert results['first'] == {'row': {'trials': 100.0}}
+    assert results['run']['mode'] == 'full' and results['run']['shortened'] == {}
+
+
+def test_run_all_skips_a_data_section_when_the_named_folder_is_absent(tmp_path, capsys):
+    output = tmp_path / 'results.json'
+
+    status = run_all.main(['--only', 'real_gaze,ssvep_real', '--output', str(output),
+                           '--gaze-data', str(tmp_path / 'nowhere'),
+                           '--eeg-data', str(tmp_path / 'nowhere')])
+
+    assert status == 0
+    skipped = json.loads(output.read_text())['run']['skipped']
+    assert skipped == {'real_gaze': f'--gaze-data {tmp_path / "nowhere"} is not a folder',
+                       'ssvep_real': f'--eeg-data {tmp_path / "nowhere"} is not a folder'}
+    assert 'real_gaze: skipped (--gaze-data' in capsys.readouterr().out
+
+
+def test_a_long_section_reports_that_it_is_still_running(monkeypatch):
+    said = threading.Event()
+
+    class Log(io.StringIO):
+        def write(self, text):
+            if 'slow still running' in text:
+                said.set()
+            return super().write(text)
+
+    monkeypatch.setitem(sys.modules, 'bench_smoke_slow', types.SimpleNamespace(
+        run=lambda quick=False: {'waited': {'said': said.wait(30.0)}}))
+    monkeypatch.setattr(run_all, 'REGISTRY', {'slow': 'bench_smoke_slow'})
+
+    outcome = run_all.run_benchmarks(['slow'], log=Log(), heartbeat_s=0.01)
+
+    assert outcome['sections']['slow'] == {'waited': {'said': True}}
+
+
+@pytest.mark.parametrize('name', sorted(run_all.DEFAULT_RUN))
+def test_every_default_run_names_arguments_its_section_takes(name):
+    module = run_all.load(name)
+    kwargs, shortened = run_all.run_arguments(name, 'default', module)
+
+    inspect.signature(module.run).bind(**kwargs)   # raises on an unknown argument
+    assert kwargs and shortened   # a shortened run says what it left out
+    assert run_all.run_arguments(name, 'full', module) == ({}, '')

@@ -12,7 +12,8 @@ import pytest
 from eye_bci_ros2.gaze.profiles import build_config, convert, resolve_mapping, stream_matches
 from eye_bci_ros2.sim import gaze_outlet as sim_gaze
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer, parse_script
-from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeSimulator, IDEAL_EYE, ORIGINAL_TOBII_4C
+from eye_bci_ros2.sim.person import (CONSUMER_TRACKER, GazeSimulator, IDEAL_EYE,
+                                     ORIGINAL_TOBII_4C, PRO_TRACKER)
 
 #: 1920x1080 person's screen -> 1366x768 sender's screen.
 SCALE = np.array([1366 / 1920, 768 / 1080])
@@ -180,6 +181,37 @@ def test_stop_ends_the_stream(make_streamer):
         late = []
     assert len(late) == 0
     assert pylsl.resolve_byprop('source_id', source_id, 1, 1.0) == []
+
+
+@pytest.mark.lsl
+def test_per_sample_mode_pushes_each_sample_alone_with_its_own_stamp(make_streamer):
+    received, calls = [], {'sample': 0, 'chunk': 0}
+    sim = GazeSimulator(PRO_TRACKER, seed=5)   # 1200 Hz, as a lab's tracker
+    streamer = make_streamer(simulator=sim, on_chunk=received.append, per_sample=True).start()
+    outlet = streamer.outlet
+    real_sample, real_chunk = outlet.push_sample, outlet.push_chunk
+
+    def count_sample(*args):   # forwards to the real outlet: counts the calls only
+        calls['sample'] += 1
+        real_sample(*args)
+
+    def count_chunk(*args):
+        calls['chunk'] += 1
+        real_chunk(*args)
+
+    outlet.push_sample, outlet.push_chunk = count_sample, count_chunk
+    samples, stamps = pull_for(open_inlet(streamer.info.source_id()), 0.5)
+    streamer.stop()
+
+    assert calls['chunk'] == 0 and calls['sample'] > 0.2 * 1200
+    t = np.concatenate([c.t for c in received])
+    xy = np.concatenate([c.xy for c in received])
+    assert np.all(np.diff(t) > 0)
+    # Each sample arrives with its own acquisition stamp, as the simulator made it.
+    index = np.searchsorted(t, stamps)
+    np.testing.assert_allclose(t[index], stamps, atol=1e-6)
+    np.testing.assert_allclose(samples, (xy[index] * SCALE).astype(np.float32), atol=1e-3)
+    assert (len(stamps) - 1) / (stamps[-1] - stamps[0]) == pytest.approx(1200.0, rel=0.1)
 
 
 @pytest.mark.lsl
