@@ -9,7 +9,7 @@ These paths are measured against R = 3, 10 and 100 regions:
 * per message: one sample at a time through the per-sample classification
   of the arbiter's core (:meth:`eye_bci_ros2.decision.rounds.RegionSet.classify_one`,
   or :class:`~eye_bci_ros2.projection.geometry.PolygonSet` on a (1, 2) array while that
-  module does not exist); and, as ``per_message_tracker_samples_per_s``, one
+  module does not exist); and, as ``per_message_rounds_samples_per_s``, one
   sample per :meth:`eye_bci_ros2.decision.rounds.RoundScheduler.add_sample` call,
   the choice_arbiter node's work per gaze message without ROS (classification
   plus the round's bookkeeping);
@@ -36,7 +36,7 @@ from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
 
 #: Metrics shown in the printed table (the JSON has them all).
 TABLE_COLUMNS = ('samples_per_s', 'per_message_samples_per_s',
-                 'per_message_tracker_samples_per_s', 'reference_samples_per_s', 'speedup',
+                 'per_message_rounds_samples_per_s', 'reference_samples_per_s', 'speedup',
                  'in_region_fraction', 'agrees')
 #: Screen size, px.
 SCREEN_SIZE = (DEFAULT_VIEWING.width_px, DEFAULT_VIEWING.height_px)
@@ -137,7 +137,7 @@ def per_message_classifier(polygons: np.ndarray) -> Tuple[str, Callable[[float, 
     return 'regions.RegionSet.classify_one', region_set.classify_one
 
 
-def per_message_tracker(polygons: np.ndarray) -> Optional[Callable[[list], object]]:
+def per_message_rounds(polygons: np.ndarray) -> Optional[Callable[[list], object]]:
     """
     Return ``f(points)`` feeding samples one by one to the arbiter's core, or None without it.
 
@@ -152,13 +152,13 @@ def per_message_tracker(polygons: np.ndarray) -> Optional[Callable[[list], objec
 
     def feed(points: list) -> object:
         window_s = len(points) * 1e-3 + 1.0
-        tracker = RoundScheduler(ArbiterSettings(**{**COUNT_RULE, **ORIGINAL_RULE},
-                                                 window_s=window_s))
-        tracker.add_regions(region_set, now=0.0)  # new labels: a round starts at stamp 0
+        rounds = RoundScheduler(ArbiterSettings(**{**COUNT_RULE, **ORIGINAL_RULE},
+                                                window_s=window_s))
+        rounds.add_regions(region_set, now=0.0)  # new labels: a round starts at stamp 0
         for index, (x, y) in enumerate(points):
             stamp = index * 1e-3
-            tracker.add_sample(stamp, x, y, stamp)
-        return tracker.tick(now=2 * window_s + tracker.settings.stall_timeout_s)
+            rounds.add_sample(stamp, x, y, stamp)
+        return rounds.tick(now=2 * window_s + rounds.settings.stall_timeout_s)
     return feed
 
 
@@ -178,10 +178,11 @@ def _measure_regions(count: int, samples: int, messages: int, reference_samples:
     def per_message() -> list:
         return [classify_one(x, y) for x, y in message_points]
     message = measure(per_message, repeat=repeat, number=1, warmup=1)
-    feed = per_message_tracker(polygons)
-    tracker = None
+    feed = per_message_rounds(polygons)
+    rounds_timing = None
     if feed is not None:
-        tracker = measure(lambda: feed(message_points), repeat=repeat, number=1, warmup=1)
+        rounds_timing = measure(lambda: feed(message_points), repeat=repeat, number=1,
+                                warmup=1)
 
     reference_points = points[:reference_samples].tolist()
     reference_polygons = polygons.tolist()
@@ -215,8 +216,8 @@ def _measure_regions(count: int, samples: int, messages: int, reference_samples:
         'in_region_fraction': float(np.mean(labels >= 0)),
         'agrees': agrees,
     }
-    if tracker is not None:
-        result['per_message_tracker_samples_per_s'] = messages / tracker.median_s
+    if rounds_timing is not None:
+        result['per_message_rounds_samples_per_s'] = messages / rounds_timing.median_s
     return result
 
 
@@ -234,7 +235,7 @@ def run(quick: bool = False, region_counts: Optional[Sequence[int]] = None,
     :returns: ``{str(R): {'samples_per_s', 'samples_per_s_best',
         'per_message_samples_per_s', 'reference_samples_per_s', 'speedup',
         'batch_samples', 'chunk', 'per_message_api', 'in_region_fraction',
-        'agrees'[, 'per_message_tracker_samples_per_s']}}``; rates are samples
+        'agrees'[, 'per_message_rounds_samples_per_s']}}``; rates are samples
         per second from median times; ``speedup`` is batch over reference.
     """
     if region_counts is None:

@@ -30,10 +30,10 @@ gaze rests where it was) depends on the scenario:
   gaze is where the room was when the tables appear, and a table may be
   there; or the same menu is asked again.  The person keeps looking there for
   one saccade latency before moving.
-* ``near_edge`` (stress, issue 10): the gaze rests just outside another
+* ``near_edge`` (stress): the gaze rests just outside another
   target's edge (:data:`NEAR_EDGE_DEG` beyond it, on a random side), where a
   tolerant rule counts it for that target, then moves to the goal.
-* ``camera_moving`` (stress, issue 10): the question is asked while the
+* ``camera_moving`` (stress): the question is asked while the
   camera still moves: the targets slide and grow from a smaller layout
   (:data:`MOVE_FROM_SCALE` about the screen centre, shifted by
   :data:`MOVE_FROM_SHIFT_PX`) to their place over :data:`MOVE_S` (smooth

@@ -86,7 +86,7 @@ RATE_HZ = 1200.0
 #: Rounds measured (quick mode: QUICK_ROUNDS).
 ROUNDS = 200
 QUICK_ROUNDS = 20
-#: The goal (issue 13): p99 push -> choice at most this, ms, at every rate measured.
+#: The goal: p99 push -> choice at most this, ms, at every rate measured.
 GOAL_P99_MS = 3.0
 #: Tracker rates measured by run(): a Tobii Pro, an EyeLink-class tracker, Hz.
 RATES_HZ = (1200.0, 2000.0)

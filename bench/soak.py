@@ -11,7 +11,7 @@ but no landing errors or spikes).  This process runs lsl_gaze_bridge,
 camera_tracker, marker_projector and choice_arbiter on one executor (as
 ``eye_bci`` does), on a private ROS domain, with the arbiter's defaults, and a
 driver node that shows three options on ``choices`` and asks for rounds back
-to back, as ``choice_menu`` asks (:mod:`eye_bci_ros2.menu`): after a choice
+to back, as ``choice_menu`` asks (:mod:`eye_bci_ros2.task.menu`): after a choice
 the person looks at the next option and the next ``choice/request`` goes out
 as soon as the gaze has left the option just chosen (by the menu's
 ``look_away_margin_px``, or after its ``look_away_s``); after

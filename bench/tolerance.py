@@ -1,5 +1,5 @@
 """
-Benchmark: whether the tolerant decision rule pays (issue 10: marker size, wrong choices).
+Benchmark: whether the tolerant decision rule pays (marker size, wrong choices).
 
 Rules compared, each on the node's own decision code
 (:class:`eye_bci_ros2.decision.rounds.RoundEvidence`, fed the valid samples in

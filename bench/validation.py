@@ -1,5 +1,5 @@
 """
-Benchmark: the residual after validation + correction, through the real nodes (issue 10's goal).
+Benchmark: the residual after validation + correction, through the real nodes.
 
 Per seed, on a private ROS domain in one process: a simulated person
 (:class:`eye_bci_ros2.sim.gaze_outlet.GazeStreamer`, a real LSL outlet; preset

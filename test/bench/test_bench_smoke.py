@@ -111,7 +111,7 @@ def test_arbitration_quick_schema_and_agreement():
         assert row['batch_samples'] == 3000 and row['chunk'] == 1000
         assert row['agrees'] is True
         assert 0.05 < row['in_region_fraction'] < 0.95
-        assert _positive(row['per_message_tracker_samples_per_s'])
+        assert _positive(row['per_message_rounds_samples_per_s'])
 
 
 def test_chunked_batch_classification_matches_the_python_reference():

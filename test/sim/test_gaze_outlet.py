@@ -12,8 +12,8 @@ import pytest
 from eye_bci_ros2.gaze.profiles import build_config, convert, resolve_mapping, stream_matches
 from eye_bci_ros2.sim import gaze_outlet as sim_gaze
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer, parse_script
-from eye_bci_ros2.sim.person import (CONSUMER_TRACKER, GazeSimulator, IDEAL_EYE,
-                                     ORIGINAL_TOBII_4C, PRO_TRACKER)
+from eye_bci_ros2.sim.person import (CONSUMER_TRACKER, GazeSimulator, IDEAL_EYE, ORIGINAL_TOBII_4C,
+                                     PRO_TRACKER)
 
 #: 1920x1080 person's screen -> 1366x768 sender's screen.
 SCALE = np.array([1366 / 1920, 768 / 1080])
