@@ -63,6 +63,7 @@ Usage::
 """
 
 import argparse
+import contextlib
 from dataclasses import dataclass, replace
 import json
 import math
@@ -73,7 +74,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, Iterator, List, Optional, Sequence, Tuple
 import uuid
 
 from domain_coordinator import domain_id
@@ -298,6 +299,23 @@ def _read_logs(logs: Dict[str, object]) -> str:
     return text
 
 
+@contextlib.contextmanager
+def driver_graph() -> Iterator[Tuple[int, object, 'NoChoiceDriver']]:
+    """Yield a free ROS domain, an executor and the bench's driver node on it; tear down after."""
+    with domain_id() as domain:
+        context = Context()
+        rclpy.init(context=context, domain_id=domain)
+        executor = make_executor(context=context)
+        driver = NoChoiceDriver(context=context)
+        executor.add_node(driver)
+        try:
+            yield domain, executor, driver
+        finally:
+            executor.shutdown()
+            driver.destroy_node()
+            context.try_shutdown()
+
+
 def _bridge_received(logs) -> int:
     """Sum the bridge's ``gaze: N received`` lines (``logs``: the text or the log files)."""
     text = logs if isinstance(logs, str) else _read_logs(logs)
@@ -339,15 +357,10 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
     burner = spawn.Process(target=busy_loop, args=(cores[1],), daemon=True) if busy else None
     processes: Dict[str, subprocess.Popen] = {}
     logs: Dict[str, object] = {}
-    with domain_id() as domain:
+    with driver_graph() as (domain, executor, driver):
         env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
         if busy:
             os.sched_setaffinity(0, {node_core})
-        context = Context()
-        rclpy.init(context=context, domain_id=domain)
-        executor = make_executor(context=context)
-        driver = NoChoiceDriver(context=context)
-        executor.add_node(driver)
         try:
             if burner is not None:
                 burner.start()
@@ -413,9 +426,6 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
                 burner.terminate()
                 burner.join(5.0)
             _stop(list(processes.values()))
-            executor.shutdown()
-            driver.destroy_node()
-            context.try_shutdown()
             os.sched_setaffinity(0, own_affinity)
     text = _read_logs(logs)
     if os.environ.get('LAB_RATE_LOG'):
@@ -524,12 +534,7 @@ def burst(samples: int = BURST_SAMPLES, log=sys.stderr) -> Dict[str, object]:
     pusher = spawn.Process(target=push_loop, daemon=True, args=(
         there, name, source_id, 1200.0, 'chunk', None))
     process, output = None, tempfile.TemporaryFile(mode='w+')
-    with domain_id() as domain:
-        context = Context()
-        rclpy.init(context=context, domain_id=domain)
-        executor = make_executor(context=context)
-        driver = NoChoiceDriver(context=context)
-        executor.add_node(driver)
+    with driver_graph() as (domain, executor, driver):
         try:
             pusher.start()
             if not here.poll(SETUP_TIMEOUT_S):
@@ -582,9 +587,6 @@ def burst(samples: int = BURST_SAMPLES, log=sys.stderr) -> Dict[str, object]:
                 pusher.terminate()
             if process is not None:
                 _stop([process])
-            executor.shutdown()
-            driver.destroy_node()
-            context.try_shutdown()
     text = _read_logs({'eye_bci': output})
     if os.environ.get('LAB_RATE_LOG'):
         with open(os.environ['LAB_RATE_LOG'], 'w') as out:

@@ -36,13 +36,13 @@ Usage::
 """
 
 import argparse
-import json
 import sys
 import time
 from typing import Dict, List, Optional
 
 import numpy as np
 
+from bench.timing import report
 from eye_bci_ros2.decision.fusion import ChoiceFusion, FusionSettings
 from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
 from eye_bci_ros2.sim.eeg import (calibration_session, EegSimulator, narrowband_snr_db,
@@ -318,11 +318,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     started = time.perf_counter()
     results = run(quick=args.quick, full=args.full)
-    print('\n'.join(format_lines(results)))
-    print(f'({time.perf_counter() - started:.0f} s)')
-    if args.json:
-        with open(args.json, 'w') as stream:
-            json.dump(results, stream, indent=1)
+    report(format_lines(results), results, started, args.json)
     return 0
 
 

@@ -47,13 +47,13 @@ Usage::
 """
 
 import argparse
-import json
 import sys
 import time
 from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from bench.timing import report
 from eye_bci_ros2.decision.fusion import ChoiceFusion, FusionSettings
 from eye_bci_ros2.experiments.metrics import GAZE_SHIFT_S, wolpaw_bits
 from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EEG_DATA_ENV, EegRecording,
@@ -424,11 +424,7 @@ def main(argv=None) -> int:
     except FileNotFoundError as error:
         print(f'bench.ssvep_real: {error}', file=sys.stderr)
         return 2
-    print('\n'.join(format_lines(results)))
-    print(f'({time.perf_counter() - started:.0f} s)')
-    if args.json:
-        with open(args.json, 'w') as stream:
-            json.dump(results, stream, indent=1)
+    report(format_lines(results), results, started, args.json)
     return 0
 
 

@@ -11,6 +11,7 @@ best estimate of what the code costs; the median shows how much the machine
 
 from dataclasses import dataclass
 import gc
+import json
 import os
 import platform
 import statistics
@@ -152,3 +153,20 @@ def machine_info() -> Dict[str, object]:
         'thread_environment': {name: os.environ.get(name) for name in (
             'OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS')},
     }
+
+
+def report(lines: List[str], results: Dict[str, object], started: float,
+           json_path: str = '') -> None:
+    """
+    Print a bench's table lines and its run time; write its results as JSON when asked.
+
+    :param lines: the formatted table.
+    :param results: what the bench measured (JSON-serialisable).
+    :param started: ``time.perf_counter()`` at the bench's start.
+    :param json_path: file to write the results to ('' = none).
+    """
+    print('\n'.join(lines))
+    print(f'({time.perf_counter() - started:.0f} s)')
+    if json_path:
+        with open(json_path, 'w') as stream:
+            json.dump(results, stream, indent=1)
