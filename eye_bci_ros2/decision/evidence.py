@@ -702,6 +702,10 @@ class RoundEvidence:
         self.dwell_s = float(settings.dwell_s)
         self.min_reaction_s = float(settings.min_reaction_s)
 
+    def next_due(self) -> Optional[float]:
+        """Return when the current run can first decide early, s: the count rules say none."""
+        return None
+
     def progress(self, settings) -> Dict[str, float]:
         """
         Return the progress towards each label seen, 0..1 (feedback).

@@ -498,6 +498,32 @@ class RoundScheduler:
         """Return the open round's evidence, or None; read it, never change it."""
         return self._round.evidence if self._round is not None else None
 
+    def next_due(self, now: Optional[float] = None) -> Optional[float]:
+        """
+        Return when the open round's decision can next come, s, or None without a round.
+
+        With the early decision: the earliest one (round start + dwell_s: every rule's
+        deciding run or fixation spans dwell_s) until ``now`` (the node clock; None: not
+        yet known) passes it, and the time the rule's current run can first decide (its
+        evidence's ``next_due``) while no sample stamped after it has come; else the
+        window end.  The choice_arbiter announces it (``choice/due``) for the bridge's
+        batching.
+        """
+        round_ = self._round
+        if round_ is None:
+            return None
+        settings = self.settings
+        due = round_.start + settings.window_s
+        if settings.early_decision:
+            early = round_.start + settings.dwell_s
+            if now is None or now < early:
+                due = min(due, early)
+            evidence = round_.evidence
+            run_due = evidence.next_due()
+            if run_due is not None and run_due > evidence.last_stamp:
+                due = min(due, run_due)
+        return due
+
     @property
     def classifier(self) -> Optional[RegionSet]:
         """

@@ -213,28 +213,11 @@ class ChoiceArbiter(Node):
         self._announce_due()
 
     def _announce_due(self, now: Optional[float] = None) -> None:
-        """
-        Publish when the open round's decision can next come (choice/due), if that changed.
-
-        With the early decision: the earliest one (round start + dwell_s: every rule's
-        deciding run or fixation spans dwell_s) until the node clock passes it, and the
-        time the current fixation can first decide (the fixation rule's ``next_due``)
-        while no sample stamped after it has come; else the window end.
-        """
+        """Publish when the open round's decision can next come (choice/due), if that changed."""
         start = self._rounds.round_start
-        if start is None:
+        due = self._rounds.next_due(now)
+        if due is None:
             return
-        settings = self._rounds.settings
-        due = start + settings.window_s
-        if settings.early_decision:
-            early = start + settings.dwell_s
-            if now is None or now < early:
-                due = min(due, early)
-            evidence = self._rounds.evidence
-            next_due = getattr(evidence, 'next_due', None)
-            fixation_due = next_due() if next_due is not None else None
-            if fixation_due is not None and fixation_due > evidence.last_stamp:
-                due = min(due, fixation_due)
         if (start, due) != self._announced:
             self._announced = (start, due)
             self._due_publisher.publish(ns_to_stamp(int(round(due * 1e9))))
