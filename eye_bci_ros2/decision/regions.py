@@ -9,7 +9,7 @@ area centroid is nearest to it (the first listed on an exact tie).
 """
 
 import math
-from typing import Sequence
+from typing import Callable, Dict, Hashable, Sequence
 
 import numpy as np
 
@@ -70,10 +70,25 @@ class RegionSet:
         self.stamp = float(stamp)
         self.centroids = polygon_centroids(polygons)
         self._set = PolygonSet(polygons)
+        # Classifiers made from this set, by the rule that made them (:meth:`under`).
+        self._under: Dict[Hashable, 'RegionSet'] = {}
 
     def __len__(self) -> int:
         """Return the number of regions."""
         return len(self.labels)
+
+    def under(self, rule: Hashable, make: Callable[['RegionSet'], 'RegionSet']) -> 'RegionSet':
+        """
+        Return this set under a classification rule, made by ``make(self)`` once per rule.
+
+        Every round of a menu classifies with the same rule: it is built once, not per round.
+
+        :param rule: what ``make`` depends on besides the regions (hashable).
+        """
+        made = self._under.get(rule)
+        if made is None:
+            made = self._under[rule] = make(self)
+        return made
 
     def __repr__(self) -> str:
         """Describe the set briefly."""

@@ -315,8 +315,10 @@ class ArbiterSettings:
             if type(region_set) is RegionSet:
                 return region_set
             return RegionSet(region_set.labels, region_set.polygons, region_set.stamp)
-        return TolerantRegions.of(region_set, model=self.error_model, ratio=float(self.ratio),
-                                  screen=self.screen, size_aware=bool(self.size_aware))
+        rule = {'model': self.error_model, 'ratio': float(self.ratio), 'screen': self.screen,
+                'size_aware': bool(self.size_aware)}
+        return region_set.under(('tolerant',) + tuple(rule.values()),
+                                lambda regions: TolerantRegions.of(regions, **rule))
 
     @property
     def sigma_gaze_deg(self) -> float:

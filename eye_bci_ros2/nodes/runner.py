@@ -27,6 +27,14 @@ exits with it.  A window that must draw in the main thread
 (``ssvep_stimulus``) passes a ``foreground`` loop: the executor then spins in
 a second thread.
 
+Pauses.  Once the nodes exist, everything made at start-up (modules, rclpy,
+numpy, message types, parameters) is moved out of the garbage collector's
+reach (:func:`gc.freeze`): a full collection otherwise walks all of it, and
+paused the whole process 17-18 ms every ten seconds or so at tracker rates,
+a decision late by that whenever it fell at a window end (``python -m
+bench.lab_rate``).  Nothing made at start-up is freed by it: those objects
+live as long as the process.
+
 Mistakes on the command line are one line each: an unknown option (``eye_bci
 --with-menus``) or a ROS argument before ``--ros-args`` (``-p x:=1``) refuse
 to start; a parameter name that no node declares (``-p screen_ofset_x:=64``,
@@ -34,6 +42,7 @@ a params-file key ``image_widht``) is warned with the closest known name.
 """
 
 import difflib
+import gc
 import importlib
 import os
 import re
@@ -85,6 +94,12 @@ def executor_kind() -> str:
     if kind not in EXECUTORS:
         raise ValueError(f"{EXECUTOR_ENV}='{kind}' is not one of {', '.join(EXECUTORS)}")
     return kind
+
+
+def freeze_startup_objects() -> None:
+    """Move everything made so far out of the garbage collector's reach (module doc, "Pauses")."""
+    gc.collect()
+    gc.freeze()
 
 
 def make_executor(context: Optional[Context] = None, kind: Optional[str] = None) -> Executor:
@@ -294,6 +309,7 @@ def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] =
         warn_unknown_overrides(nodes)
         for node in nodes:
             executor.add_node(node)
+        freeze_startup_objects()
         if foreground is None:
             status = _spin(executor, nodes, stop)
         else:

@@ -241,3 +241,20 @@ def test_the_count_rule_is_the_benchmarks_size_mean_share_rule():
         assert getattr(bench_rule, name) == getattr(default, name), name
     original = tolerance.settings_for('mean', decision.COUNT_EARLY, ORIGINAL_TOBII_4C)
     assert {name: getattr(original, name) for name in ORIGINAL_RULE} == ORIGINAL_RULE
+
+
+def test_a_menu_is_classified_once_for_every_round_and_anew_when_the_rule_changes():
+    """The tolerant classifier of a shown menu is reused by later rounds, never a stale one."""
+    regions = squares({'a': SMALL, 'b': OTHER})
+    settings = ArbiterSettings()
+    first = settings.regions(regions)
+    assert isinstance(first, TolerantRegions)
+    assert settings.regions(regions) is first
+    assert ArbiterSettings().regions(regions) is first     # the same rule, another round
+    wider = ArbiterSettings(accuracy_deg=settings.accuracy_deg * 3.0)
+    assert wider.regions(regions) is not first
+    # 30 px beyond SMALL's edge counts for it under the default rule; under 'inside' not.
+    assert first.classify_one(*JUST_OUTSIDE) == 0
+    inside = ArbiterSettings(classification='inside').regions(regions)
+    assert inside.classify_one(*JUST_OUTSIDE) == -1
+    assert settings.regions(squares({'a': SMALL, 'b': OTHER})) is not first
