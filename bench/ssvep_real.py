@@ -242,7 +242,7 @@ def _null_rounds(recordings: Sequence[EegRecording], settings: OnlineSettings) -
 
 
 def _rule(settings: OnlineSettings, **changes) -> DecisionRule:
-    """The decision rule of these settings, with ``changes`` (e.g. ``rest_z``)."""
+    """Return the decision rule of these settings, with ``changes`` (e.g. ``rest_z``)."""
     return dataclasses.replace(DecisionRule(settings.rule, settings.threshold,
                                             settings.min_window_s, settings.gain,
                                             settings.rest_z, settings.hold_s), **changes)
@@ -250,7 +250,7 @@ def _rule(settings: OnlineSettings, **changes) -> DecisionRule:
 
 def _null_rest_z(rounds: List[Dict], settings: OnlineSettings, hold_s: float) -> Dict:
     """
-    The smallest ``rest_z`` whose white-noise rounds end with a choice in at most NULL_TARGET.
+    Find the smallest ``rest_z`` with at most NULL_TARGET of the white-noise rounds choosing.
 
     :returns: a row: that ``rest_z`` and the share of rounds with a choice at each grid value.
     """
