@@ -19,13 +19,19 @@ clone).
    choice of the stimulus trials, choices in rest trials, median decision
    time after the cue; and leave-subject-out: each subject decided with the
    ``rest_z`` (:data:`REST_Z_GRID`) that does best on the *other* subjects
-   within the goals' limits (FBCCA, replayed from the recorded evidence);
+   within the goals' limits (FBCCA, replayed from the recorded evidence),
+   and the same with ``rest_z`` and ``hold_s`` (:data:`HOLD_S_GRID`) chosen together;
    and the recorded evidence replayed under other decision constants
    (:data:`REPLAY_GRID`: ``rest_z``, ``threshold``, ``hold_s``).
 3. ``statistic``: the FBCCA evidence statistic's spread on real EEG
    nobody attends (rest trials, unattended options) beside its white-noise
    null, and the attended option's median z, at 1, 2 and 4 s windows.
-4. ``hybrid``: the same rounds through the hybrid fusion
+4. ``white-noise rounds``: the same rounds streamed with white noise for EEG
+   (nobody attends: every choice is false): the share with a choice by
+   ``rest_z``, the smallest ``rest_z`` that keeps it within
+   :data:`NULL_TARGET` (a threshold derived from the null, not from the
+   recordings), and the real rounds decided with it.
+5. ``hybrid``: the same rounds through the hybrid fusion
    (:class:`~eye_bci_ros2.decision.fusion.ChoiceFusion`, default settings) with the
    gaze resting on an option from :data:`GAZE_AT_S` after the cue: in rest
    trials on each option in turn (looking without attending: must not
@@ -44,9 +50,11 @@ Results per subject and overall.
 Usage::
 
     python -m bench.ssvep_real [--data DIR] [--subjects s01,s02] [--json PATH]
+                               [--set window_s=4 ...]
 """
 
 import argparse
+import dataclasses
 import sys
 import time
 from typing import Dict, List, Optional, Sequence
@@ -78,10 +86,19 @@ GOAL_WRONG = 0.01
 GOAL_REST = 0.02
 #: ``rest_z`` values the leave-subject-out evaluation chooses from.
 REST_Z_GRID = (1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0)
+#: ``hold_s`` values the joint leave-subject-out evaluation chooses from (with ``rest_z``).
+HOLD_S_GRID = (0.0, 0.3, 0.5, 0.7, 1.0)
 #: (``rest_z``, ``threshold``, ``hold_s``) the recorded evidence is replayed under (all
 #: subjects): the trade between right choices, wrong ones and choices on nothing; the
 #: former default (2.5, 0.95, no hold) among them.
-REPLAY_GRID = ((2.5, 0.95, 0.0), (2.0, 0.95, 0.0), (1.0, 0.95, 0.5), (2.0, 0.95, 0.5))
+REPLAY_GRID = ((2.5, 0.95, 0.0), (2.0, 0.95, 0.0), (1.0, 0.95, 0.5), (2.0, 0.95, 0.5),
+               (1.0, 0.95, 0.7), (1.5, 0.95, 0.3))
+#: Share of rounds nobody attends that may end with a choice, the target the ``rest_z``
+#: derived from the white-noise null (:func:`_null_rounds`) is set for: half the goals' 2 %
+#: of rest trials, because real EEG's statistic spreads 3-5 % wider than white noise's.
+NULL_TARGET = 0.01
+#: ``rest_z`` values the white-noise rounds are replayed under.
+NULL_REST_Z_GRID = tuple(np.round(np.arange(0.5, 4.01, 0.25), 2).tolist())
 #: Window lengths the FBCCA statistic is compared with its white-noise null at, s.
 STATISTIC_WINDOWS_S = (1.0, 2.0, 4.0)
 #: When the gaze reaches the option in the hybrid rounds, after the cue, s.
@@ -205,6 +222,50 @@ def _online(recording: EegRecording, settings: OnlineSettings,
     return outcome
 
 
+def _null_rounds(recordings: Sequence[EegRecording], settings: OnlineSettings) -> List[Dict]:
+    """
+    Stream white noise through the online decoder in these sessions' rounds.
+
+    Each session's EEG is replaced by seeded white noise (10 uV, its length,
+    rate and channels) and its rounds are decoded as usual: nobody attends any
+    option, so every choice is a false one.  The statistic's null
+    (:func:`~eye_bci_ros2.ssvep.decoders.fbcca_null`) is measured on the same
+    kind of noise; this measures what the decision rule (its ``rest_z``,
+    threshold and hold over the round's overlapping windows) makes of it.
+    """
+    rounds = []
+    for index, recording in enumerate(recordings):
+        noise = np.random.default_rng(7000 + index).standard_normal(recording.eeg_uv.shape)
+        null = dataclasses.replace(recording, eeg_uv=10.0 * noise)
+        rounds += [dict(t, target=None) for t in _online(null, settings, None)]
+    return rounds
+
+
+def _rule(settings: OnlineSettings, **changes) -> DecisionRule:
+    """Return the decision rule of these settings, with ``changes`` (e.g. ``rest_z``)."""
+    return dataclasses.replace(DecisionRule(settings.rule, settings.threshold,
+                                            settings.min_window_s, settings.gain,
+                                            settings.rest_z, settings.hold_s), **changes)
+
+
+def _null_rest_z(rounds: List[Dict], settings: OnlineSettings, hold_s: float) -> Dict:
+    """
+    Find the smallest ``rest_z`` with at most NULL_TARGET of the white-noise rounds choosing.
+
+    :returns: a row: that ``rest_z`` and the share of rounds with a choice at each grid value.
+    """
+    shares = {}
+    for rest_z in NULL_REST_Z_GRID:
+        row = _online_row(_replay(rounds, _rule(settings, rest_z=rest_z, hold_s=hold_s)))
+        shares[rest_z] = row['rest_choices'] / max(row['rest_trials'], 1)
+    chosen = next((z for z in NULL_REST_Z_GRID if shares[z] <= NULL_TARGET),
+                  NULL_REST_Z_GRID[-1])
+    return {'rounds': len(rounds), 'hold_s': hold_s, 'rest_z': chosen,
+            'choices_at_default': round(shares.get(settings.rest_z, float('nan')), 4),
+            **{f'choices_at_{z:g}': round(share, 4) for z, share in shares.items()
+               if z in REST_Z_GRID}}
+
+
 def _hybrid(trials: List[Dict]) -> Dict:
     """
     Run the hybrid fusion on these rounds: the gaze rests on an option from ``GAZE_AT_S``.
@@ -267,24 +328,28 @@ def _acceptable(row: Dict) -> bool:
             and row['rest_choices'] <= GOAL_REST * row['rest_trials'])
 
 
-def _leave_subjects_out(per_subject: Dict[str, List[Dict]]) -> Dict[str, Dict]:
+def _leave_subjects_out(per_subject: Dict[str, List[Dict]],
+                        grid: Sequence[Dict[str, float]] = tuple(
+                            {'rest_z': z} for z in REST_Z_GRID)) -> Dict[str, Dict]:
     """
-    ``rest_z`` chosen on the other subjects, evaluated on each one.
+    Decision constants chosen on the other subjects, evaluated on each one.
 
-    For every subject, the :data:`REST_Z_GRID` value that gives the most right
-    choices on the *other* subjects within the goals' limits (the largest
-    value if none does) decides that subject's rounds.
+    For every subject, the ``grid`` entry (keyword arguments of
+    :class:`~eye_bci_ros2.ssvep.decision.DecisionRule`; default: each
+    :data:`REST_Z_GRID` value) that gives the most right choices on the *other*
+    subjects within the goals' limits (the last entry if none does) decides
+    that subject's rounds.
     """
     rows, pooled = {}, []
     for subject, trials in per_subject.items():
         others = [t for s, listed in per_subject.items() if s != subject for t in listed]
-        best, best_right = REST_Z_GRID[-1], -1
-        for rest_z in REST_Z_GRID:
-            row = _online_row(_replay(others, DecisionRule(rest_z=rest_z)))
+        best, best_right = grid[-1], -1
+        for constants in grid:
+            row = _online_row(_replay(others, DecisionRule(**constants)))
             if _acceptable(row) and row['right'] > best_right:
-                best, best_right = rest_z, row['right']
-        held_out = _replay(trials, DecisionRule(rest_z=best))
-        rows[subject] = dict(_online_row(held_out), rest_z=best)
+                best, best_right = constants, row['right']
+        held_out = _replay(trials, DecisionRule(**best))
+        rows[subject] = dict(_online_row(held_out), **best)
         pooled += held_out
     rows['all'] = _online_row(pooled)
     return rows
@@ -316,6 +381,34 @@ def _offline_row(hits: Dict[float, List[bool]], classes: int) -> Dict:
     return row
 
 
+#: Types of the online settings ``--set`` can override.
+SETTABLE = (float, int, str, bool)
+
+
+def parse_settings(pairs: Sequence[str]) -> Dict[str, object]:
+    """
+    Read ``KEY=VALUE`` overrides of :class:`~eye_bci_ros2.ssvep.online.OnlineSettings`.
+
+    :raises ValueError: for an unknown key, a value of the wrong type, or a
+        setting that is not a number, a word or a flag, with which.
+    """
+    kinds = {f.name: f.type for f in dataclasses.fields(OnlineSettings)}
+    overrides: Dict[str, object] = {}
+    for pair in pairs:
+        key, _, value = pair.partition('=')
+        kind = kinds.get(key)
+        if kind not in SETTABLE:
+            names = ', '.join(k for k, t in kinds.items() if t in SETTABLE)
+            raise ValueError(f'--set {pair}: not a setting given as KEY=VALUE (one of {names})')
+        try:
+            overrides[key] = (value.lower() in ('1', 'true', 'yes') if kind is bool
+                              else kind(value))
+        except ValueError:
+            raise ValueError(f'--set {pair}: {key} needs a {kind.__name__}') from None
+    OnlineSettings(**overrides)  # refuse a combination that cannot work, with why
+    return overrides
+
+
 def unavailable() -> Optional[str]:
     """Say why the benchmark cannot run here (no recordings), or None (``bench.run_all``)."""
     folder = eeg_data_dir()
@@ -327,9 +420,11 @@ def unavailable() -> Optional[str]:
 
 def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str] = (),
         decoders: Sequence[str] = DECODERS, force_trca: bool = False,
-        log=sys.stderr) -> Dict[str, Dict]:
+        log=sys.stderr, overrides: Optional[Dict[str, object]] = None) -> Dict[str, Dict]:
     """
     Run on every subject of ``data``; ``quick`` = the first two subjects, FBCCA only.
+
+    ``overrides``: online decoder settings other than the defaults (:func:`parse_settings`).
 
     :raises FileNotFoundError: when there are no recordings.
     """
@@ -344,7 +439,7 @@ def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str]
     if quick:
         groups = dict(list(groups.items())[:2])
         decoders = ('fbcca',)
-    settings = OnlineSettings()
+    settings = OnlineSettings(**(overrides or {}))
     results: Dict[str, Dict] = {}
     for decoder in decoders:
         online_all, offline_all, refused = [], {w: [] for w in WINDOWS_S}, []
@@ -366,8 +461,8 @@ def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str]
                 hits = _offline(recording, model)
                 for w in WINDOWS_S:
                     offline[w] += hits[w]
-                online += _online(recording, OnlineSettings(decoder=decoder,
-                                                            keep_scoring=True), model)
+                online += _online(recording, dataclasses.replace(
+                    settings, decoder=decoder, keep_scoring=True), model)
             print(f'{decoder} {subject}: {_online_row(online)}', file=log, flush=True)
             if online:
                 classes = len(recordings[0].frequencies)
@@ -381,6 +476,15 @@ def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str]
             for length, row in _statistic([r for listed in groups.values() for r in listed],
                                           settings).items():
                 results[f'fbcca statistic {length}'] = row
+        if online_all and decoder == 'fbcca':
+            # The decision rule's false alarms on the statistic's own null, and the rest_z
+            # they set for NULL_TARGET, tried on the real rounds.
+            null = _null_rest_z(_null_rounds([r for listed in groups.values() for r in listed],
+                                             dataclasses.replace(settings, keep_scoring=True)),
+                                settings, settings.hold_s)
+            results['fbcca white-noise rounds'] = null
+            results['fbcca online white-noise rest_z'] = dict(_online_row(_replay(
+                online_all, _rule(settings, rest_z=null['rest_z']))), rest_z=null['rest_z'])
         if online_all:
             results[f'{decoder} online all'] = _online_row(online_all)
             results[f'{decoder} hybrid all'] = _hybrid(online_all)
@@ -391,6 +495,9 @@ def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str]
             if decoder == 'fbcca' and len(per_subject) > 1:
                 for subject, row in _leave_subjects_out(per_subject).items():
                     results[f'{decoder} online leave-subject-out {subject}'] = row
+                joint = [{'rest_z': z, 'hold_s': h} for z in REST_Z_GRID for h in HOLD_S_GRID]
+                for subject, row in _leave_subjects_out(per_subject, joint).items():
+                    results[f'{decoder} online leave-subject-out rest_z+hold_s {subject}'] = row
             results[f'{decoder} offline all'] = _offline_row(offline_all, 3)
         if refused:
             results[f'{decoder} calibration refused'] = {
@@ -415,13 +522,17 @@ def main(argv=None) -> int:
                         help='fit TRCA even when the calibration trials do not repeat')
     parser.add_argument('--quick', action='store_true', help='two subjects, FBCCA only')
     parser.add_argument('--json', default='', help='write the results here')
+    parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',
+                        help='an online decoder setting other than its default, e.g. '
+                             'window_s=4 (repeatable)')
     args = parser.parse_args(argv)
     started = time.perf_counter()
     try:
         results = run(args.quick, args.data or None,
                       [s for s in args.subjects.split(',') if s],
-                      [d for d in args.decoders.split(',') if d], args.force_trca)
-    except FileNotFoundError as error:
+                      [d for d in args.decoders.split(',') if d], args.force_trca,
+                      overrides=parse_settings(args.set))
+    except (FileNotFoundError, ValueError) as error:
         print(f'bench.ssvep_real: {error}', file=sys.stderr)
         return 2
     report(format_lines(results), results, started, args.json)
