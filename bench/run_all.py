@@ -83,6 +83,9 @@ DEFAULT_RUN: Dict[str, tuple] = {
                                   'complete'),
     'ssvep': ({'cpu_duration_s': 20.0},
               'the CPU part decodes 20 s of EEG per set-up (complete: 60 s)'),
+    'ssvep_real': ({'null_rounds': False},
+                   'without the white-noise rounds (complete: with them, about 1.5 minutes '
+                   'more)'),
 }
 
 #: Sections that need real recordings: name -> kind (``find_data`` folder name).

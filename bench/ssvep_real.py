@@ -420,11 +420,14 @@ def unavailable() -> Optional[str]:
 
 def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str] = (),
         decoders: Sequence[str] = DECODERS, force_trca: bool = False,
-        log=sys.stderr, overrides: Optional[Dict[str, object]] = None) -> Dict[str, Dict]:
+        log=sys.stderr, overrides: Optional[Dict[str, object]] = None,
+        null_rounds: bool = True) -> Dict[str, Dict]:
     """
     Run on every subject of ``data``; ``quick`` = the first two subjects, FBCCA only.
 
     ``overrides``: online decoder settings other than the defaults (:func:`parse_settings`).
+    ``null_rounds``: also stream white noise through the rounds (``white-noise rounds``;
+    about as long again as the FBCCA rounds themselves).
 
     :raises FileNotFoundError: when there are no recordings.
     """
@@ -476,7 +479,7 @@ def run(quick: bool = False, data: Optional[str] = None, subjects: Sequence[str]
             for length, row in _statistic([r for listed in groups.values() for r in listed],
                                           settings).items():
                 results[f'fbcca statistic {length}'] = row
-        if online_all and decoder == 'fbcca':
+        if online_all and decoder == 'fbcca' and null_rounds:
             # The decision rule's false alarms on the statistic's own null, and the rest_z
             # they set for NULL_TARGET, tried on the real rounds.
             null = _null_rest_z(_null_rounds([r for listed in groups.values() for r in listed],
