@@ -95,6 +95,11 @@ class ChoiceArbiter(Node):
         self._warnings = KeyedWarnings(self.get_logger())
         # Rounds that end without a choice, again and again, are not logged each (log_throttle).
         self._quiet = QuietRepeats(self.get_logger())
+        # A round's opening line repeats at every question while the options stay the same:
+        # after the first it goes to DEBUG, across choices too (a choice ends the run of the
+        # other lines, not this one); new options are news again. An INFO line costs about
+        # 1.3 ms of Python in rclpy (docs/performance.md).
+        self._round_lines = QuietRepeats(self.get_logger())
         self._rounds = RoundScheduler(self._decision.settings, self._publish, self._log)
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
         self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
@@ -197,6 +202,8 @@ class ChoiceArbiter(Node):
         except (ValueError, IndexError, AttributeError) as error:
             self._log('warning', 'regions_bad', f'regions message ignored: {error}')
             return
+        if region_set.label_set != self._rounds.offered:
+            self._round_lines.reset()
         try:
             self._rounds.add_regions(region_set, now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
@@ -251,6 +258,9 @@ class ChoiceArbiter(Node):
     def _log(self, level: str, key: str, text: str) -> None:
         """Log ``text``; warnings of one ``key`` at most once per WARN_PERIOD_S."""
         if level != 'warning':
+            if key == 'round':
+                self._round_lines.info(text)
+                return
             if text.startswith('choice '):
                 self._quiet.reset()      # a choice is news: the rounds after it are shown again
             self._quiet.info(text)

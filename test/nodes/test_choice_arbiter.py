@@ -327,3 +327,19 @@ def test_each_round_announces_when_its_decision_can_come(graph):
                             10.0), 'no window end announced'
     dues = [stamp_to_ns(m) for m in ends.messages]
     assert dues[dues.index(end_ns) - 1] == early_ns
+
+
+def test_rounds_asked_again_on_the_same_options_are_logged_once_and_every_choice_always(
+        graph, capfd):
+    rig = Rig(graph, window_s=0.3)
+    rig.offer({'kitchen': LEFT, 'bedroom': RIGHT})
+    for rounds in range(1, 4):     # three choices, the same options asked again each time
+        rig.send(rig.looks(RIGHT, 40), rig.request())
+        rig.wait_decision()
+        assert graph.spin_until(lambda: len(rig.choices.messages) == rounds, 10.0)
+    rig.offer({'kitchen': LEFT, 'office': RIGHT})  # new options: news again
+    log = capfd.readouterr().err
+    opened = re.findall(r'\[choice_arbiter\]: round (\d+) \(([a-z ]+)\): offered', log)
+    # Shown: the first round on the options, the first asked for, the first on new options.
+    assert opened == [('1', 'new choices'), ('2', 'request'), ('5', 'new choices')], log[-3000:]
+    assert len(re.findall(r"\[choice_arbiter\]: choice 'bedroom'", log)) == 3, log[-3000:]
