@@ -70,8 +70,13 @@ class ArbiterRig:
         return self.driver.get_clock().now().nanoseconds * 1e-9
 
     def request(self) -> float:
-        """Ask for a choice; return the clock once the arbiter has started the round, s."""
+        """
+        Ask for a choice; return the round's start, s (ROS clock).
+
+        The arbiter's own start, not the clock when the test sees it: gaze stamped from it
+        fills the window however late this process spins (a loaded machine).
+        """
         rounds = self.arbiter.rounds_started
         self.request_pub.publish(Empty())
         assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, 10.0)
-        return self.now()
+        return self.arbiter.round_start
