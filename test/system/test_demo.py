@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from eye_bci_ros2.decision.regions import RegionSet
+from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.experiments import demo
 from eye_bci_ros2.experiments.render import png_size
 from eye_bci_ros2.nodes.package_files import default_scene_path
@@ -104,10 +105,12 @@ def test_quick_demo_finishes_with_every_choice_right(quick_run):
     assert summary['accuracy'] == 1.0
     assert summary['itr_bits_per_min'] > 0
     for selection in selections:
-        # The node's default: a still fixation of dwell_s (0.15 s: 13 samples or more at
-        # 87 Hz) decides early, before the 1 s window ends.
+        # The node's default: a still fixation of dwell_s (0.15 s: 13 samples at 87 Hz,
+        # fewer when the simulated tracker lost some to a blink or a dropout; which samples
+        # it holds depends on when the round starts, which a loaded machine shifts) with at
+        # least min_samples decides early, before the 1 s window ends.
         assert selection['method'] == 'early'
-        assert selection['in_region_samples'] >= 12
+        assert selection['in_region_samples'] >= ArbiterSettings().min_samples
         assert selection['time_to_decision_s'] < 1.0
         assert selection['samples_used'] >= selection['in_region_samples']
 
