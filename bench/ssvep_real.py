@@ -243,9 +243,7 @@ def _null_rounds(recordings: Sequence[EegRecording], settings: OnlineSettings) -
 
 def _rule(settings: OnlineSettings, **changes) -> DecisionRule:
     """Return the decision rule of these settings, with ``changes`` (e.g. ``rest_z``)."""
-    return dataclasses.replace(DecisionRule(settings.rule, settings.threshold,
-                                            settings.min_window_s, settings.gain,
-                                            settings.rest_z, settings.hold_s), **changes)
+    return dataclasses.replace(settings.decision_rule(), **changes)
 
 
 def _null_rest_z(rounds: List[Dict], settings: OnlineSettings, hold_s: float) -> Dict:

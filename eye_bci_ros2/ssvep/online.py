@@ -140,10 +140,14 @@ class OnlineSettings:
         if not 0 < self.min_window_s <= self.window_s:
             raise ValueError(f'need 0 < min_window_s ({self.min_window_s}) <= window_s '
                              f'({self.window_s})')
-        DecisionRule(self.rule, self.threshold, self.min_window_s, self.gain, self.rest_z,
-                     self.hold_s)
+        self.decision_rule()
         if not 0 <= self.onset_s <= 10.0:
             raise ValueError(f'onset_s must be in [0, 10] s, got {self.onset_s}')
+
+    def decision_rule(self) -> DecisionRule:
+        """Return the decision rule these settings make (checked by it)."""
+        return DecisionRule(self.rule, self.threshold, self.min_window_s, self.gain,
+                            self.rest_z, self.hold_s)
 
 
 @dataclass
@@ -201,8 +205,7 @@ class OnlineDecoder:
         self.rate = float(rate)
         self.channels = tuple(channels)
         self.settings = settings
-        self.rule = DecisionRule(settings.rule, settings.threshold, settings.min_window_s,
-                                 settings.gain, settings.rest_z, settings.hold_s)
+        self.rule = settings.decision_rule()
         self._held = HeldDecision(self.rule)
         if settings.decoder != 'fbcca':
             if model is None:

@@ -41,6 +41,17 @@ def _setup(subject=SUBJECTS[5], attended='bedroom', settings=OnlineSettings(), m
     return simulator, decoder
 
 
+def _advertised(advertised_hz, true_hz, subject=SUBJECTS[5], seed=3,
+                settings=OnlineSettings(), model=None):
+    """Stream at ``true_hz``, advertised at ``advertised_hz``, 'bedroom' attended."""
+    simulator = EegSimulator(subject, seed=seed, rate=true_hz)
+    simulator.start(0.0, STIMULI)
+    simulator.set_attended('bedroom', 0.0)
+    decoder = OnlineDecoder(advertised_hz, simulator.labels, settings, model)
+    decoder.start_round(0.0, LABELS, STIMULI)
+    return simulator, decoder
+
+
 def _choices(results):
     return [r.choice for r in results if r.choice is not None]
 
@@ -91,11 +102,7 @@ def test_every_channel_railed_or_flat_gives_no_choice_and_a_reason():
 
 
 def test_a_wrong_rate_stops_decoding():
-    simulator = EegSimulator(SUBJECTS[5], seed=3, rate=250.0)
-    simulator.start(0.0, STIMULI)
-    simulator.set_attended('bedroom', 0.0)
-    decoder = OnlineDecoder(500.0, simulator.labels, OnlineSettings())
-    decoder.start_round(0.0, LABELS, STIMULI)
+    simulator, decoder = _advertised(500.0, 250.0)
     results = _run(decoder, simulator, 4.0, start=0.0)
     assert _choices(results) == []
     assert 'advertises 500 Hz' in results[-1].problem
@@ -132,11 +139,7 @@ def test_ensemble_trca_online_and_its_checks():
 
 def test_a_stream_faster_than_advertised_is_decoded_at_its_true_rate():
     """256 Hz advertised as 250 Hz (2.4 %): measured from the sample times and used."""
-    simulator = EegSimulator(SUBJECTS[5], seed=4, rate=256.0)
-    simulator.start(0.0, STIMULI)
-    simulator.set_attended('bedroom', 0.0)
-    decoder = OnlineDecoder(250.0, simulator.labels, OnlineSettings())
-    decoder.start_round(0.0, LABELS, STIMULI)
+    simulator, decoder = _advertised(250.0, 256.0, seed=4)
     results = _run(decoder, simulator, 6.0, start=0.0)
     assert _choices(results) in ([], ['bedroom'])
     assert decoder.measured_rate == pytest.approx(256.0, abs=0.05)
@@ -151,12 +154,9 @@ def test_a_trca_model_refuses_a_stream_at_another_true_rate():
     calibration = EegSimulator(SUBJECTS[4], seed=8)
     times, samples, trials = calibration_session(calibration, STIMULI, 4)
     model = fit_trca(samples, times, trials, STIMULI, calibration.rate, calibration.labels)
-    simulator = EegSimulator(SUBJECTS[4], seed=9, rate=256.0)
-    simulator.start(0.0, STIMULI)
-    simulator.set_attended('bedroom', 0.0)
-    decoder = OnlineDecoder(250.0, simulator.labels,
-                            OnlineSettings(decoder='ensemble_trca'), model)
-    decoder.start_round(0.0, LABELS, STIMULI)
+    simulator, decoder = _advertised(250.0, 256.0, SUBJECTS[4], seed=9,
+                                     settings=OnlineSettings(decoder='ensemble_trca'),
+                                     model=model)
     results = _run(decoder, simulator, 7.0, start=0.0)
     assert _choices(results) in ([], ['bedroom'])  # before the rate is known precisely
     assert 'not 250 Hz as the TRCA model was fitted' in results[-1].problem
