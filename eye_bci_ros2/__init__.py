@@ -5,6 +5,22 @@ import sys
 import tempfile
 
 
+def _interrupted(error: BaseException) -> bool:
+    """
+    Tell whether ``error`` is a Ctrl-C, or what one became.
+
+    A C extension interrupted while it initialises (rclpy's) reports an
+    ImportError raised from the KeyboardInterrupt.
+    """
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, KeyboardInterrupt):
+            return True
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return False
+
+
 def _quiet_interrupt(kind, value, traceback, _previous=sys.excepthook):
     """
     End an executable quietly on a Ctrl-C that arrives before it handles signals.
@@ -16,7 +32,7 @@ def _quiet_interrupt(kind, value, traceback, _previous=sys.excepthook):
     by Ctrl-C does (:mod:`eye_bci_ros2.nodes.runner`).  Other errors, and an
     interactive session, keep Python's report.
     """
-    if issubclass(kind, KeyboardInterrupt) and not hasattr(sys, 'ps1'):
+    if _interrupted(value) and not hasattr(sys, 'ps1'):
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()
