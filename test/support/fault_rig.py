@@ -39,6 +39,9 @@ from eye_bci_ros2.projection.camera_model import RvizCamera
 #: Generous wait for anything to arrive, s (2 shared cores; never a timing assertion).
 WAIT_S = 10.0
 
+#: :attr:`Pipeline._before_request` when no request is waiting for its round's end.
+_NO_REQUEST = object()
+
 #: Gaze rate of the simulated tracker, Hz.
 RATE_HZ = 1200.0
 
@@ -150,6 +153,7 @@ class Pipeline:
             rclpy.logging.set_logger_level(name, LoggingSeverity.INFO)
         self._current_source = None
         self._current: Dict = {}
+        self._before_request = _NO_REQUEST
         self.bridge = None
         if bridge_parameters is not None:
             self.bridge = graph.add(LslGazeBridge,
@@ -278,6 +282,9 @@ class Pipeline:
             start = self.arbiter.round_start
             return start is not None and start >= asked
         assert self.graph.spin_until(started, WAIT_S), 'the request started no round'
+        # The round may end while the test waits for something else (a log line): the next
+        # finish_round then waits past the decision before this round, not a later one.
+        self._before_request = self.arbiter.last_decision
 
     def window_s(self) -> float:
         """Return the arbiter's ``window_s`` now, s."""
@@ -317,10 +324,14 @@ class Pipeline:
         Wait until the open round ends (its window and stall timeout pass); return its Decision.
 
         Also waits for the ``choice`` it publishes, if any.
-        :param before: the Decision to wait past (default: the last one now).
+        :param before: the Decision to wait past (default: the last one before the round
+            :meth:`request` started, when this is the first call since; else the last one now).
         """
         if before is False:
-            before = self.arbiter.last_decision
+            before = self._before_request
+            if before is _NO_REQUEST:
+                before = self.arbiter.last_decision
+        self._before_request = _NO_REQUEST
         published = len(self.choices.messages)
         assert self.graph.spin_until(lambda: self.arbiter.last_decision is not before,
                                      timeout), 'the round never ended'
