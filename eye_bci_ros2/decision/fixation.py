@@ -109,28 +109,40 @@ MAX_SIGMAS = 3.0
 
 
 class _Fixation:
-    """A fixation under way: first and last stamp, sum of its points, count."""
+    """
+    A fixation under way: first and last stamp, running sums of its points, count.
 
-    __slots__ = ('first', 'last', 'total', 'count', 'fresh', 'stamps', 'sums', 'squares')
+    Python floats, not numpy: it takes every sample of a 1200 Hz tracker one at a
+    time, where a numpy operation on two numbers costs more than the arithmetic.
+    """
+
+    __slots__ = ('first', 'last', 'count', 'fresh', 'stamps', 'sums_x', 'sums_y', 'squares')
 
     def __init__(self, samples: List[Tuple[float, np.ndarray]], fresh: bool):
-        self.first, self.last = samples[0][0], samples[-1][0]
-        self.total = np.sum([point for _, point in samples], axis=0)
-        self.count = len(samples)
+        self.first, self.last = samples[0][0], samples[0][0]
+        self.count = 0
         self.fresh = fresh
         # Stamps and running sums of its points (the stillness test over its last dwell_s).
-        self.stamps = [stamp for stamp, _ in samples]
-        self.sums = list(np.cumsum([point for _, point in samples], axis=0))
-        self.squares = list(np.cumsum([float(point @ point) for _, point in samples]))
+        self.stamps: List[float] = []
+        self.sums_x: List[float] = []
+        self.sums_y: List[float] = []
+        self.squares: List[float] = []
+        for stamp, point in samples:
+            self.add(stamp, float(point[0]), float(point[1]))
 
-    def add(self, stamp: float, point: np.ndarray) -> None:
-        """Take one more sample."""
-        self.total = self.total + point
+    def add(self, stamp: float, x: float, y: float) -> None:
+        """Take one more sample: stamp s, point (x, y) px."""
         self.count += 1
         self.last = stamp
         self.stamps.append(stamp)
-        self.sums.append(self.sums[-1] + point)
-        self.squares.append(self.squares[-1] + float(point @ point))
+        if self.sums_x:
+            self.sums_x.append(self.sums_x[-1] + x)
+            self.sums_y.append(self.sums_y[-1] + y)
+            self.squares.append(self.squares[-1] + (x * x + y * y))
+        else:
+            self.sums_x.append(x)
+            self.sums_y.append(y)
+            self.squares.append(x * x + y * y)
 
     def movement(self, span: float) -> Tuple[float, float]:
         """
@@ -146,20 +158,30 @@ class _Fixation:
         last = len(stamps) - 1
         if not first < middle <= last:
             return 0.0, 0.0
-        before = self.sums[first - 1] if first else 0.0
-        older = (self.sums[middle - 1] - before) / (middle - first)
-        newer = (self.sums[last] - self.sums[middle - 1]) / (last - middle + 1)
+        sums_x, sums_y = self.sums_x, self.sums_y
+        before_x = sums_x[first - 1] if first else 0.0
+        before_y = sums_y[first - 1] if first else 0.0
+        older, newer = middle - first, last - middle + 1
+        moved_x = ((sums_x[last] - sums_x[middle - 1]) / newer
+                   - (sums_x[middle - 1] - before_x) / older)
+        moved_y = ((sums_y[last] - sums_y[middle - 1]) / newer
+                   - (sums_y[middle - 1] - before_y) / older)
         count = last - first + 1
-        mean = (self.sums[last] - before) / count
+        mean_x, mean_y = (sums_x[last] - before_x) / count, (sums_y[last] - before_y) / count
         squares = self.squares[last] - (self.squares[first - 1] if first else 0.0)
-        scatter = max(squares / count - float(mean @ mean), 0.0) / 2.0    # per axis, px^2
-        error = math.sqrt(scatter * (1.0 / (middle - first) + 1.0 / (last - middle + 1)))
-        return float(math.hypot(*(newer - older))), error
+        scatter = max(squares / count - (mean_x * mean_x + mean_y * mean_y), 0.0) / 2.0  # px^2
+        error = math.sqrt(scatter * (1.0 / older + 1.0 / newer))
+        return math.hypot(moved_x, moved_y), error
+
+    @property
+    def centre_xy(self) -> Tuple[float, float]:
+        """Mean of its samples, (x, y) px."""
+        return self.sums_x[-1] / self.count, self.sums_y[-1] / self.count
 
     @property
     def centre(self) -> np.ndarray:
         """Mean of its samples, px (2,)."""
-        return self.total / self.count
+        return np.array(self.centre_xy)
 
     @property
     def duration(self) -> float:
@@ -231,9 +253,10 @@ class FixationEvidence:
         self._moved_at = -math.inf
         self._classified: Dict[int, RegionSet] = {}
         self._options: Dict[int, tuple] = {}
-        # The newest test of the current fixation: (fixation, region set, its centre then,
-        # the result), not repeated while neither moved.
-        self._judged: Optional[tuple] = None
+        # The newest test of the current fixation per asker ('decision', 'feedback'):
+        # (fixation, region set, its centre then, the result), not repeated while neither
+        # moved.  Apart, so the feedback's timing never changes what the decision sees.
+        self._judged: Dict[str, tuple] = {}
 
     # -- the interface of a round's evidence ------------------------------------------------
 
@@ -296,14 +319,16 @@ class FixationEvidence:
         self.valid += int(np.count_nonzero(finite))
         if len(stamps):
             self.last_stamp = float(stamps[-1])
-        for index in np.flatnonzero(finite):
-            stamp, point = float(stamps[index]), points[index]
-            if not self._take(stamp, point, region_set):
+        # Python floats: the samples are taken one at a time (see _Fixation).
+        all_x, all_y, all_stamps = points[:, 0].tolist(), points[:, 1].tolist(), stamps.tolist()
+        for index in np.flatnonzero(finite).tolist():
+            stamp = all_stamps[index]
+            if not self._take(stamp, all_x[index], all_y[index], region_set):
                 continue
             current = self._current
             if confidence is None or not current.fresh or not self._settled(current):
                 continue
-            label, posterior, margin = self._judge_current(current, region_set)
+            label, posterior, margin = self._judge_current(current, region_set, 'decision')
             if label is not None and posterior >= confidence:
                 self.last_stamp = stamp
                 self.samples -= len(points) - index - 1
@@ -382,7 +407,9 @@ class FixationEvidence:
         current = self._current
         if current is None or self._latest is None or not current.fresh:
             return out
-        label, posterior, _, _ = self._judge(current.centre, self._latest)
+        # Cached as the early decision's test is: the feedback asks ~30 times a second,
+        # and a fixation's centre settles within a few samples.
+        label, posterior, _ = self._judge_current(current, self._latest, 'feedback')
         if label is None:
             return out
         chance = 1.0 / max(len(self._latest.label_set), 1)
@@ -393,18 +420,22 @@ class FixationEvidence:
 
     # -- events and the spatial test ----------------------------------------------------------
 
-    def _take(self, stamp: float, point: np.ndarray, region_set: RegionSet) -> bool:
-        """Add one valid sample to the events; True when it joined the current fixation."""
+    def _take(self, stamp: float, x: float, y: float, region_set: RegionSet) -> bool:
+        """Add one valid sample (stamp s, x, y px); True when it joined the current fixation."""
         current = self._current
+        if current is not None:
+            centre_x, centre_y = current.centre_xy
+            if math.hypot(x - centre_x, y - centre_y) <= self._radius_px:
+                current.add(stamp, x, y)
+                if self._held:
+                    self._held.clear()    # anything held back was a spike
+                self._stray = None
+                return True
+        point = np.array([x, y])
         if current is None:
-            self._current = self._new_fixation([(stamp, point.copy())])
+            self._current = self._new_fixation([(stamp, point)])
             return True
-        if math.hypot(*(point - current.centre)) <= self._radius_px:
-            current.add(stamp, point)
-            self._held.clear()    # anything held back was a spike
-            self._stray = None
-            return True
-        held, sample = self._held, (stamp, point.copy())
+        held, sample = self._held, (stamp, point)
         if not held or math.hypot(*(point - held[0][1])) <= self._radius_px:
             held.append(sample)
             self._stray = None
@@ -423,8 +454,8 @@ class FixationEvidence:
             # Back where the gaze was before a short excursion (a tracker switching eyes,
             # a burst of noise): the earlier fixation goes on, the excursion is dropped.
             self._done.pop()
-            for sample in held:
-                previous.add(*sample)
+            for held_stamp, held_point in held:
+                previous.add(held_stamp, float(held_point[0]), float(held_point[1]))
             self._current = previous
         else:
             if self._latest is not None:
@@ -454,16 +485,20 @@ class FixationEvidence:
         moved, noise = fixation.movement(self.dwell_s)
         return moved <= self._still_px + STILL_SIGMAS * noise
 
-    def _judge_current(self, current: _Fixation, region_set: RegionSet
+    def _judge_current(self, current: _Fixation, region_set: RegionSet, asker: str
                        ) -> Tuple[Optional[str], float, float]:
-        """Judge the current fixation, again only when it or the options moved (0.5 px)."""
+        """
+        Judge the current fixation, again only when it or the options moved (0.5 px).
+
+        :param asker: whose cached test: 'decision' or 'feedback' (kept apart).
+        """
         centre = current.centre
-        cached = self._judged
+        cached = self._judged.get(asker)
         if (cached is not None and cached[0] is current and cached[1] is region_set
                 and abs(cached[2][0] - centre[0]) + abs(cached[2][1] - centre[1]) < 0.5):
             return cached[3]
         label, posterior, margin, _ = self._judge(centre, region_set)
-        self._judged = (current, region_set, centre, (label, posterior, margin))
+        self._judged[asker] = (current, region_set, centre, (label, posterior, margin))
         return label, posterior, margin
 
     def _option_geometry(self, region_set: RegionSet) -> tuple:

@@ -78,6 +78,8 @@ class FeedbackPublisher:
         self._options = OptionMarkers()
         self._halos = FeedbackMarkers()
         self._newest: Optional[GazePoint] = None
+        # (gaze point, classifier, label): the timer runs faster than gaze batches come.
+        self._gazed: Optional[tuple] = None
         self._chosen: Optional[Confirmed] = None
         self._options_changed = False
         self._publisher = node.create_publisher(MarkerArray, FEEDBACK_TOPIC, FEEDBACK_QOS)
@@ -151,11 +153,19 @@ class FeedbackPublisher:
         gazed = None
         newest = self._newest
         if newest is not None and now - newest.arrived <= GAZED_STALE_S:
-            gazed = self._rounds.label_at(newest.x, newest.y)
+            gazed = self._gazed_label(newest)
         feedback = build_feedback([option_label(m) for m in options], gazed=gazed,
                                   chosen=chosen, progress=self._rounds.progress(),
                                   stamp=now)
         return feedback, options
+
+    def _gazed_label(self, newest: GazePoint) -> Optional[str]:
+        """Return the option ``newest`` counts for (asked again when it or the options change)."""
+        regions = self._rounds.classifier
+        cached = self._gazed
+        if cached is None or cached[0] is not newest or cached[1] is not regions:
+            cached = self._gazed = (newest, regions, self._rounds.label_at(newest.x, newest.y))
+        return cached[2]
 
     def _on_timer(self) -> None:
         try:

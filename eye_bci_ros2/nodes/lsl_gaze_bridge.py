@@ -47,7 +47,7 @@ Batches.  Without a choice_arbiter the bridge pulls every ``poll_period_s``
 decision can next come (``choice/due``: a round's earliest early decision,
 then its window end), it pulls every ``poll_period_s`` only from just before
 that time until a sample stamped after it is published, and every
-``idle_poll_period_s`` (20 ms) otherwise: at 1200 Hz about 60 batches a
+``idle_poll_period_s`` (40 ms) otherwise: at 1200 Hz about 60 batches a
 second instead of 500, while the sample a decision waits for is still pulled
 within ``poll_period_s`` (``python -m bench.lab_rate``).  One poll timer
 runs throughout; its period is changed in place (``timer_period_ns``: rcl
@@ -185,7 +185,7 @@ PARAMETERS = (
               'period of pulling samples from LSL, s; a sample waits up to this long in the '
               'inlet, so it bounds the added latency (see the README, Performance)',
               value_range=(0.001, 1.0)),
-    ParamSpec('idle_poll_period_s', 0.02,
+    ParamSpec('idle_poll_period_s', 0.04,
               'period of pulling samples while no decision is due, s: once a '
               'choice_arbiter announces when its decisions can come (choice/due: the '
               'earliest early decision, the window end), samples are pulled every '
