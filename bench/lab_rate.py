@@ -32,6 +32,8 @@ Measured over the rounds (after a warm-up):
 * CPU of every node process, the pusher and this process (user + system
   time over the wall time, psutil; 100 % = one core) and of the rest of the
   machine (other users: the noise of a shared machine), with the load average;
+* wake-ups of every process's main thread per second (its voluntary context
+  switches: for a node process, its executor's);
 * latency = ``choice`` arrival - request - ``window_s`` (the decision at the
   window end; ``early_decision:=false`` so that every round runs its window),
   p50 / p99 / max; scenarios with the node's own early decision report
@@ -262,6 +264,17 @@ def _cpu_s(process: psutil.Process) -> float:
     return times.user + times.system
 
 
+def _wakeups(process: psutil.Process) -> int:
+    """
+    Return the voluntary context switches of the process's main thread so far.
+
+    Each is a wake-up after a wait: for a node process, its executor's (the spin loop
+    runs in the main thread). On an idle virtual machine a wake-up costs about 0.1 ms
+    of CPU whatever the callback does (docs/performance.md).
+    """
+    return process.num_ctx_switches().voluntary
+
+
 def _machine_cpu_s() -> float:
     times = psutil.cpu_times()
     return sum(times) - times.idle - getattr(times, 'iowait', 0.0)
@@ -406,6 +419,7 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
             handles = {key: psutil.Process(p.pid) for key, p in measured.items()}
             handles['driver'] = psutil.Process()
             start_cpu = {key: _cpu_s(h) for key, h in handles.items()}
+            start_wakeups = {key: _wakeups(h) for key, h in handles.items()}
             machine_start, wall = _machine_cpu_s(), time.monotonic()
             first_answer = len(driver.received), len(driver.no_choice)
             ask(int(round(seconds / REQUEST_PERIOD_S)))
@@ -413,6 +427,8 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
             wall = time.monotonic() - wall
             cpu = {key: 100.0 * (_cpu_s(h) - start_cpu[key]) / wall
                    for key, h in handles.items()}
+            wakeups = {key: (_wakeups(h) - start_wakeups[key]) / wall
+                       for key, h in handles.items()}
             machine = 100.0 * (_machine_cpu_s() - machine_start) / wall
             load_average = os.getloadavg()
             here.send(None)
@@ -441,11 +457,12 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
     answers = ([(t, 'choice', chosen) for t, chosen in driver.received[first_answer[0]:]]
                + [(t, 'none', None) for t, _ in driver.no_choice[first_answer[1]:]])
     return _row(scenario, requests, sorted(answers), label, cpu, machine, load_average,
-                pushed, text, log)
+                pushed, text, log, wakeups)
 
 
 def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float],
-         machine: float, load_average, pushed: int, text: str, log) -> Dict[str, object]:
+         machine: float, load_average, pushed: int, text: str, log,
+         wakeups: Dict[str, float]) -> Dict[str, object]:
     """Summarise one scenario's measurements."""
     node_keys = [key for key in cpu if key not in ('pusher', 'driver')]
     nodes_cpu = sum(cpu[key] for key in node_keys)
@@ -472,6 +489,7 @@ def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float
         'extra_parameters': list(scenario.extra),
         'cpu_percent': {key: round(value, 1) for key, value in cpu.items()},
         'nodes_cpu_percent': round(nodes_cpu, 1),
+        'main_thread_wakeups_per_s': {key: round(value) for key, value in wakeups.items()},
         'others_cpu_percent': round(max(0.0, machine - ours), 1),
         'load_average_1min': round(load_average[0], 2),
         ('request_to_choice' if scenario.early else 'window_end_to_choice'):
@@ -484,7 +502,8 @@ def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float
         'arbiter_rounds_short': len(short), 'arbiter_samples_short': int(sum(short)),
     }
     print(f'lab_rate {scenario.name}: nodes {row["nodes_cpu_percent"]} % '
-          f'({", ".join(f"{k} {v:.1f}" for k, v in row["cpu_percent"].items())}), '
+          f'({", ".join(f"{k} {v:.1f}" for k, v in row["cpu_percent"].items())}; '
+          f'wake-ups/s {", ".join(f"{k} {wakeups[k]:.0f}" for k in node_keys)}), '
           f'latency {row.get("window_end_to_choice") or row.get("request_to_choice")}, '
           f'rounds {row["rounds_right"]}/{row["rounds"]} right, {wrong} wrong, '
           f'{none} none, {unanswered} unanswered; pushed {pushed}, bridge {received}; '
