@@ -6,15 +6,23 @@ The choice_arbiter's feedback: what the person sees of a decision while it happe
 part of the node: the feedback parameters
 (:class:`eye_bci_ros2.decision.feedback.FeedbackSettings`), the ``choices``
 subscription (the options, visualization_msgs/MarkerArray, as RViz reads
-them), the ``choices/feedback`` publisher (one halo per option with its ns and
-id, :mod:`eye_bci_ros2.nodes.feedback_markers`) and its timer.  It shows the
+them) and the ``choices/feedback`` publisher (one halo per option with its ns and
+id, :mod:`eye_bci_ros2.nodes.feedback_markers`).  It shows the
 option the newest gaze sample counts for under the round's rule ('gazed'), the
 progress of the decision (:meth:`eye_bci_ros2.decision.rounds.RoundScheduler.progress`)
 as the halo's growth, and the option just chosen green for
 ``feedback_confirm_s``; at most ``feedback_rate_hz`` messages per second, only
 when something changed (:class:`eye_bci_ros2.decision.feedback.FeedbackThrottle`; 0 = off).
+
+It has no timer of its own: the node calls :meth:`FeedbackPublisher.update`
+after each gaze batch (the gaze is shown as soon as it arrives), after a choice
+and on its own tick (a highlight that goes stale, a confirmation that ends).  On
+an idle machine each timer wake-up costs about 0.1 ms of CPU whatever it does
+(docs/performance.md), and the gaze batches come as often as a feedback timer
+would tick.
 """
 
+import math
 from typing import Callable, List, NamedTuple, Optional, Tuple
 
 from rclpy.node import Node
@@ -60,33 +68,30 @@ class FeedbackPublisher:
     """
     The arbiter's ``choices/feedback`` (module doc).
 
-    :param node: the node it declares its parameters, topics and timer on.
+    :param node: the node it declares its parameters and topics on.
     :param rounds: the node's rounds (read only: which option the gaze counts
         for, the progress).
     :param log: the node's keyed log.
-    :param now: the node clock, s.
     """
 
-    def __init__(self, node: Node, rounds: RoundScheduler, log: Log,
-                 now: Callable[[], float]):
-        """Declare the feedback parameters, subscribe the options, start the timer."""
+    def __init__(self, node: Node, rounds: RoundScheduler, log: Log):
+        """Declare the feedback parameters, subscribe the options."""
         self._node = node
         self._rounds = rounds
         self._log = log
-        self._now = now
         self.parameters = SettingsParameters(node, FeedbackSettings, self._on_parameters)
         self._options = OptionMarkers()
         self._halos = FeedbackMarkers()
         self._newest: Optional[GazePoint] = None
-        # (gaze point, classifier, label): the timer runs faster than gaze batches come.
+        # (gaze point, classifier, label): updates come more often than gaze points.
         self._gazed: Optional[tuple] = None
         self._chosen: Optional[Confirmed] = None
         self._options_changed = False
         self._publisher = node.create_publisher(MarkerArray, FEEDBACK_TOPIC, FEEDBACK_QOS)
         node.create_subscription(MarkerArray, CHOICES_TOPIC, self._on_choices, CHOICES_QOS)
-        self._timer = None
-        self._throttle = FeedbackThrottle()
-        self._start(self.parameters.settings.feedback_rate_hz)
+        self._throttle: Optional[FeedbackThrottle] = None
+        self._sent_at = -math.inf
+        self._set_rate(self.parameters.settings.feedback_rate_hz)
 
     # -- what the node tells it --------------------------------------------------------------
 
@@ -98,25 +103,22 @@ class FeedbackPublisher:
         """Show ``label`` chosen (green) for ``feedback_confirm_s`` from ``now`` s."""
         self._chosen = Confirmed(label, now + self.parameters.settings.feedback_confirm_s,
                                  self._options.get(label))
+        self.update(now)
 
     # -- parameters, inputs ---------------------------------------------------------------
 
     def _on_parameters(self, settings: FeedbackSettings, changed: dict) -> None:
         if 'feedback_rate_hz' in changed:
-            self._start(settings.feedback_rate_hz)
+            self._set_rate(settings.feedback_rate_hz)
 
-    def _start(self, rate_hz: float) -> None:
-        """(Re)start the feedback timer at ``rate_hz`` (0: stop, withdraw the halos)."""
-        node = self._node
-        if self._timer is not None:
-            node.destroy_timer(self._timer)
-            self._timer = None
+    def _set_rate(self, rate_hz: float) -> None:
+        """Send at most ``rate_hz`` messages a second (0: none, and withdraw the halos)."""
         if rate_hz > 0:
-            # The timer sets the rate; the throttle's own period is shorter, so its timer
-            # jitter never halves it, and the throttle decides only whether anything changed.
-            self._throttle = FeedbackThrottle(max_rate_hz=2.0 * rate_hz)
-            self._timer = node.create_timer(1.0 / rate_hz, self._on_timer)
-        elif self._halos.shown:
+            self._throttle = FeedbackThrottle(max_rate_hz=rate_hz)
+            return
+        self._throttle = None
+        if self._halos.shown:
+            node = self._node
             withdrawn = self._halos.update(Feedback(()), [], node.get_clock().now().to_msg())
             if withdrawn is not None:
                 self._publisher.publish(withdrawn)
@@ -167,7 +169,14 @@ class FeedbackPublisher:
             cached = self._gazed = (newest, regions, self._rounds.label_at(newest.x, newest.y))
         return cached[2]
 
-    def _on_timer(self) -> None:
+    def update(self, now: float) -> None:
+        """Send what choices/feedback shows at ``now`` (node clock, s), if it is due."""
+        throttle = self._throttle
+        # At most feedback_rate_hz messages whatever changes (a gaze that jumps between
+        # options every batch included); what is held back goes out with the next update.
+        if throttle is None or (now - self._sent_at < throttle.period
+                                and not self._options_changed):
+            return
         try:
             count = len(self._options.options)
             if count > MAX_FEEDBACK_OPTIONS:
@@ -176,7 +185,6 @@ class FeedbackPublisher:
                           f'choices/feedback paused: {count} options offered, more than '
                           f'{MAX_FEEDBACK_OPTIONS}')
                 return
-            now = self._now()
             feedback, options = self.current(now)
             if not (self._throttle.due(feedback, now) or self._options_changed):
                 return
@@ -185,5 +193,6 @@ class FeedbackPublisher:
                                          self._node.get_clock().now().to_msg())
             if message is not None:
                 self._publisher.publish(message)
-        except Exception as error:  # noqa: B902 - a node never dies on a timer
+                self._sent_at = now
+        except Exception as error:  # noqa: B902 - a node never dies on feedback
             self._log('warning', 'feedback_error', f'feedback not sent: {error}')

@@ -69,7 +69,8 @@ from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, DECISION_DUE_TOPIC, EVENT_Q
                                        GAZE_SAMPLES_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
                                        REGIONS_TOPIC, REQUEST_TOPIC)
 
-#: Period of the timer that closes quiet rounds and releases held decisions, s: a round
+#: Period of the timer that closes quiet rounds, releases held decisions and updates the
+#: feedback between gaze batches (arbiter_feedback's module doc), s: a round
 #: whose stream went quiet closes up to this long after its stall timeout, a held decision
 #: up to this long after ``reorder_s``.  Every decision that gaze completes is made when
 #: that gaze arrives, never on a tick; on an idle machine each tick's wake-up costs about
@@ -121,7 +122,7 @@ class ChoiceArbiter(Node):
         self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
         self._timer = self.create_timer(TICK_S, self._on_tick)
         self._fusion = FusionInput(self, self._on_outcome, self._log, self._now)
-        self._feedback = FeedbackPublisher(self, self._rounds, self._log, self._now)
+        self._feedback = FeedbackPublisher(self, self._rounds, self._log)
         config = self._decision.settings
         self.get_logger().info(
             f'choice_arbiter: method {config.method}, window {config.window_s} s, '
@@ -194,6 +195,7 @@ class ChoiceArbiter(Node):
                 self._feedback.gaze_at(float(points[-1, 0]), float(points[-1, 1]), now)
             self._rounds.add_samples(stamps, points, now)
             self._announce_due(now)
+            self._feedback.update(now)
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'gaze_error', f'gaze batch ignored: {error}')
 
@@ -238,6 +240,7 @@ class ChoiceArbiter(Node):
             now = self._now()
             self._rounds.tick(now)
             self._announce_due(now)
+            self._feedback.update(now)
         except Exception as error:  # noqa: B902 - a node never dies on a timer
             self._log('warning', 'tick_error', f'failed to close a round: {error}')
 
