@@ -20,7 +20,11 @@ from another thread while the executor builds its wait set.  Here SIGINT and
 SIGTERM only set a flag that the spin loop checks every
 :data:`STOP_POLL_S`; once it stops, both are ignored, and a clean-up that
 hangs (rclpy's ``destroy_node`` has been seen spinning) ends after
-:data:`CLEANUP_LIMIT_S` with one line and status 1.  A normal stop exits 0.
+:data:`CLEANUP_LIMIT_S` with one line and status 1.  A clean-up stuck in C
+code that holds the interpreter (where no Python thread runs, and the ignored
+signals would leave it to SIGKILL) ends :data:`HARD_LIMIT_S` later through
+``faulthandler``'s own thread: status 1 and the stacks where it hung.  A
+normal stop exits 0.
 A node that does one job and ends (``gaze_validation``) sets its attribute
 ``exit_status`` (an int, None while it runs): the loop stops and the process
 exits with it.  A window that must draw in the main thread
@@ -42,6 +46,7 @@ a params-file key ``image_widht``) is warned with the closest known name.
 """
 
 import difflib
+import faulthandler
 import gc
 import importlib
 import os
@@ -79,6 +84,8 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 STOP_POLL_S = 0.1
 #: Longest the clean-up after a stop may take before the process gives up, s.
 CLEANUP_LIMIT_S = 5.0
+#: ... and past this many more seconds, when no Python thread can run (module doc).
+HARD_LIMIT_S = 2.0
 #: ROS arguments that only work after ``--ros-args`` (rcl ignores them before it).
 ROS_ONLY_ARGS = ('-p', '--param', '--params-file', '-r', '--remap', '--log-level', '-e',
                  '--enclave')
@@ -325,11 +332,13 @@ def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] =
         watchdog = threading.Timer(CLEANUP_LIMIT_S, _give_up)
         watchdog.daemon = True
         watchdog.start()
+        faulthandler.dump_traceback_later(CLEANUP_LIMIT_S + HARD_LIMIT_S, exit=True)
         if executor is not None:
             executor.shutdown()
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
+        faulthandler.cancel_dump_traceback_later()
         watchdog.cancel()
     sys.exit(status)
 

@@ -15,6 +15,8 @@ from domain_coordinator import domain_id
 from lsl_outlets import make_outlet, unique_id
 import pytest
 
+from eye_bci_ros2.nodes.runner import CLEANUP_LIMIT_S, HARD_LIMIT_S
+
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 NODES = ('lsl_gaze_bridge', 'camera_tracker', 'marker_projector', 'choice_arbiter',
@@ -155,3 +157,48 @@ def test_ssvep_stimulus_needs_the_opt_in_and_a_display_and_says_so_in_one_line()
     assert status == 1 and err.strip().splitlines()[-1].startswith(
         'cannot start: no display to draw the stimuli on'), err
     assert 'Traceback' not in err
+
+
+#: A node whose clean-up is stuck in C code that keeps the interpreter (a regular
+#: expression that backtracks for hours): no Python thread can run, signals are ignored.
+STUCK_IN_DESTROY = """
+import re
+from rclpy.node import Node
+from eye_bci_ros2.nodes.runner import spin_node
+
+
+class Stuck(Node):
+    def __init__(self):
+        super().__init__('stuck_in_destroy')
+        self.create_timer(0.05, lambda: print('spinning', flush=True))
+
+    def destroy_node(self):
+        print('stopping', flush=True)
+        re.match(r'(a+)+$', 'a' * 64 + 'b')
+        super().destroy_node()
+
+
+spin_node(Stuck)
+"""
+
+
+def test_a_clean_up_stuck_where_no_python_runs_still_ends(tmp_path):
+    script = tmp_path / 'stuck.py'
+    script.write_text(STUCK_IN_DESTROY)
+    limit = CLEANUP_LIMIT_S + HARD_LIMIT_S
+    with domain_id() as domain:
+        process = subprocess.Popen(
+            [sys.executable, str(script)], env=dict(os.environ, ROS_DOMAIN_ID=str(domain)),
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            assert process.stdout.readline().strip() == 'spinning'
+            process.send_signal(signal.SIGINT)
+            out, err = process.communicate(timeout=limit + 20.0)
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.communicate()
+    assert 'stopping' in out
+    # faulthandler's thread ends it: status 1 and where it hung, not a SIGKILL's -9.
+    assert process.returncode == 1, err[-2000:]
+    assert 'Timeout' in err and 'destroy_node' in err, err[-2000:]
