@@ -56,6 +56,12 @@ A last part, ``burst`` (:func:`burst`): 100 000 samples stamped inside an
 open round's window arrive at once (a sender that stalled); every one must be
 decided on, the parameter service must answer during the drain.
 
+And ``wake_up`` (:func:`wake_up_cost`): what one executor wake-up costs in CPU
+whatever its callback does, as the nodes spin (an empty timer at 250 Hz in a
+process of its own against the same process without it).  On this 2-core
+virtual machine it is about 0.1 ms: why the nodes count their timers' ticks as
+well as their work.
+
 Usage::
 
     python -m bench.lab_rate [--long] [--seconds S] [--only NAME ...] [--repeat N]
@@ -269,8 +275,8 @@ def _wakeups(process: psutil.Process) -> int:
     Return the voluntary context switches of the process's main thread so far.
 
     Each is a wake-up after a wait: for a node process, its executor's (the spin loop
-    runs in the main thread). On an idle virtual machine a wake-up costs about 0.1 ms
-    of CPU whatever the callback does (docs/performance.md).
+    runs in the main thread); each costs CPU whatever the callback does
+    (:func:`wake_up_cost`).
     """
     return process.num_ctx_switches().voluntary
 
@@ -628,6 +634,57 @@ def burst(samples: int = BURST_SAMPLES, log=sys.stderr) -> Dict[str, object]:
     return row
 
 
+#: Rate of the empty timer of :func:`wake_up_cost`, Hz, and how long each half runs, s.
+WAKE_UP_HZ, WAKE_UP_S = 250.0, 5.0
+
+
+def _spin_timer(rate_hz: float, seconds: float, conn) -> None:
+    """Spin an executor as the nodes do, with an empty timer at ``rate_hz`` (0: none)."""
+    context = Context()
+    rclpy.init(context=context)
+    try:
+        node = rclpy.create_node('wake_up_cost', context=context)
+        ticks = [0]
+
+        def tick():
+            ticks[0] += 1
+        if rate_hz > 0:
+            node.create_timer(1.0 / rate_hz, tick)
+        executor = make_executor(context)
+        executor.add_node(node)
+        freeze_startup_objects()
+        start, cpu = time.monotonic(), time.process_time()
+        while time.monotonic() - start < seconds:
+            executor.spin_once(timeout_sec=0.1)
+        conn.send((time.process_time() - cpu, time.monotonic() - start, ticks[0]))
+        executor.shutdown()
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
+
+
+def wake_up_cost(log=sys.stderr) -> Dict[str, object]:
+    """CPU per executor wake-up: an empty timer against none, each in a fresh process."""
+    spawn = multiprocessing.get_context('spawn')
+    results = {}
+    for rate in (0.0, WAKE_UP_HZ):
+        here, there = spawn.Pipe()
+        process = spawn.Process(target=_spin_timer, args=(rate, WAKE_UP_S, there), daemon=True)
+        process.start()
+        results[rate] = here.recv() if here.poll(WAKE_UP_S + 30.0) else None
+        process.join(10.0)
+    if None in results.values():
+        return {'error': 'a timing process did not report'}
+    (idle_cpu, idle_wall, _), (cpu, wall, ticks) = results[0.0], results[WAKE_UP_HZ]
+    row = {'timer_hz': WAKE_UP_HZ, 'ticks_per_s': round(ticks / wall, 1),
+           'cpu_percent_without': round(100.0 * idle_cpu / idle_wall, 2),
+           'cpu_percent_with': round(100.0 * cpu / wall, 2),
+           'cpu_us_per_wake_up': round(1e6 * (cpu / wall - idle_cpu / idle_wall)
+                                       / max(ticks / wall, 1e-9), 1)}
+    print(f'lab_rate wake_up: {row}', file=log, flush=True)
+    return row
+
+
 def run(quick: bool = False, scenarios: Sequence[Scenario] = DEFAULT_SCENARIOS,
         seconds: float = SECONDS, repeat: int = 1, with_burst: bool = True,
         log=sys.stderr) -> Dict[str, object]:
@@ -641,6 +698,7 @@ def run(quick: bool = False, scenarios: Sequence[Scenario] = DEFAULT_SCENARIOS,
             section[key] = measure(scenario, seconds, log)
     if with_burst:
         section['burst'] = burst(log=log)
+        section['wake_up'] = wake_up_cost(log=log)
     section['goals'] = _goals(section)
     section['machine'] = machine_info()
     return section

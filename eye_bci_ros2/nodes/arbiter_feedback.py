@@ -16,10 +16,10 @@ when something changed (:class:`eye_bci_ros2.decision.feedback.FeedbackThrottle`
 
 It has no timer of its own: the node calls :meth:`FeedbackPublisher.update`
 after each gaze batch (the gaze is shown as soon as it arrives), after a choice
-and on its own tick (a highlight that goes stale, a confirmation that ends).  On
-an idle machine each timer wake-up costs about 0.1 ms of CPU whatever it does
-(docs/performance.md), and the gaze batches come as often as a feedback timer
-would tick.
+and on its own tick (a highlight that goes stale, a confirmation that ends).  A
+timer's wake-up costs about 0.1 ms of CPU whatever it does (``python -m
+bench.lab_rate``, part ``wake_up``), and the gaze batches come as often as a
+feedback timer would tick.
 """
 
 import math

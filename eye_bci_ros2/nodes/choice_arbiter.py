@@ -73,8 +73,8 @@ from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, DECISION_DUE_TOPIC, EVENT_Q
 #: feedback between gaze batches (arbiter_feedback's module doc), s: a round
 #: whose stream went quiet closes up to this long after its stall timeout, a held decision
 #: up to this long after ``reorder_s``.  Every decision that gaze completes is made when
-#: that gaze arrives, never on a tick; on an idle machine each tick's wake-up costs about
-#: 0.1 ms of CPU (``docs/performance.md``), so the tick is no faster than needed.
+#: that gaze arrives, never on a tick; each tick's wake-up costs about 0.1 ms of CPU
+#: (``python -m bench.lab_rate``, part ``wake_up``), so the tick is no faster than needed.
 TICK_S = 0.04
 
 #: The decision's parameters: one per ArbiterSettings field, declared there (one home).

@@ -58,9 +58,9 @@ and no run of empty 2 ms ticks; ``idle_poll_period_s`` again once the sample
 after the due time is out.  Timers are never cancelled and reset per round
 (rclpy's EventsExecutor has missed timers after a reset).  A due time
 announced less than an idle period ahead is pulled for from the next tick (at
-most ``idle_poll_period_s`` later).  Each wake-up of this process costs about
-0.1 ms of CPU on an idle machine whatever the callback does
-(docs/performance.md): empty ticks cost as wake-ups, not as pulls.
+most ``idle_poll_period_s`` later).  Each wake-up of the executor costs about
+0.1 ms of CPU whatever the callback does (``python -m bench.lab_rate``, part
+``wake_up``): empty ticks are not free.
 
 Bursts: a backlog (a sender that stalled and then pushed seconds of gaze at
 once) waits in the inlet's buffer, which liblsl fills without loss up to

@@ -32,3 +32,14 @@ def test_a_short_run_counts_every_sample_and_answers_right():
     assert row['samples_pushed'] > 0 and row['samples_lost_lsl'] == 0
     assert row['arbiter_rounds_counted'] >= 1 and row['arbiter_samples_short'] == 0
     assert row['cpu_percent']['eye_bci'] > 0
+    assert row['main_thread_wakeups_per_s']['eye_bci'] > 0
+
+
+def test_the_wake_up_cost_is_measured_with_and_without_the_timer(monkeypatch):
+    monkeypatch.setattr(lab_rate, 'WAKE_UP_S', 1.0)
+    row = lab_rate.wake_up_cost()
+    assert 'error' not in row, row
+    # The timer ran in its process (about WAKE_UP_HZ ticks a second; the machine's load
+    # may delay some), and both processes were measured.
+    assert row['ticks_per_s'] > 0
+    assert row['cpu_percent_with'] > 0 and row['cpu_percent_without'] >= 0
