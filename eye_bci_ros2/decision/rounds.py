@@ -816,7 +816,7 @@ class RoundScheduler:
         once no batch came for :data:`LAZY_QUIET_S`; while its batches keep coming the
         stream has not stalled (at most :data:`BACKLOG_LIMIT_S` past the stall timeout).
 
-        Call it periodically (the node: every 20 ms).
+        Call it periodically (the node: every TICK_S, 40 ms).
         :returns: the decision made, if any.
         """
         round_ = self._round
