@@ -2,11 +2,12 @@
 When the SSVEP evidence of a window is strong enough to choose, and when nobody attends.
 
 Every decoder gives each of the K options an *evidence statistic* (FBCCA: the
-log ratio of the option's score to the mean score at its two sidebands, see
-:mod:`eye_bci_ros2.ssvep.online`; TRCA: its score).  A :class:`RestModel` says
-how that statistic is distributed for an option nobody attends (mean, standard
-deviation, by window length): the *null*.  Evidence is measured against it,
-``z = (statistic - mean) / std``, so noise, whatever its size, stays near 0.
+log ratio of the option's score to its sidebands' geometric mean,
+:func:`eye_bci_ros2.ssvep.decoders.sideband_statistic`; TRCA: its score).  A
+:class:`RestModel` says how that statistic is distributed for an option nobody
+attends (mean, standard deviation, by window length): the *null*.  Evidence is
+measured against it, ``z = (statistic - mean) / std``, so noise, whatever its
+size, stays near 0.
 
 Posterior (rule 'posterior'): K + 1 hypotheses, "option k is attended" and
 "nothing is attended".  If z of an attended option were normal with mean

@@ -154,10 +154,10 @@ def sideband_hz(min_window_s: float) -> float:
     return 1.0 / float(min_window_s)
 
 
-#: Sidebands on each side of an option, at 1, 2, ... x :func:`sideband_hz`: their mean
-#: is the statistic's denominator, so more of them make it less noisy (two per side: on
-#: the real recordings 13 more right choices than with one, docs/ssvep.md; further out
-#: the neighbourhood would stop being the option's own).
+#: Sidebands on each side of an option, at 1, 2, ... x :func:`sideband_hz`: their
+#: (geometric) mean is the statistic's denominator, so more of them make it less noisy
+#: (two per side: on the real recordings 13 more right choices than with one,
+#: docs/ssvep.md; further out the neighbourhood would stop being the option's own).
 SIDEBANDS_PER_SIDE = 2
 
 
@@ -175,15 +175,24 @@ def with_sidebands(frequencies: Sequence[float], delta: float) -> np.ndarray:
 
 def sideband_statistic(scores: np.ndarray) -> np.ndarray:
     """
-    FBCCA evidence statistic: log of each option's score over its sidebands' mean.
+    FBCCA evidence statistic: log of each option's score over its sidebands' geometric mean.
+
+    The geometric mean is the straight line through the sidebands' log scores
+    (least squares against frequency: they lie symmetrically around the option)
+    evaluated at the option, so it follows a log spectrum that slopes across
+    the neighbourhood (1/f, an alpha rhythm's flank) as the EEG's does.  The
+    arithmetic mean lies above that line by the sidebands' spread (exp is
+    convex), the more the steeper the slope: it lowered the evidence of options
+    whose lower sidebands are strong (near the alpha band) on real EEG
+    (docs/ssvep.md).
 
     :param scores: FBCCA scores at :func:`with_sidebands` frequencies, ((1 + 2 S) K,).
     :returns: (K,); about 0 where the spectrum is smooth (noise, the alpha
         rhythm's flank), large at a narrow-band response.
     """
-    scores = np.maximum(np.asarray(scores, dtype=float), 1e-12)
-    k = len(scores) // (1 + 2 * SIDEBANDS_PER_SIDE)
-    return np.log(scores[:k] / scores[k:].reshape(-1, k).mean(axis=0))
+    logs = np.log(np.maximum(np.asarray(scores, dtype=float), 1e-12))
+    k = len(logs) // (1 + 2 * SIDEBANDS_PER_SIDE)
+    return logs[:k] - logs[k:].reshape(-1, k).mean(axis=0)
 
 
 def null_windows(min_window_s: float, window_s: float) -> Tuple[float, ...]:

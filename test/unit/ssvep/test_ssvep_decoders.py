@@ -167,6 +167,23 @@ def test_trca_evidence_of_rest_stays_in_its_null(trca_model):
     assert max(rest_z) < 3.0 < np.median(attended_z)
 
 
+def test_the_sideband_statistic_follows_a_sloping_spectrum():
+    """
+    Nobody attends and the log spectrum slopes across the options' neighbourhoods.
+
+    As real EEG's does (1/f, an alpha rhythm's flank): every option's statistic stays 0,
+    where the sidebands' arithmetic mean put it 0.11 below (lower sidebands stronger);
+    a response at an option still stands out by its size.
+    """
+    offered = (13.0, 17.0, 21.0)
+    frequencies = with_sidebands(offered, sideband_hz(1.0))
+    sloping = 0.4 * np.exp(-0.3 * frequencies)  # scores falling by a quarter per Hz
+    assert np.allclose(sideband_statistic(sloping), 0.0, atol=1e-12)
+    attended = sloping.copy()
+    attended[1] *= 4.0  # the 17 Hz option scores 4 x its neighbourhood
+    assert np.allclose(sideband_statistic(attended), [0.0, np.log(4.0), 0.0], atol=1e-12)
+
+
 def test_the_fbcca_null_is_centred_at_each_offered_frequency():
     """
     The filters shift the statistic at some frequencies; the null follows them.
