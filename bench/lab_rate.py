@@ -97,7 +97,7 @@ from std_msgs.msg import Empty, String
 from bench.latency import default_poll_period, Driver, encode_xy_pixels, make_outlet
 from bench.timing import machine_info
 from eye_bci_ros2.nodes.runner import (freeze_startup_objects, make_executor, spin_for,
-                                       spin_until)
+                                       spin_until, STOP_POLL_S)
 from eye_bci_ros2.nodes.topics import EVENT_QOS, NO_CHOICE_TOPIC
 
 #: Round window, s, and the request period: a round is always open.
@@ -654,8 +654,7 @@ def _spin_timer(rate_hz: float, seconds: float, conn) -> None:
         executor.add_node(node)
         freeze_startup_objects()
         start, cpu = time.monotonic(), time.process_time()
-        while time.monotonic() - start < seconds:
-            executor.spin_once(timeout_sec=0.1)
+        spin_for(executor, seconds, step_s=STOP_POLL_S)   # the nodes' own spin step
         conn.send((time.process_time() - cpu, time.monotonic() - start, ticks[0]))
         executor.shutdown()
         node.destroy_node()

@@ -186,7 +186,7 @@ class FeedbackPublisher:
                           f'{MAX_FEEDBACK_OPTIONS}')
                 return
             feedback, options = self.current(now)
-            if not (self._throttle.due(feedback, now) or self._options_changed):
+            if not (throttle.due(feedback, now) or self._options_changed):
                 return
             self._options_changed = False
             message = self._halos.update(feedback, options,
