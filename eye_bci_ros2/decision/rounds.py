@@ -479,6 +479,10 @@ class RoundScheduler:
         self.samples_not_finite = 0
         #: Samples of a batch whose stamp was NaN or infinite (dropped).
         self.samples_bad_stamp = 0
+        #: Counts the changes to what :meth:`progress`, :meth:`label_at` and
+        #: :attr:`classifier` answer (every input, rebuilt or finished round): unchanged,
+        #: asking again gives the same answers (the feedback asks ~30 times a second).
+        self.changes = 0
 
     @property
     def offered(self) -> frozenset:
@@ -580,6 +584,7 @@ class RoundScheduler:
         screen, share test): it applies from the next round on, so no round
         mixes two rules.
         """
+        self.changes += 1
         self.settings = self.settings.replace(**changed)
         if self._round is not None:
             self._round.settings = self._round.settings.replace(
@@ -626,6 +631,7 @@ class RoundScheduler:
         :raises ValueError: ``now`` not finite, or stamps and points of
             different lengths.
         """
+        self.changes += 1
         stamps = np.asarray(stamps, dtype=float).reshape(-1)
         points = points_array(points)
         if len(stamps) != len(points):
@@ -741,6 +747,7 @@ class RoundScheduler:
         :returns: a decision this completed (a held one made final, or the
             round the new choices end), else None.
         """
+        self.changes += 1
         stamp = region_set.stamp
         # Checked first: only choices made before this message arrived can have missed it.
         late_by = self._final_stamp - stamp
@@ -799,6 +806,7 @@ class RoundScheduler:
 
         :returns: that held decision, if any.
         """
+        self.changes += 1
         decision = None
         round_ = self._round
         if round_ is not None:
@@ -923,6 +931,7 @@ class RoundScheduler:
 
     def _reclassify(self, round_: _Round, now: float) -> Optional[Decision]:
         """Rebuild the open round's evidence and propose what it decides."""
+        self.changes += 1
         round_.pending = None
         decision = self._rebuild(round_)
         if decision is None:
@@ -990,6 +999,7 @@ class RoundScheduler:
 
     def _finish(self, decision: Decision) -> Decision:
         """Close the open round with ``decision`` and report it."""
+        self.changes += 1
         round_, self._round = self._round, None
         if round_ is not None and math.isfinite(round_.evidence.last_stamp):
             self._final_stamp = round_.evidence.last_stamp

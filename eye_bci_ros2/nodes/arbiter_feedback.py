@@ -64,6 +64,18 @@ class Confirmed(NamedTuple):
     marker: Optional[Marker]
 
 
+class _Same:
+    """Compares equal to a _Same of the very same object (inputs are replaced, not changed)."""
+
+    __slots__ = ('value',)
+
+    def __init__(self, value):
+        self.value = value
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, _Same) and other.value is self.value
+
+
 class FeedbackPublisher:
     """
     The arbiter's ``choices/feedback`` (module doc).
@@ -91,6 +103,8 @@ class FeedbackPublisher:
         node.create_subscription(MarkerArray, CHOICES_TOPIC, self._on_choices, CHOICES_QOS)
         self._throttle: Optional[FeedbackThrottle] = None
         self._sent_at = -math.inf
+        # What the last look at the feedback depended on (_inputs).
+        self._looked: Optional[tuple] = None
         self._set_rate(self.parameters.settings.feedback_rate_hz)
 
     # -- what the node tells it --------------------------------------------------------------
@@ -169,6 +183,19 @@ class FeedbackPublisher:
             cached = self._gazed = (newest, regions, self._rounds.label_at(newest.x, newest.y))
         return cached[2]
 
+    def _inputs(self, now: float) -> tuple:
+        """
+        Return everything :meth:`current` depends on at ``now`` (compared by identity).
+
+        The rounds' answers (their change count), the newest gaze point and whether it is
+        fresh, the confirmed option and whether it is still shown; the options are flagged
+        apart (``_options_changed``).
+        """
+        newest, chosen = self._newest, self._chosen
+        return (self._rounds.changes, _Same(newest),
+                newest is not None and now - newest.arrived <= GAZED_STALE_S,
+                _Same(chosen), chosen is not None and now < chosen.until)
+
     def update(self, now: float) -> None:
         """Send what choices/feedback shows at ``now`` (node clock, s), if it is due."""
         throttle = self._throttle
@@ -177,6 +204,11 @@ class FeedbackPublisher:
         if throttle is None or (now - self._sent_at < throttle.period
                                 and not self._options_changed):
             return
+        inputs = self._inputs(now)
+        if (inputs == self._looked and not self._options_changed
+                and now - self._sent_at < throttle.keepalive):
+            return      # what it shows is as at the last look, which was not worth sending
+        self._looked = inputs
         try:
             count = len(self._options.options)
             if count > MAX_FEEDBACK_OPTIONS:

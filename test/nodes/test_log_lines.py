@@ -1,0 +1,50 @@
+"""INFO lines the nodes log through log_throttle.log_info reach /rosout as rclpy's own do."""
+
+import inspect
+
+import pytest
+from rcl_interfaces.msg import Log
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from eye_bci_ros2.nodes.log_throttle import log_info, QuietRepeats
+
+pytestmark = pytest.mark.ros
+
+
+def test_a_line_logged_without_the_caller_search_reaches_rosout_like_loggers_own(graph):
+    node = graph.node('talker')
+    lines = []
+    graph.node('listener').create_subscription(
+        Log, '/rosout', lines.append,
+        QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                   durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    node.get_logger().info('the logger itself: 1 line')
+    own_line = inspect.currentframe().f_lineno - 1
+    log_info(node.get_logger(), 'through log_info: 1 line')
+    fast_line = inspect.currentframe().f_lineno - 1
+    QuietRepeats(node.get_logger()).info('through QuietRepeats: 1 line')
+    assert graph.spin_until(lambda: len([m for m in lines if m.name == 'talker']) >= 3)
+    own, fast, quiet = [m for m in lines if m.name == 'talker'][:3]
+    assert (fast.msg, quiet.msg) == ('through log_info: 1 line', 'through QuietRepeats: 1 line')
+    # The same severity, logger and caller fields as the logger's own line, each from its
+    # own call site.
+    assert fast.level == own.level == Log.INFO
+    assert (fast.file, fast.function) == (own.file, own.function) == (
+        __file__, 'test_a_line_logged_without_the_caller_search_reaches_rosout_like_loggers_own')
+    assert (own.line, fast.line) == (own_line, fast_line)
+    assert quiet.function == 'info' and quiet.file.endswith('log_throttle.py')
+
+
+def test_a_line_below_the_loggers_level_is_not_logged(graph):
+    node = graph.node('quiet_talker')
+    lines = []
+    graph.node('listener').create_subscription(
+        Log, '/rosout', lines.append,
+        QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                   durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    node.get_logger().set_level(30)   # WARN
+    log_info(node.get_logger(), 'not shown')
+    node.get_logger().warning('shown')
+    assert graph.spin_until(lambda: any(m.name == 'quiet_talker' for m in lines))
+    graph.spin_for(0.2)
+    assert [m.msg for m in lines if m.name == 'quiet_talker'] == ['shown']
