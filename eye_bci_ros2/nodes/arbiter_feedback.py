@@ -19,7 +19,11 @@ after each gaze batch (the gaze is shown as soon as it arrives), after a choice
 and on its own tick (a highlight that goes stale, a confirmation that ends).  A
 timer's wake-up costs about 0.1 ms of CPU whatever it does (``python -m
 bench.lab_rate``, part ``wake_up``), and the gaze batches come as often as a
-feedback timer would tick.
+feedback timer would tick.  An update works out what to show only when
+something it shows may have changed (the rounds' answers:
+:attr:`eye_bci_ros2.decision.rounds.RoundScheduler.changes`; the newest gaze
+point; the confirmation; their ageing), and then at most ``feedback_rate_hz``
+times a second: the ticks between gaze batches cost next to nothing.
 """
 
 import math
@@ -127,6 +131,7 @@ class FeedbackPublisher:
 
     def _set_rate(self, rate_hz: float) -> None:
         """Send at most ``rate_hz`` messages a second (0: none, and withdraw the halos)."""
+        self._looked = None
         if rate_hz > 0:
             self._throttle = FeedbackThrottle(max_rate_hz=rate_hz)
             return

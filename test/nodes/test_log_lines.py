@@ -11,20 +11,26 @@ from eye_bci_ros2.nodes.log_throttle import log_info, QuietRepeats
 pytestmark = pytest.mark.ros
 
 
-def test_a_line_logged_without_the_caller_search_reaches_rosout_like_loggers_own(graph):
-    node = graph.node('talker')
+def rosout_lines(graph, node_name):
+    """Return the /rosout messages of ``node_name`` as they arrive (a list that grows)."""
     lines = []
     graph.node('listener').create_subscription(
-        Log, '/rosout', lines.append,
-        QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
-                   durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        Log, '/rosout', lambda message: lines.append(message) if message.name == node_name
+        else None, QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                              durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    return lines
+
+
+def test_a_line_logged_without_the_caller_search_reaches_rosout_like_loggers_own(graph):
+    node = graph.node('talker')
+    lines = rosout_lines(graph, 'talker')
     node.get_logger().info('the logger itself: 1 line')
     own_line = inspect.currentframe().f_lineno - 1
     log_info(node.get_logger(), 'through log_info: 1 line')
     fast_line = inspect.currentframe().f_lineno - 1
     QuietRepeats(node.get_logger()).info('through QuietRepeats: 1 line')
-    assert graph.spin_until(lambda: len([m for m in lines if m.name == 'talker']) >= 3)
-    own, fast, quiet = [m for m in lines if m.name == 'talker'][:3]
+    assert graph.spin_until(lambda: len(lines) >= 3)
+    own, fast, quiet = lines[:3]
     assert (fast.msg, quiet.msg) == ('through log_info: 1 line', 'through QuietRepeats: 1 line')
     # The same severity, logger and caller fields as the logger's own line, each from its
     # own call site.
@@ -37,14 +43,10 @@ def test_a_line_logged_without_the_caller_search_reaches_rosout_like_loggers_own
 
 def test_a_line_below_the_loggers_level_is_not_logged(graph):
     node = graph.node('quiet_talker')
-    lines = []
-    graph.node('listener').create_subscription(
-        Log, '/rosout', lines.append,
-        QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
-                   durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    lines = rosout_lines(graph, 'quiet_talker')
     node.get_logger().set_level(30)   # WARN
     log_info(node.get_logger(), 'not shown')
     node.get_logger().warning('shown')
-    assert graph.spin_until(lambda: any(m.name == 'quiet_talker' for m in lines))
+    assert graph.spin_until(lambda: lines)
     graph.spin_for(0.2)
-    assert [m.msg for m in lines if m.name == 'quiet_talker'] == ['shown']
+    assert [m.msg for m in lines] == ['shown']

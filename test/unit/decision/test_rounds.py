@@ -341,3 +341,29 @@ def test_an_older_regions_set_arriving_late_does_not_withdraw_the_offered_choice
     assert ('warning', 'regions_order') in rec.logs
     rec.feed(at(RIGHT, 60), 10.0)
     assert rec.labels == ['B']
+
+
+def test_the_change_count_moves_with_every_input_and_not_with_questions():
+    # The feedback asks progress() and label_at() again only when it moved.
+    rec = Recorder(window_s=0.5, stall_timeout_s=0.2)
+    rounds = rec.rounds
+    seen = [rounds.changes]
+
+    def moved():
+        seen.append(rounds.changes)
+        return seen[-1] != seen[-2]
+
+    rounds.add_regions(squares({'A': LEFT, 'B': RIGHT}, 10.0), now=10.0)
+    assert moved()
+    rec.feed(at(LEFT, 10), start=10.0)
+    assert moved()
+    rounds.progress(), rounds.label_at(*LEFT), rounds.next_due(10.2), rounds.tick(10.2)
+    assert not moved()
+    # The stream goes quiet: the tick that closes the round moves it, the next does not.
+    assert rounds.tick(10.8) is not None and moved()
+    rounds.tick(10.9)
+    assert not moved()
+    rounds.request(now=11.0)
+    assert moved()
+    rounds.configure(window_s=0.4)
+    assert moved()
