@@ -50,10 +50,7 @@ that time until a sample stamped after it is published, and every
 ``idle_poll_period_s`` (40 ms) otherwise: at 1200 Hz with a round every
 0.25 s about 35 batches a second instead of 500, while the sample a decision
 waits for is still pulled within ``poll_period_s`` (``python -m
-bench.lab_rate``).  What those short ticks pull before that sample is there
-is held back and published with it (at most half an idle period): one
-message for the decision, not one per tick, as the arbiter's work and the
-executor's wake-ups go by messages.  One poll timer runs throughout; its period is changed in
+bench.lab_rate``).  One poll timer runs throughout; its period is changed in
 place (``timer_period_ns``: rcl applies it from the tick after next, the next
 one being scheduled already): the tick before a due time's span aims the tick
 after it at the span's start, so the span begins with at most one early tick
@@ -78,7 +75,7 @@ sends nothing while it sees no eyes) and ``gaze/on_screen`` turns false.
 from dataclasses import replace
 import math
 import time
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, Optional
 
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PointStamped
@@ -101,8 +98,8 @@ from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import (DECISION_DUE_TOPIC, GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC,
                                        GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS, VIEW_QOS)
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
-from eye_bci_ros2.streams.lsl_connection import (Chunk, ConnectionSettings, join_chunks,
-                                                 StreamConnection, StreamDescription)
+from eye_bci_ros2.streams.lsl_connection import (Chunk, ConnectionSettings, StreamConnection,
+                                                 StreamDescription)
 
 #: After a decision's due time, the short poll period is kept at most this long for a sample
 #: stamped after it (a stream that stopped), s: longer than the arbiter's stall timeout.
@@ -279,10 +276,6 @@ class LslGazeBridge(Node):
         self._due_ns: Optional[int] = None
         self._prompt_from = self._prompt_until = -math.inf
         self._pulled_at = -math.inf
-        # Chunks pulled in that span before the sample it waits for (module doc), published
-        # with it; since when, s of time.monotonic().
-        self._held: List[Chunk] = []
-        self._held_since = -math.inf
         # When the poll timer ticks next, s of time.monotonic() (set at each tick).
         self._next_tick = -math.inf
         # The poll timer's period now, ns (set in place by _pace).
@@ -412,7 +405,6 @@ class LslGazeBridge(Node):
 
     def _on_connected(self, stream: StreamDescription) -> None:
         """Bind a stream just opened, publish on_screen anew for it, start polling."""
-        self._publish_held([])       # the stream before it
         self._on_screen = None       # published once when this stream starts sending
         self._bind(stream)
         if self._poll_timer is not None:
@@ -445,10 +437,8 @@ class LslGazeBridge(Node):
                 return
         self._pulled_at = time.monotonic()
         try:
-            chunks = self._connection.acquire()
-            if self._hold(chunks):
-                return
-            self._publish_held(chunks)
+            for chunk in self._connection.acquire():
+                self._publish_chunk(chunk, time.monotonic())
         except Exception as exc:  # noqa: B902 - a node never dies on a sample
             self.get_logger().warning(f'failed to publish gaze: {exc}',
                                       throttle_duration_sec=WARN_PERIOD_S)
@@ -473,35 +463,6 @@ class LslGazeBridge(Node):
         self._prompt_until = due + PROMPT_LIMIT_S
         if self._poll_timer is not None:
             self._pace()
-
-    def _hold(self, chunks: List[Chunk]) -> bool:
-        """
-        Keep ``chunks`` back while the sample a due time waits for has not come (module doc).
-
-        Not longer than half an idle period, nor more than ``max_chunk`` samples: no
-        sample waits longer than between two idle pulls.
-        """
-        newest = self._connection.newest_stamp_ns
-        now = time.monotonic()
-        if (not chunks or self._due_ns is None or newest is None or newest >= self._due_ns
-                or not self._prompt_from <= now <= self._prompt_until):
-            return False
-        if not self._held:
-            self._held_since = now
-        elif (now - self._held_since >= 0.5 * self._params['idle_poll_period_s']
-              or sum(len(chunk.stamps_ns) for chunk in self._held + chunks)
-              > self._params['max_chunk']):
-            return False
-        self._held.extend(chunks)
-        return True
-
-    def _publish_held(self, chunks: List[Chunk]) -> None:
-        """Publish what was held back with the first of ``chunks``, then the rest."""
-        if self._held:
-            chunks = [join_chunks(self._held + chunks[:1])] + chunks[1:]
-            self._held = []
-        for chunk in chunks:
-            self._publish_chunk(chunk, time.monotonic())
 
     def _pull_due(self) -> bool:
         """Tell whether this tick pulls: near the due time, or after idle_poll_period_s."""

@@ -223,15 +223,6 @@ class Chunk:
     good: np.ndarray
 
 
-def join_chunks(chunks: Sequence[Chunk]) -> Chunk:
-    """Return consecutive chunks of one stream as one, in their order."""
-    if len(chunks) == 1:
-        return chunks[0]
-    return Chunk(samples=np.concatenate([chunk.samples for chunk in chunks]),
-                 stamps_ns=np.concatenate([chunk.stamps_ns for chunk in chunks]),
-                 good=np.concatenate([chunk.good for chunk in chunks]))
-
-
 def inlet_buflen(nominal_srate: float) -> int:
     """
     Return pylsl's ``max_buflen`` for :data:`INLET_BUFFER_S` of samples.
