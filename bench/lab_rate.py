@@ -32,6 +32,10 @@ Measured over the rounds (after a warm-up):
 * CPU of every node process, the pusher and this process (user + system
   time over the wall time, psutil; 100 % = one core) and of the rest of the
   machine (other users: the noise of a shared machine), with the load average;
+* the nodes' CPU over the pusher's: the pusher's work is fixed (``rate``
+  pushes a second), so its CPU tells how fast the machine ran in that run,
+  which on this 2-core virtual machine varies by about a fifth from run to run
+  (the same code's nodes alike); compare runs by this ratio;
 * wake-ups of every process's main thread per second (its voluntary context
   switches: for a node process, its executor's);
 * latency = ``choice`` arrival - request - ``window_s`` (the decision at the
@@ -495,6 +499,8 @@ def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float
         'extra_parameters': list(scenario.extra),
         'cpu_percent': {key: round(value, 1) for key, value in cpu.items()},
         'nodes_cpu_percent': round(nodes_cpu, 1),
+        'nodes_cpu_per_pusher_cpu': (round(nodes_cpu / cpu['pusher'], 3)
+                                     if cpu['pusher'] > 0 else None),
         'main_thread_wakeups_per_s': {key: round(value) for key, value in wakeups.items()},
         'others_cpu_percent': round(max(0.0, machine - ours), 1),
         'load_average_1min': round(load_average[0], 2),
@@ -508,7 +514,8 @@ def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float
         'arbiter_rounds_short': len(short), 'arbiter_samples_short': int(sum(short)),
     }
     print(f'lab_rate {scenario.name}: nodes {row["nodes_cpu_percent"]} % '
-          f'({", ".join(f"{k} {v:.1f}" for k, v in row["cpu_percent"].items())}; '
+          f'({row["nodes_cpu_per_pusher_cpu"]} x the pusher\'s; '
+          f'{", ".join(f"{k} {v:.1f}" for k, v in row["cpu_percent"].items())}; '
           f'wake-ups/s {", ".join(f"{k} {wakeups[k]:.0f}" for k in node_keys)}), '
           f'latency {row.get("window_end_to_choice") or row.get("request_to_choice")}, '
           f'rounds {row["rounds_right"]}/{row["rounds"]} right, {wrong} wrong, '

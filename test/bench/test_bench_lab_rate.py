@@ -32,6 +32,8 @@ def test_a_short_run_counts_every_sample_and_answers_right():
     assert row['samples_pushed'] > 0 and row['samples_lost_lsl'] == 0
     assert row['arbiter_rounds_counted'] >= 1 and row['arbiter_samples_short'] == 0
     assert row['cpu_percent']['eye_bci'] > 0
+    assert row['nodes_cpu_per_pusher_cpu'] == pytest.approx(
+        row['nodes_cpu_percent'] / row['cpu_percent']['pusher'], abs=0.01)
     assert row['main_thread_wakeups_per_s']['eye_bci'] > 0
 
 
