@@ -42,6 +42,9 @@ Measured over the rounds (after a warm-up):
   window end; ``early_decision:=false`` so that every round runs its window),
   p50 / p99 / max; scenarios with the node's own early decision report
   request -> ``choice`` instead;
+* how late the pusher pushed each sample after its stamp (p50 / p99 / max):
+  part of every latency, as a tracker's own delivery delay is, and the first
+  suspect of a latency's tail on a shared virtual machine;
 * samples lost: pushed vs received by the bridge (its ``gaze: N received``
   log lines), and per round the samples the arbiter decided on (its
   ``choice ...: N samples`` log line) vs the samples stamped in the window
@@ -178,7 +181,8 @@ def push_loop(conn, name: str, source_id: str, rate: float, push: str,
     then anything: close the outlet (a closed outlet takes the samples still
     in the inlet with it).  Out: ``('ready',)`` once the outlet exists,
     ``('pushing', first_stamp)`` once a consumer connected and pushing began,
-    ``('burst', pushed_at)``, ``('done', pushed)`` (the burst not counted).
+    ``('burst', pushed_at)``, ``('done', pushed, lateness)`` (the burst not
+    counted; :func:`push_lateness`).
     Every sample is stamped with its due time ``start + i / rate`` (LSL
     clock), also when the pusher runs late, as a tracker's samples carry
     their acquisition time.
@@ -196,16 +200,17 @@ def push_loop(conn, name: str, source_id: str, rate: float, push: str,
         if conn.poll(0.01):
             command = conn.recv()
             if command is None:
-                conn.send(('done', 0))
+                conn.send(('done', 0, _percentiles([])))
                 return
             aim = np.array(encode_xy_pixels(command[1:]))
     start, pushed = pylsl.local_clock(), 0
+    runs: List[Tuple[float, int, int]] = []    # (pushed at, first index, end index)
     conn.send(('pushing', start))
     while True:
         while conn.poll():
             command = conn.recv()
             if command is None:
-                conn.send(('done', pushed))
+                conn.send(('done', pushed, push_lateness(runs, start, rate)))
                 conn.poll(DRAIN_TIMEOUT_S)
                 return
             if command[0] == 'burst':
@@ -217,7 +222,10 @@ def push_loop(conn, name: str, source_id: str, rate: float, push: str,
                 conn.send(('burst', pushed_at))
                 continue
             aim = np.array(encode_xy_pixels(command[1:]))
-        due = int((pylsl.local_clock() - start) * rate) + 1
+        now = pylsl.local_clock()
+        due = int((now - start) * rate) + 1
+        if due > pushed:
+            runs.append((now, pushed, due))
         if push == 'sample':
             for index in range(pushed, due):   # one push per sample, as tracker apps do
                 point = aim + scale * rng.normal(0.0, GAZE_NOISE_PX, 2)
@@ -232,6 +240,25 @@ def push_loop(conn, name: str, source_id: str, rate: float, push: str,
                                   .tolist())
                 pushed = due
             time.sleep(CHUNK_PERIOD_S)
+
+
+def push_lateness(runs: Sequence[Tuple[float, int, int]], start: float,
+                  rate: float) -> Dict[str, float]:
+    """
+    How long after its stamp the pusher pushed each sample, ms (p50, p99, max).
+
+    A latency includes it: a decision waits for the first sample stamped after the
+    window end, which comes no earlier than the tracker sends it.
+
+    :param runs: per pass of the push loop: (LSL time, first sample index, end index).
+    """
+    if not runs:
+        return _percentiles([])
+    at, first, end = (np.asarray(column) for column in zip(*runs))
+    counts = end - first
+    index = (np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+             + np.repeat(first, counts))
+    return _percentiles((np.repeat(at, counts) - (start + index / rate)) * 1e3)
 
 
 def busy_loop(core: int) -> None:
@@ -442,7 +469,8 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
             machine = 100.0 * (_machine_cpu_s() - machine_start) / wall
             load_average = os.getloadavg()
             here.send(None)
-            pushed = here.recv()[1] if here.poll(10.0) else math.nan
+            pushed, lateness = (here.recv()[1:] if here.poll(10.0)
+                                else (math.nan, _percentiles([])))
             # The bridge's counter lines (stats_period_s 1 s) until they hold every sample.
             spin_until(executor, lambda: _bridge_received(logs) >= pushed, DRAIN_TIMEOUT_S,
                        step_s=0.1)
@@ -467,12 +495,12 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
     answers = ([(t, 'choice', chosen) for t, chosen in driver.received[first_answer[0]:]]
                + [(t, 'none', None) for t, _ in driver.no_choice[first_answer[1]:]])
     return _row(scenario, requests, sorted(answers), label, cpu, machine, load_average,
-                pushed, text, log, wakeups)
+                pushed, text, log, wakeups, lateness)
 
 
 def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float],
          machine: float, load_average, pushed: int, text: str, log,
-         wakeups: Dict[str, float]) -> Dict[str, object]:
+         wakeups: Dict[str, float], lateness: Dict[str, float]) -> Dict[str, object]:
     """Summarise one scenario's measurements."""
     node_keys = [key for key in cpu if key not in ('pusher', 'driver')]
     nodes_cpu = sum(cpu[key] for key in node_keys)
@@ -509,6 +537,7 @@ def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float
         'rounds': len(paired), 'rounds_right': len(latencies) - wrong, 'rounds_wrong': wrong,
         'rounds_no_choice': none, 'rounds_unanswered': unanswered,
         'samples_pushed': pushed, 'samples_bridge_received': received,
+        'pusher_lateness': lateness,
         'samples_lost_lsl': pushed - received if received else None,
         'arbiter_window_samples_expected': expected, 'arbiter_rounds_counted': len(used),
         'arbiter_rounds_short': len(short), 'arbiter_samples_short': int(sum(short)),
@@ -517,7 +546,8 @@ def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float
           f'({row["nodes_cpu_per_pusher_cpu"]} x the pusher\'s; '
           f'{", ".join(f"{k} {v:.1f}" for k, v in row["cpu_percent"].items())}; '
           f'wake-ups/s {", ".join(f"{k} {wakeups[k]:.0f}" for k in node_keys)}), '
-          f'latency {row.get("window_end_to_choice") or row.get("request_to_choice")}, '
+          f'latency {row.get("window_end_to_choice") or row.get("request_to_choice")} '
+          f'(the pusher late p99 {lateness["p99_ms"]} ms), '
           f'rounds {row["rounds_right"]}/{row["rounds"]} right, {wrong} wrong, '
           f'{none} none, {unanswered} unanswered; pushed {pushed}, bridge {received}; '
           f'others {row["others_cpu_percent"]} %, load {row["load_average_1min"]}',
