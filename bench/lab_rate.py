@@ -31,7 +31,10 @@ Measured over the rounds (after a warm-up):
 
 * CPU of every node process, the pusher and this process (user + system
   time over the wall time, psutil; 100 % = one core) and of the rest of the
-  machine (other users: the noise of a shared machine), with the load average;
+  machine (other users: the noise of a shared machine), with the load average,
+  and the time the hypervisor took the virtual CPUs away while they had work
+  (``steal`` in /proc/stat): a node stalled for a few ms that way makes a
+  latency's tail, whatever its code does;
 * the nodes' CPU over the pusher's: the pusher's work is fixed (``rate``
   pushes a second), so its CPU tells how fast the machine ran in that run,
   which on this 2-core virtual machine varies by about a fifth from run to run
@@ -312,9 +315,12 @@ def _wakeups(process: psutil.Process) -> int:
     return process.num_ctx_switches().voluntary
 
 
-def _machine_cpu_s() -> float:
+def _machine_cpu_s() -> Tuple[float, float]:
+    """Return the machine's busy CPU time and its stolen time (the hypervisor's), s."""
     times = psutil.cpu_times()
-    return sum(times) - times.idle - getattr(times, 'iowait', 0.0)
+    steal = getattr(times, 'steal', 0.0)
+    guest = getattr(times, 'guest', 0.0) + getattr(times, 'guest_nice', 0.0)  # in user, nice
+    return sum(times) - times.idle - getattr(times, 'iowait', 0.0) - steal - guest, steal
 
 
 def _stop(processes: Sequence[subprocess.Popen]) -> None:
@@ -457,7 +463,7 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
             handles['driver'] = psutil.Process()
             start_cpu = {key: _cpu_s(h) for key, h in handles.items()}
             start_wakeups = {key: _wakeups(h) for key, h in handles.items()}
-            machine_start, wall = _machine_cpu_s(), time.monotonic()
+            (machine_start, steal_start), wall = _machine_cpu_s(), time.monotonic()
             first_answer = len(driver.received), len(driver.no_choice)
             ask(int(round(seconds / REQUEST_PERIOD_S)))
             spin_for(executor, REQUEST_PERIOD_S)
@@ -466,7 +472,9 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
                    for key, h in handles.items()}
             wakeups = {key: (_wakeups(h) - start_wakeups[key]) / wall
                        for key, h in handles.items()}
-            machine = 100.0 * (_machine_cpu_s() - machine_start) / wall
+            machine, steal = _machine_cpu_s()
+            machine = 100.0 * (machine - machine_start) / wall
+            steal = 100.0 * (steal - steal_start) / wall
             load_average = os.getloadavg()
             here.send(None)
             pushed, lateness = (here.recv()[1:] if here.poll(10.0)
@@ -494,14 +502,19 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
         stream.close()
     answers = ([(t, 'choice', chosen) for t, chosen in driver.received[first_answer[0]:]]
                + [(t, 'none', None) for t, _ in driver.no_choice[first_answer[1]:]])
-    return _row(scenario, requests, sorted(answers), label, cpu, machine, load_average,
+    return _row(scenario, requests, sorted(answers), label, cpu, (machine, steal), load_average,
                 pushed, text, log, wakeups, lateness)
 
 
 def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float],
-         machine: float, load_average, pushed: int, text: str, log,
+         machine: Tuple[float, float], load_average, pushed: int, text: str, log,
          wakeups: Dict[str, float], lateness: Dict[str, float]) -> Dict[str, object]:
-    """Summarise one scenario's measurements."""
+    """
+    Summarise one scenario's measurements.
+
+    :param machine: the whole machine's busy CPU and the CPU the hypervisor stole, %.
+    """
+    machine, steal = machine
     node_keys = [key for key in cpu if key not in ('pusher', 'driver')]
     nodes_cpu = sum(cpu[key] for key in node_keys)
     ours = nodes_cpu + cpu['pusher'] + cpu['driver'] + (100.0 if scenario.load == 'busy' else 0)
@@ -531,6 +544,7 @@ def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float
                                      if cpu['pusher'] > 0 else None),
         'main_thread_wakeups_per_s': {key: round(value) for key, value in wakeups.items()},
         'others_cpu_percent': round(max(0.0, machine - ours), 1),
+        'stolen_cpu_percent': round(steal, 1),
         'load_average_1min': round(load_average[0], 2),
         ('request_to_choice' if scenario.early else 'window_end_to_choice'):
             _percentiles(latencies),
@@ -550,7 +564,8 @@ def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float
           f'(the pusher late p99 {lateness["p99_ms"]} ms), '
           f'rounds {row["rounds_right"]}/{row["rounds"]} right, {wrong} wrong, '
           f'{none} none, {unanswered} unanswered; pushed {pushed}, bridge {received}; '
-          f'others {row["others_cpu_percent"]} %, load {row["load_average_1min"]}',
+          f'others {row["others_cpu_percent"]} %, stolen {row["stolen_cpu_percent"]} %, '
+          f'load {row["load_average_1min"]}',
           file=log, flush=True)
     return row
 

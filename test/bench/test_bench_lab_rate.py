@@ -35,6 +35,7 @@ def test_a_short_run_counts_every_sample_and_answers_right():
     assert row['nodes_cpu_per_pusher_cpu'] == pytest.approx(
         row['nodes_cpu_percent'] / row['cpu_percent']['pusher'], abs=0.01)
     assert row['main_thread_wakeups_per_s']['eye_bci'] > 0
+    assert row['stolen_cpu_percent'] >= 0 and row['others_cpu_percent'] >= 0
 
 
 def test_the_wake_up_cost_is_measured_with_and_without_the_timer(monkeypatch):
