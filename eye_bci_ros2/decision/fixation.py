@@ -135,14 +135,10 @@ class _Fixation:
         self.count += 1
         self.last = stamp
         self.stamps.append(stamp)
-        if self.sums_x:
-            self.sums_x.append(self.sums_x[-1] + x)
-            self.sums_y.append(self.sums_y[-1] + y)
-            self.squares.append(self.squares[-1] + (x * x + y * y))
-        else:
-            self.sums_x.append(x)
-            self.sums_y.append(y)
-            self.squares.append(x * x + y * y)
+        started = bool(self.sums_x)
+        self.sums_x.append(x + (self.sums_x[-1] if started else 0.0))
+        self.sums_y.append(y + (self.sums_y[-1] if started else 0.0))
+        self.squares.append(x * x + y * y + (self.squares[-1] if started else 0.0))
 
     def movement(self, span: float) -> Tuple[float, float]:
         """

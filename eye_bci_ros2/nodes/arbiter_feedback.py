@@ -68,18 +68,6 @@ class Confirmed(NamedTuple):
     marker: Optional[Marker]
 
 
-class _Same:
-    """Compares equal to a _Same of the very same object (inputs are replaced, not changed)."""
-
-    __slots__ = ('value',)
-
-    def __init__(self, value):
-        self.value = value
-
-    def __eq__(self, other) -> bool:
-        return isinstance(other, _Same) and other.value is self.value
-
-
 class FeedbackPublisher:
     """
     The arbiter's ``choices/feedback`` (module doc).
@@ -99,8 +87,6 @@ class FeedbackPublisher:
         self._options = OptionMarkers()
         self._halos = FeedbackMarkers()
         self._newest: Optional[GazePoint] = None
-        # (gaze point, classifier, label): updates come more often than gaze points.
-        self._gazed: Optional[tuple] = None
         self._chosen: Optional[Confirmed] = None
         self._options_changed = False
         self._publisher = node.create_publisher(MarkerArray, FEEDBACK_TOPIC, FEEDBACK_QOS)
@@ -174,32 +160,24 @@ class FeedbackPublisher:
         gazed = None
         newest = self._newest
         if newest is not None and now - newest.arrived <= GAZED_STALE_S:
-            gazed = self._gazed_label(newest)
+            gazed = self._rounds.label_at(newest.x, newest.y)
         feedback = build_feedback([option_label(m) for m in options], gazed=gazed,
                                   chosen=chosen, progress=self._rounds.progress(),
                                   stamp=now)
         return feedback, options
 
-    def _gazed_label(self, newest: GazePoint) -> Optional[str]:
-        """Return the option ``newest`` counts for (asked again when it or the options change)."""
-        regions = self._rounds.classifier
-        cached = self._gazed
-        if cached is None or cached[0] is not newest or cached[1] is not regions:
-            cached = self._gazed = (newest, regions, self._rounds.label_at(newest.x, newest.y))
-        return cached[2]
-
     def _inputs(self, now: float) -> tuple:
         """
-        Return everything :meth:`current` depends on at ``now`` (compared by identity).
+        Return everything :meth:`current` depends on at ``now``.
 
         The rounds' answers (their change count), the newest gaze point and whether it is
         fresh, the confirmed option and whether it is still shown; the options are flagged
         apart (``_options_changed``).
         """
         newest, chosen = self._newest, self._chosen
-        return (self._rounds.changes, _Same(newest),
+        return (self._rounds.changes, newest,
                 newest is not None and now - newest.arrived <= GAZED_STALE_S,
-                _Same(chosen), chosen is not None and now < chosen.until)
+                chosen, chosen is not None and now < chosen.until)
 
     def update(self, now: float) -> None:
         """Send what choices/feedback shows at ``now`` (node clock, s), if it is due."""
