@@ -259,6 +259,7 @@ def push_lateness(runs: Sequence[Tuple[float, int, int]], start: float,
         return _percentiles([])
     at, first, end = (np.asarray(column) for column in zip(*runs))
     counts = end - first
+    # Each sample's index: its run's first index plus its place in the run.
     index = (np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
              + np.repeat(first, counts))
     return _percentiles((np.repeat(at, counts) - (start + index / rate)) * 1e3)
@@ -502,19 +503,19 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
         stream.close()
     answers = ([(t, 'choice', chosen) for t, chosen in driver.received[first_answer[0]:]]
                + [(t, 'none', None) for t, _ in driver.no_choice[first_answer[1]:]])
-    return _row(scenario, requests, sorted(answers), label, cpu, (machine, steal), load_average,
+    return _row(scenario, requests, sorted(answers), label, cpu, machine, steal, load_average,
                 pushed, text, log, wakeups, lateness)
 
 
 def _row(scenario: Scenario, requests, answers, label: str, cpu: Dict[str, float],
-         machine: Tuple[float, float], load_average, pushed: int, text: str, log,
+         machine: float, steal: float, load_average, pushed: int, text: str, log,
          wakeups: Dict[str, float], lateness: Dict[str, float]) -> Dict[str, object]:
     """
     Summarise one scenario's measurements.
 
-    :param machine: the whole machine's busy CPU and the CPU the hypervisor stole, %.
+    :param machine: the whole machine's busy CPU, %.
+    :param steal: the CPU the hypervisor took away meanwhile, %.
     """
-    machine, steal = machine
     node_keys = [key for key in cpu if key not in ('pusher', 'driver')]
     nodes_cpu = sum(cpu[key] for key in node_keys)
     ours = nodes_cpu + cpu['pusher'] + cpu['driver'] + (100.0 if scenario.load == 'busy' else 0)
