@@ -117,6 +117,25 @@ def run(command: List[str], env: dict, domain: int, timeout: float = WAIT_S):
     return result.returncode, result.stdout + result.stderr
 
 
+#: How long one ``ros2 param`` call may take before it is asked again, s.
+PARAM_CALL_S = 30.0
+
+
+def run_param(command: List[str], env: dict, domain: int):
+    """
+    Run a ``ros2 param`` command; ask once more if it hangs; return (status, output).
+
+    ros2param waits for the service's answer without a timeout (its ``--timeout`` bounds
+    discovery only: ros2/ros2cli#1159), and a response can be lost while the DDS
+    discovery of its reply is unfinished, which a loaded machine makes likelier.  A
+    node that does not answer fails both calls.
+    """
+    try:
+        return run(command, env, domain, timeout=PARAM_CALL_S)
+    except subprocess.TimeoutExpired:
+        return run(command, env, domain, timeout=PARAM_CALL_S)
+
+
 def alive(pids: List[int]) -> List[int]:
     """Return the pids of ``pids`` that still run (not zombies)."""
     running = []
@@ -164,19 +183,19 @@ def test_param_set_get_dump_and_the_dump_as_params_file(ros2, env, tmp_path):
             assert re.search(r"unknown parameter 'screen_ofset_x'.*'screen_offset_x'",
                              node.output()), node.output()
             daemonless = ['--no-daemon', *DISCOVERY]
-            status, out = run([str(ros2), 'param', 'set', *daemonless, '/marker_projector',
-                               'screen_offset_x', '64.5'], env, domain)
+            status, out = run_param([str(ros2), 'param', 'set', *daemonless, '/marker_projector',
+                                    'screen_offset_x', '64.5'], env, domain)
             assert status == 0 and 'Set parameter successful' in out, out
-            status, out = run([str(ros2), 'param', 'get', *daemonless, '/marker_projector',
-                               'screen_offset_x'], env, domain)
+            status, out = run_param([str(ros2), 'param', 'get', *daemonless, '/marker_projector',
+                                    'screen_offset_x'], env, domain)
             assert status == 0 and '64.5' in out, out
-            status, out = run([str(ros2), 'param', 'set', *daemonless, '/marker_projector',
-                               'image_widht', '1920'], env, domain)
+            status, out = run_param([str(ros2), 'param', 'set', *daemonless, '/marker_projector',
+                                    'image_widht', '1920'], env, domain)
             assert 'Setting parameter failed' in out, out
             assert node.wait_for(r"unknown parameter 'image_widht'.*'image_width'"), \
                 node.output()
-            status, dumped = run([str(ros2), 'param', 'dump', *daemonless,
-                                  '/marker_projector'], env, domain)
+            status, dumped = run_param([str(ros2), 'param', 'dump', *daemonless,
+                                       '/marker_projector'], env, domain)
             assert status == 0, dumped
         finally:
             node.interrupt()
@@ -191,9 +210,8 @@ def test_param_set_get_dump_and_the_dump_as_params_file(ros2, env, tmp_path):
         try:
             assert again.wait_for('waiting for camera/pose'), again.output()
             assert 'screen_offset=[64.5, 180.0]' in again.output(), again.output()
-            status, out = run([str(ros2), 'param', 'dump', '--no-daemon', *DISCOVERY,
-                              '/marker_projector'],
-                              env, domain)
+            status, out = run_param([str(ros2), 'param', 'dump', '--no-daemon', *DISCOVERY,
+                                    '/marker_projector'], env, domain)
             assert yaml.safe_load(out) == yaml.safe_load(dumped)
         finally:
             again.interrupt()
@@ -219,8 +237,8 @@ def test_every_node_of_eye_bci_and_gaze_validation_dumps_what_it_declares(ros2, 
             assert validation.wait_for('waiting for validation/start'), validation.output()
             assert pipeline.wait_for('waiting for camera/pose'), pipeline.output()
             for name in nodes:
-                status, out = run([str(ros2), 'param', 'dump', '--no-daemon', *DISCOVERY,
-                                   f'/{name}'], env, domain)
+                status, out = run_param([str(ros2), 'param', 'dump', '--no-daemon',
+                                         *DISCOVERY, f'/{name}'], env, domain)
                 assert status == 0, out
                 dumps[name] = yaml.safe_load(out)[f'/{name}']['ros__parameters']
                 declared = {spec.name for spec in getattr(importlib.import_module(
