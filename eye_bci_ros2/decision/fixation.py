@@ -73,7 +73,7 @@ from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from eye_bci_ros2.decision.evidence import checked_batch, Decision, options_moved
+from eye_bci_ros2.decision.evidence import checked_batch, clip01, Decision, options_moved
 from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.projection.visual_angle import px_per_degree_at, ScreenGeometry
 
@@ -411,7 +411,7 @@ class FixationEvidence:
         chance = 1.0 / max(len(self._latest.label_set), 1)
         belief = 1.0 if confidence <= chance else (posterior - chance) / (confidence - chance)
         time_part = 1.0 if self.dwell_s <= 0 else current.duration / self.dwell_s
-        out[label] = float(np.clip(belief, 0.0, 1.0) * np.clip(time_part, 0.0, 1.0))
+        out[label] = clip01(belief) * clip01(time_part)
         return out
 
     # -- events and the spatial test ----------------------------------------------------------
@@ -488,17 +488,23 @@ class FixationEvidence:
 
         :param asker: whose cached test: 'decision' or 'feedback' (kept apart).
         """
-        centre = current.centre
+        centre = current.centre_xy
         cached = self._judged.get(asker)
         if (cached is not None and cached[0] is current and cached[1] is region_set
                 and abs(cached[2][0] - centre[0]) + abs(cached[2][1] - centre[1]) < 0.5):
             return cached[3]
-        label, posterior, margin, _ = self._judge(centre, region_set)
+        label, posterior, margin, _ = self._judge(np.array(centre), region_set)
         self._judged[asker] = (current, region_set, centre, (label, posterior, margin))
         return label, posterior, margin
 
     def _option_geometry(self, region_set: RegionSet) -> tuple:
-        """Centres (R, 2) px and sizes (R,) px of a set's options (once per set)."""
+        """
+        Return what :meth:`_judge` needs of a set's options (once per set).
+
+        :returns: centres (R, 2) px, sizes (R,) px, usable (R,) bool (finite centre),
+            the labels (R,) array, and the usable regions' labels in order when no label
+            is shown twice (else None: their likelihoods are pooled per label).
+        """
         key = id(region_set)
         if key not in self._options:
             polygons = region_set.polygons
@@ -506,7 +512,11 @@ class FixationEvidence:
             x, y = polygons[..., 0], polygons[..., 1]
             area = 0.5 * np.abs(np.nansum(x * np.roll(y, -1, axis=1)
                                           - np.roll(x, -1, axis=1) * y, axis=1))
-            self._options[key] = (region_set, centres, np.sqrt(area))
+            usable = np.isfinite(centres).all(axis=1)
+            labels = [region_set.labels[index] for index in np.flatnonzero(usable)]
+            distinct = labels if len(set(labels)) == len(labels) else None
+            self._options[key] = (region_set, centres, np.sqrt(area), usable,
+                                  np.array(region_set.labels), distinct)
         return self._options[key][1:]
 
     def _judge(self, centre: np.ndarray, region_set: RegionSet
@@ -521,30 +531,33 @@ class FixationEvidence:
         """
         if not len(region_set):
             return None, 0.0, 0.0, False
-        centres, sizes = self._option_geometry(region_set)
-        usable = np.isfinite(centres).all(axis=1)
+        centres, sizes, usable, label_array, distinct = self._option_geometry(region_set)
         if not usable.any():
             return None, 0.0, 0.0, False
         scale = float(px_per_degree_at(centre.reshape(1, 2), self.screen)[0])
         distance = np.hypot(*(centres - centre).T) / scale
         sigma = np.sqrt(self.sigma_gaze_deg ** 2 + (OBJECT_SPREAD * sizes / scale) ** 2)
-        log_like = np.where(usable, -0.5 * (distance / sigma) ** 2 - 2.0 * np.log(sigma), -np.inf)
-        # Regions with one label pool their likelihood (a label shown twice is one option).
-        labels = region_set.labels
-        per_label: Dict[str, float] = {}
-        for index in np.flatnonzero(usable):
-            per_label[labels[index]] = np.logaddexp(per_label.get(labels[index], -np.inf),
-                                                    log_like[index])
-        names = list(per_label)
-        values = np.array([per_label[name] for name in names])
+        sigmas = distance / sigma
+        log_like = np.where(usable, -0.5 * sigmas ** 2 - 2.0 * np.log(sigma), -np.inf)
+        if distinct is not None:
+            names, values = distinct, log_like[usable]
+        else:
+            # Regions with one label pool their likelihood (a label shown twice is one
+            # option); each label's first term is its own (logaddexp with -inf: exact).
+            labels = region_set.labels
+            per_label: Dict[str, float] = {}
+            for index in np.flatnonzero(usable):
+                per_label[labels[index]] = np.logaddexp(per_label.get(labels[index], -np.inf),
+                                                        log_like[index])
+            names = list(per_label)
+            values = np.array([per_label[name] for name in names])
         posterior = np.exp(values - values.max())
         posterior /= posterior.sum()
         order = np.argsort(posterior)[::-1]
         leader = names[order[0]]
         margin = float(posterior[order[0]] - (posterior[order[1]] if len(order) > 1 else 0.0))
-        nearest = int(np.argmin(np.where(usable & (np.array(labels) == leader), distance
-                                         / sigma, np.inf)))
-        if distance[nearest] / sigma[nearest] > MAX_SIGMAS:
+        nearest = int(np.argmin(np.where(usable & (label_array == leader), sigmas, np.inf)))
+        if sigmas[nearest] > MAX_SIGMAS:
             return None, float(posterior[order[0]]), margin, False
         outlines = self.regions_for(region_set)
         hit = outlines.classify_one(float(centre[0]), float(centre[1]))

@@ -118,10 +118,12 @@ class RegionSet:
         """Per-sample path of :meth:`classify`: region index of (x, y) px, or -1."""
         if not self.labels:
             return -1
+        inside = self._set.contains_one(x, y)
+        hits = inside.count(True)
+        if hits < 2:
+            return inside.index(True) if hits else -1
         point = np.array([[x, y]], dtype=float)
-        with np.errstate(invalid='ignore', over='ignore'):
-            inside = self._set.contains(point)
-        return int(self._resolve(point, inside)[0])
+        return int(self._resolve(point, np.array([inside]))[0])
 
     def _resolve(self, points: np.ndarray, inside: np.ndarray) -> np.ndarray:
         """Pick one region per point from an (N, R) inside matrix."""

@@ -358,5 +358,8 @@ class TolerantRegions(RegionSet):
         return region
 
     def classify_one(self, x: float, y: float) -> int:
-        """Region index of one point, tolerant rule."""
+        """Region index of one point, tolerant rule (:meth:`classify` of one row)."""
+        index = super().classify_one(x, y)
+        if index >= 0 or not len(self.labels):
+            return index      # inside an option: the tolerance is not asked
         return int(self.classify(np.array([[x, y]]))[0])

@@ -93,8 +93,9 @@ class FeedbackPublisher:
         node.create_subscription(MarkerArray, CHOICES_TOPIC, self._on_choices, CHOICES_QOS)
         self._throttle: Optional[FeedbackThrottle] = None
         self._sent_at = -math.inf
-        # What the last look at the feedback depended on (_inputs).
+        # What the last look at the feedback depended on (_inputs), and when it was.
         self._looked: Optional[tuple] = None
+        self._looked_at = -math.inf
         self._set_rate(self.parameters.settings.feedback_rate_hz)
 
     # -- what the node tells it --------------------------------------------------------------
@@ -107,7 +108,7 @@ class FeedbackPublisher:
         """Show ``label`` chosen (green) for ``feedback_confirm_s`` from ``now`` s."""
         self._chosen = Confirmed(label, now + self.parameters.settings.feedback_confirm_s,
                                  self._options.get(label))
-        self.update(now)
+        self.update(now, at_once=True)
 
     # -- parameters, inputs ---------------------------------------------------------------
 
@@ -179,19 +180,30 @@ class FeedbackPublisher:
                 newest is not None and now - newest.arrived <= GAZED_STALE_S,
                 chosen, chosen is not None and now < chosen.until)
 
-    def update(self, now: float) -> None:
-        """Send what choices/feedback shows at ``now`` (node clock, s), if it is due."""
+    def update(self, now: float, at_once: bool = False) -> None:
+        """
+        Send what choices/feedback shows at ``now`` (node clock, s), if it is due.
+
+        :param at_once: look now even if the last look was less than a feedback period
+            ago (a choice: its confirmation is shown without delay).
+        """
         throttle = self._throttle
+        if throttle is None:
+            return
         # At most feedback_rate_hz messages whatever changes (a gaze that jumps between
-        # options every batch included); what is held back goes out with the next update.
-        if throttle is None or (now - self._sent_at < throttle.period
-                                and not self._options_changed):
+        # options every batch included), and at most two looks per message period: a look
+        # costs about 0.3 ms, and while a decision is due the gaze batches come every 2 ms.
+        # Two, not one: sampled once a period, a change could wait a whole period more.
+        # What is held back goes out with the next update (the node's next tick at the latest).
+        urgent = at_once or self._options_changed
+        if not urgent and (now - self._sent_at < throttle.period
+                           or now - self._looked_at < 0.5 * throttle.period):
             return
         inputs = self._inputs(now)
-        if (inputs == self._looked and not self._options_changed
+        if (inputs == self._looked and not urgent
                 and now - self._sent_at < throttle.keepalive):
             return      # what it shows is as at the last look, which was not worth sending
-        self._looked = inputs
+        self._looked, self._looked_at = inputs, now
         try:
             count = len(self._options.options)
             if count > MAX_FEEDBACK_OPTIONS:

@@ -63,6 +63,7 @@ from eye_bci_ros2.nodes.arbiter_fusion import FUSION_PARAMETERS, FusionInput
 from eye_bci_ros2.nodes.conversions import gaze_cdr, marker_array_to_regions, ns_to_stamp
 from eye_bci_ros2.nodes.graph_watch import GraphWatch
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings, QuietRepeats
+from eye_bci_ros2.nodes.node_clock import NodeClock
 from eye_bci_ros2.nodes.parameters import param_specs, SettingsParameters
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, DECISION_DUE_TOPIC, EVENT_QOS, GAZE_QOS,
@@ -96,6 +97,8 @@ class ChoiceArbiter(Node):
     def __init__(self, **kwargs):
         """Declare parameters, topics and the round timer."""
         super().__init__('choice_arbiter', **kwargs)
+        # Read several times per gaze batch, without a Time object.
+        self._time = NodeClock(self)
         self._decision = SettingsParameters(self, ArbiterSettings, self._on_parameters)
         self._warnings = KeyedWarnings(self.get_logger())
         # Rounds that end without a choice, again and again, are not logged each (log_throttle).
@@ -177,7 +180,7 @@ class ChoiceArbiter(Node):
         self._rounds.configure(**changed)
 
     def _now(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
+        return self._time.seconds()
 
     # -- inputs -----------------------------------------------------------------------------
 

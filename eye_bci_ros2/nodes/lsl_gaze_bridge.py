@@ -93,6 +93,7 @@ from eye_bci_ros2.gaze.validation import (as_matrix, correction_values, IDENTITY
 from eye_bci_ros2.nodes.conversions import gaze_cdr, gaze_point, stamp_to_ns
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
+from eye_bci_ros2.nodes.node_clock import NodeClock
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.topics import (DECISION_DUE_TOPIC, GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC,
@@ -283,10 +284,12 @@ class LslGazeBridge(Node):
         self.create_subscription(Time, DECISION_DUE_TOPIC, self._on_due, LATCHED_QOS)
         self._resolve_timer = None
         self._stats_timer = None
+        # Read a few times per chunk (stamps: the ROS-LSL clock pair), without a Time object.
+        self._time = NodeClock(self)
         self._connection = StreamConnection(
             GazeStreamProfile(self._config), PylslBackend(), _settings(self._params),
             LogReporter(self.get_logger()),
-            ros_now_ns=lambda: self.get_clock().now().nanoseconds,
+            ros_now_ns=self._time.ns,
             on_connected=self._on_connected, on_quiet=lambda: self._publish_on_screen(False))
         self._make_timers(('poll_period_s', 'resolve_period_s', 'stats_period_s'))
         self.get_logger().info(
@@ -456,7 +459,7 @@ class LslGazeBridge(Node):
                 f"{self._params['poll_period_s']:g} s when a decision is due")
         self._due_ns = stamp_to_ns(msg)
         # The ROS clock's due time on the monotonic clock the ticks read.
-        due = time.monotonic() + (self._due_ns - self.get_clock().now().nanoseconds) * 1e-9
+        due = time.monotonic() + (self._due_ns - self._time.ns()) * 1e-9
         # From two short periods before it until a sample stamped after it is out (or the
         # stream stopped): what a decision due then waits for.
         self._prompt_from = due - 2.0 * self._params['poll_period_s']

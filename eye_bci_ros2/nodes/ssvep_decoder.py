@@ -42,6 +42,7 @@ from visualization_msgs.msg import MarkerArray
 from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
 from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
+from eye_bci_ros2.nodes.node_clock import NodeClock
 from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.nodes.runner import spin_node
 from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map, scores_to_msg, time_to_seconds
@@ -191,10 +192,11 @@ class SsvepDecoder(Node):
         self._decoder: Optional[OnlineDecoder] = None
         self._channel_indices = None
         self._bind_error = ''
+        self._time = NodeClock(self)
         self._connection = StreamConnection(
             EegStreamProfile(self._params), PylslBackend(),
             _connection_settings(self._params), LogReporter(self.get_logger()),
-            ros_now_ns=lambda: self.get_clock().now().nanoseconds,
+            ros_now_ns=self._time.ns,
             on_connected=self._on_connected, on_quiet=self._on_quiet)
         self._my_timers = {}
         self._make_timers(('poll_period_s', 'resolve_period_s', 'decide_period_s'))
@@ -266,7 +268,7 @@ class SsvepDecoder(Node):
                 self._my_timers[key] = self.create_timer(self._params[key], callback)
 
     def _now(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
+        return self._time.seconds()
 
     def _warn(self, key: str, text: str) -> None:
         """Log a warning of kind ``key`` at most once per WARN_PERIOD_S."""

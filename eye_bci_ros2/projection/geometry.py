@@ -15,7 +15,7 @@ function is vectorised over points and markers and raises ``ValueError`` with
 a readable message on bad input.
 """
 
-from typing import Tuple
+from typing import List, Tuple
 
 import numpy as np
 
@@ -538,6 +538,10 @@ class PolygonSet:
             np.stack([a, b, c]).transpose(0, 2, 1).reshape(3, -1))
         self._valid = valid
         self._block = max(256, self.BLOCK_BYTES // (8 * max(1, self.count * self.vertex_count)))
+        # The same half-planes as Python floats, per valid polygon (contains_one).
+        columns = self._coefficients.T.reshape(self.vertex_count, self.count, 3).tolist()
+        self._edges = [[columns[edge][index] for edge in range(self.vertex_count)]
+                       if valid[index] else None for index in range(self.count)]
 
     def contains(self, points, tolerance: float = 1e-9) -> np.ndarray:
         """
@@ -569,6 +573,18 @@ class PolygonSet:
             np.greater_equal(worst, -tolerance, out=inside[start:start + size])
         inside &= self._valid[None, :]
         return inside
+
+    def contains_one(self, x: float, y: float, tolerance: float = 1e-9) -> List[bool]:
+        """
+        Inside test of one point (x, y) px: :meth:`contains` of one row, in Python floats.
+
+        The per-sample path (a highlight, a fixation's place): for one point a numpy
+        operation costs more than its arithmetic.  NaN is inside nothing.
+
+        :returns: one bool per polygon (R,).
+        """
+        return [edges is not None and all(a * x + b * y + c >= -tolerance for a, b, c in edges)
+                for edges in self._edges]
 
 
 def back_project(pixels, intrinsic, external) -> Tuple[np.ndarray, np.ndarray]:

@@ -5,8 +5,9 @@ import math
 import numpy as np
 import pytest
 
+from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.tolerance import (classify_tolerant, extend_to_nearby, GazeErrorModel,
-                                             polygon_distances)
+                                             polygon_distances, TolerantRegions)
 from eye_bci_ros2.projection.visual_angle import (DEFAULT_VIEWING, degrees_to_px, px_per_degree_at,
                                                   ScreenGeometry)
 
@@ -163,6 +164,23 @@ def test_many_points_match_one_by_one():
               for p in points[:200]]
     np.testing.assert_array_equal(batch[:200], single)
     assert {-1, 0, 1} == set(batch.tolist())
+
+
+def test_one_point_path_matches_the_batch_for_both_rules():
+    # classify_one (a highlight, a fixation's place) answers as classify does: inside,
+    # near, midway, far, overlapping regions (nearest centroid), NaN, padded polygons
+    # (a repeated last vertex; a NaN row contains nothing).
+    rng = np.random.default_rng(11)
+    overlapping = square(180, 160)
+    polygons = np.stack([np.concatenate([A, A[-1:], A[-1:]]), square(350, 150, pad=2),
+                         np.concatenate([overlapping, overlapping[-1:], overlapping[-1:]])])
+    points = np.concatenate([rng.uniform(0, 500, (600, 2)), [[np.nan, 150.0], [150.0, 100.0]]])
+    for regions in (RegionSet(['a', 'b', 'c'], polygons),
+                    TolerantRegions(['a', 'b', 'c'], polygons, ratio=0.5),
+                    TolerantRegions(['a', 'b', 'c'], polygons, size_aware=True)):
+        batch = regions.classify(points)
+        assert [regions.classify_one(x, y) for x, y in points.tolist()] == batch.tolist()
+        assert {-1, 0, 2} <= set(batch.tolist())
 
 
 def test_size_aware_tolerance_counts_from_the_centre():

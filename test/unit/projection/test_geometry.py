@@ -466,6 +466,22 @@ def test_padded_polygons_and_nan_polygon_and_nan_point():
                                   geometry.points_in_convex_polygons(points, polygons))
 
 
+def test_one_point_test_matches_the_batch_test_on_edges_nan_and_padding():
+    # The per-sample path (contains_one) answers as contains does for the same point.
+    rng = np.random.default_rng(7)
+    polygons = np.array([padded(SQUARE), padded(TRIANGLE), padded(TRIANGLE[::-1]),
+                         np.full((6, 2), np.nan), padded([[2, 2], [12, 2], [12, 12], [2, 12]])])
+    points = np.concatenate([rng.uniform(-2, 14, (400, 2)),
+                             [[0, 5], [10, 10], [2, 2], [4, 0], [2, 2.0000001], [np.nan, 1],
+                              [np.inf, 0], [-np.inf, np.inf]]])
+    prepared = geometry.PolygonSet(polygons)
+    with np.errstate(invalid='ignore', over='ignore'):
+        batch = prepared.contains(points)
+    one = [prepared.contains_one(x, y) for x, y in points.tolist()]
+    np.testing.assert_array_equal(batch, one)
+    assert batch.any(axis=0).tolist() == [True, True, True, False, True]
+
+
 def test_polygon_set_rejects_wrong_shapes():
     with pytest.raises(ValueError, match='polygons'):
         geometry.PolygonSet(np.zeros((4, 2)))
