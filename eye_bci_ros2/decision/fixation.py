@@ -315,9 +315,18 @@ class FixationEvidence:
         self.valid += int(np.count_nonzero(finite))
         if len(stamps):
             self.last_stamp = float(stamps[-1])
-        # Python floats: the samples are taken one at a time (see _Fixation).
+        # Python floats: the samples are taken one at a time (see _Fixation), but for runs
+        # that join the current fixation before it can decide (_join_run).
         all_x, all_y, all_stamps = points[:, 0].tolist(), points[:, 1].tolist(), stamps.tolist()
-        for index in np.flatnonzero(finite).tolist():
+        indices = np.flatnonzero(finite).tolist()
+        position = 0
+        while position < len(indices):
+            joined = self._join_run(points, stamps, indices, position, confidence)
+            if joined:
+                position += joined
+                continue
+            index = indices[position]
+            position += 1
             stamp = all_stamps[index]
             if not self._take(stamp, all_x[index], all_y[index], region_set):
                 continue
@@ -327,10 +336,66 @@ class FixationEvidence:
             label, posterior, margin = self._judge_current(current, region_set, 'decision')
             if label is not None and posterior >= confidence:
                 self.last_stamp = stamp
+                # As one at a time: the samples after the deciding one are not taken.
                 self.samples -= len(points) - index - 1
+                self.valid -= int(np.count_nonzero(finite[index + 1:]))
                 self.decision = self._decision(label, 'early', current, posterior, margin)
                 return self.decision
         return None
+
+    def _join_run(self, points: np.ndarray, stamps: np.ndarray, indices: List[int],
+                  position: int, confidence: Optional[float]) -> int:
+        """
+        Add at once the samples from ``indices[position]`` on that join the current fixation.
+
+        What one sample at a time would do, in the same floating-point operations (the
+        running sums are sequential: ``np.cumsum``), for the run of samples that each lie
+        within the radius of the fixation's centre so far and after which it cannot yet
+        decide (:meth:`_settled`'s span and count); a distance within a rounding error of
+        the radius is left to :meth:`_take` (``np.hypot`` and ``math.hypot`` may differ in
+        the last bit).  Cheap tests on the first sample first: a saccade's samples go one
+        by one without numpy work.
+
+        :returns: how many samples it added (0: none; :meth:`_take` takes the next).
+        """
+        current = self._current
+        remaining = len(indices) - position
+        if current is None or remaining < 2:
+            return 0
+        first = indices[position]
+        x, y, stamp = float(points[first, 0]), float(points[first, 1]), float(stamps[first])
+        centre_x, centre_y = current.centre_xy
+        margin = 1e-9 * max(self._radius_px, 1.0)
+        if math.hypot(x - centre_x, y - centre_y) > self._radius_px - margin:
+            return 0
+        can_decide = confidence is not None and current.fresh
+        if can_decide and not (stamp - current.first < self.dwell_s - 1e-6
+                               or current.count + 1 < self.min_samples):
+            return 0
+        run = indices[position:]
+        xs, ys, ts = points[run, 0], points[run, 1], stamps[run]
+        sums_x = np.cumsum(np.concatenate(([current.sums_x[-1]], xs)))
+        sums_y = np.cumsum(np.concatenate(([current.sums_y[-1]], ys)))
+        counts = current.count + np.arange(len(run) + 1)
+        distance = np.hypot(xs - sums_x[:-1] / counts[:-1], ys - sums_y[:-1] / counts[:-1])
+        joins = distance <= self._radius_px - margin
+        if can_decide:
+            joins &= (ts - current.first < self.dwell_s - 1e-6) | (counts[1:] < self.min_samples)
+        count = len(run) if joins.all() else int(np.argmin(joins))
+        if not count:
+            return 0
+        squares = np.cumsum(np.concatenate(([current.squares[-1]], xs * xs + ys * ys)))
+        added = ts[:count].tolist()
+        current.count += count
+        current.last = added[-1]
+        current.stamps.extend(added)
+        current.sums_x.extend(sums_x[1:count + 1].tolist())
+        current.sums_y.extend(sums_y[1:count + 1].tolist())
+        current.squares.extend(squares[1:count + 1].tolist())
+        if self._held:
+            self._held.clear()    # anything held back was a spike
+        self._stray = None
+        return count
 
     def next_due(self) -> Optional[float]:
         """

@@ -642,7 +642,7 @@ class RoundScheduler:
             return None
         self.samples_received += len(stamps)
         keep = self._plausible(stamps, now)
-        if not keep.all():
+        if keep is not None:
             stamps, points = stamps[keep], points[keep]
             if not len(stamps):
                 return None
@@ -675,17 +675,25 @@ class RoundScheduler:
         while recent and recent[0][0] < horizon:
             recent.popleft()
 
-    def _plausible(self, stamps: np.ndarray, now: float) -> np.ndarray:
-        """Tell which stamps can be right and of use (N,) bool; count and log the others."""
+    def _plausible(self, stamps: np.ndarray, now: float) -> Optional[np.ndarray]:
+        """
+        Tell which stamps can be right and of use; count and log the others.
+
+        :returns: (N,) bool, or None when all can (the common case, told by the
+            newest and oldest stamp alone: a NaN fails that test).
+        """
         settings = self.settings
+        round_ = self._round
+        # The earliest stamp a round can use: a round started by new choices begins at
+        # most window_s in the past.
+        earliest = round_.start if round_ is not None else now - settings.window_s
+        if (stamps.max() - now <= settings.max_future_s
+                and earliest - stamps.min() <= settings.window_s):
+            return None
         with np.errstate(invalid='ignore'):
             bad_stamp = ~np.isfinite(stamps)
             ahead = stamps - now
             future = (ahead > settings.max_future_s) & ~bad_stamp
-            round_ = self._round
-            # The earliest stamp a round can use: a round started by new choices begins at
-            # most window_s in the past.
-            earliest = round_.start if round_ is not None else now - settings.window_s
             behind = earliest - stamps
             too_old = (behind > settings.window_s) & ~bad_stamp
         if bad_stamp.any():

@@ -90,7 +90,7 @@ from eye_bci_ros2.gaze.profiles import (ANY, build_config, convert, DEFAULT_PROF
 from eye_bci_ros2.gaze.stream import GazeStreamProfile
 from eye_bci_ros2.gaze.validation import (as_matrix, correction_values, IDENTITY, implausibility,
                                           is_identity, PARAMETER as CORRECTION_PARAMETER)
-from eye_bci_ros2.nodes.conversions import gaze_cdr, gaze_point, stamp_to_ns
+from eye_bci_ros2.nodes.conversions import gaze_cdr, gaze_point_cdr, stamp_to_ns
 from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
 from eye_bci_ros2.nodes.node_clock import NodeClock
@@ -544,7 +544,7 @@ class LslGazeBridge(Node):
         if rate > 0.0 and now - self._point_at >= 1.0 / rate:
             self._point_at = now
             self._point_publisher.publish(
-                gaze_point(stamps_ns[-1], batch.xy[-1, 0], batch.xy[-1, 1]))
+                gaze_point_cdr(stamps_ns[-1], batch.xy[-1, 0], batch.xy[-1, 1]))
 
     def _publish_on_screen(self, on_screen: bool) -> None:
         """Publish ``gaze/on_screen`` when it changed (or first for this stream)."""

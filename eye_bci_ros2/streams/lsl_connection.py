@@ -279,6 +279,10 @@ def acquisition_stamps_ns(timestamps: np.ndarray, time_correction: Optional[floa
         else:
             delta_s = timestamps + time_correction - lsl_now
         stamp_s = ros_now_ns * 1e-9 + delta_s
+        if len(stamp_s) and 0.0 <= stamp_s.min() and stamp_s.max() < MAX_STAMP_S:
+            # Every stamp usable (a NaN fails the test): the common case, in fewer steps.
+            return (ros_now_ns + np.rint(delta_s * 1e9).astype(np.int64),
+                    np.ones(len(stamp_s), dtype=bool))
         good = np.isfinite(stamp_s) & (stamp_s >= 0.0) & (stamp_s < MAX_STAMP_S)
     stamps_ns = np.zeros(len(timestamps), dtype=np.int64)
     stamps_ns[good] = ros_now_ns + np.rint(delta_s[good] * 1e9).astype(np.int64)
@@ -298,11 +302,15 @@ def find_gaps(stamps: np.ndarray, nominal_srate: float,
     stamps = np.asarray(stamps, dtype=np.float64)
     if nominal_srate <= 0 or not len(stamps):
         return np.zeros(0)
-    if previous is not None:
-        stamps = np.concatenate([[previous], stamps])
-    steps = np.diff(stamps[np.isfinite(stamps)])
+    finite = np.isfinite(stamps)
+    if not finite.all():
+        stamps = stamps[finite]
     limit = max(GAP_PERIODS / nominal_srate, GAP_MIN_S)
-    return steps[steps > limit]
+    # The step from the previous chunk's last sample, then the steps within this one.
+    first = float(stamps[0]) - previous if previous is not None and len(stamps) else 0.0
+    steps = stamps[1:] - stamps[:-1]
+    gaps = steps[steps > limit]
+    return np.concatenate([[first], gaps]) if first > limit else gaps
 
 
 @dataclass
@@ -314,8 +322,8 @@ class _RateMeter:
     gap_s: float = 0.0
     rate_hz: Optional[float] = None
 
-    def add(self, stamps: np.ndarray, gaps: np.ndarray) -> None:
-        finite = stamps[np.isfinite(stamps)]
+    def add(self, finite: np.ndarray, gaps: np.ndarray) -> None:
+        """Take a chunk's finite sample times (N,) s and its gaps (:func:`find_gaps`)."""
         if not len(finite):
             return
         if self.first is None:
@@ -730,22 +738,24 @@ class StreamConnection:
             opened.stale = False
             self._report.info(f'{self.profile.kind} samples from {opened.stream.describe()} '
                               'resumed')
-        gaps = find_gaps(stamps, opened.stream.nominal_srate, opened.last_stamp)
+        finite = stamps[np.isfinite(stamps)]
+        gaps = find_gaps(finite, opened.stream.nominal_srate, opened.last_stamp)
         if len(gaps):
             self.gaps += len(gaps)
             self.gap_s += float(gaps.sum())
             self._report.throttled(
                 'gap', f'{len(gaps)} gap(s) in {opened.stream.describe()}, longest '
                        f'{gaps.max():.3f} s ({self.gaps} since start, {self.gap_s:.1f} s in all)')
-        finite = stamps[np.isfinite(stamps)]
         if len(finite):
             opened.last_stamp = float(finite[-1])
-        opened.rate.add(stamps, gaps)
+        opened.rate.add(finite, gaps)
         ros_now_ns, lsl_now = clock_pair(self._ros_now_ns, self._lsl.local_clock)
         stamps_ns, good = acquisition_stamps_ns(
             stamps, None if opened.arrival_stamps else opened.time_correction,
             ros_now_ns, lsl_now)
-        if good.any():
+        if good.all():
+            self.newest_stamp_ns = int(stamps_ns.max())
+        elif good.any():
             self.newest_stamp_ns = int(stamps_ns[good].max())
         return Chunk(samples=samples, stamps_ns=stamps_ns, good=good)
 

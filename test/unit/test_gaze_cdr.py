@@ -1,11 +1,13 @@
-"""gaze/samples serialized with numpy (conversions.GazeCdr): the same message as rclpy's."""
+"""gaze/samples and gaze/point serialized without rclpy's Python message: the same messages."""
 
+from geometry_msgs.msg import PointStamped
 import numpy as np
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import PointCloud2, PointField
 
-from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_batch_arrays, gaze_cdr
+from eye_bci_ros2.nodes.conversions import (gaze_batch, gaze_batch_arrays, gaze_cdr, gaze_point,
+                                            gaze_point_cdr)
 
 RNG = np.random.default_rng(4)
 
@@ -75,3 +77,12 @@ def test_other_layouts_are_refused_with_gaze_batch_arrays_reason(spoil):
 def test_bytes_that_are_no_message_are_refused():
     with pytest.raises(ValueError, match='not a PointCloud2'):
         gaze_cdr().read(b'\x00\x01\x00\x00\x05')
+
+
+@pytest.mark.parametrize('frame', ['screen', '', 'a', 'abcd', 'camera_frame'])
+@pytest.mark.parametrize('stamp_ns', [0, 1_790_000_000_999_999_999, 5])
+def test_a_built_gaze_point_is_the_message_gaze_point_builds(frame, stamp_ns):
+    built = gaze_point_cdr(stamp_ns, 1365.25, -0.5, frame)
+    message = gaze_point(stamp_ns, 1365.25, -0.5, frame)
+    assert len(built) == len(serialize_message(message))
+    assert deserialize_message(built, PointStamped) == message

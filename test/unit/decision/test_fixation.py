@@ -148,6 +148,43 @@ def test_the_decision_does_not_depend_on_how_the_samples_are_batched():
         assert (split.label, split.time_s) == (whole.label, whole.time_s), chunk
 
 
+@pytest.mark.parametrize('confidence', [None, SETTINGS.confidence])
+def test_batches_take_their_samples_exactly_as_one_at_a_time(confidence):
+    # Runs of samples that join the fixation are added at once (FixationEvidence._join_run):
+    # the decisions, the progress and every running sum are those of one sample at a time,
+    # bit for bit, through spikes, lost samples, saccades and a decision.
+    stamps, points = path([(0.3, AWAY, AWAY), (0.04, AWAY, CENTRES['middle']),
+                           (0.15, CENTRES['middle'], CENTRES['middle']),
+                           (0.03, CENTRES['middle'], CENTRES['left']),
+                           (0.8, CENTRES['left'], CENTRES['left'])], rate=1200.0, seed=9)
+    points[[50, 400, 401, 700]] = CENTRES['right']
+    points[[90, 91, 650]] = np.nan
+    rng = np.random.default_rng(4)
+
+    def evidence():
+        return FixationEvidence(0.0, DEFAULT_VIEWING, SETTINGS.sigma_gaze_deg, SETTINGS.dwell_s,
+                                SETTINGS.min_samples, SETTINGS.min_reaction_s,
+                                confidence=SETTINGS.confidence)
+
+    def state(rule):
+        current = rule._current
+        return repr((rule.decision, rule.samples, rule.valid, rule.progress(),
+                     [(f.first, f.last, f.count, f.fresh, f.stamps, f.sums_x, f.sums_y,
+                       f.squares) for f in [current] + [d for d, _ in rule._done]]))
+
+    single, batched = evidence(), evidence()
+    start, runs = 0, 0
+    while start < len(stamps):
+        end = start + int(rng.integers(2, 90))
+        for index in range(start, min(end, len(stamps))):
+            single.add(points[index:index + 1], stamps[index:index + 1], options(), confidence)
+        batched.add(points[start:end], stamps[start:end], options(), confidence)
+        assert state(batched) == state(single), start
+        start, runs = end, runs + 1
+    assert repr(batched.decide()) == repr(single.decide())
+    assert single.decide().label == 'left' and runs > 20
+
+
 def test_a_label_shown_twice_pools_its_likelihood():
     twice = {'a': CENTRES['left'], 'a ': CENTRES['middle']}
     regions = RegionSet(['a', 'a'], options(centres=twice).polygons)
