@@ -319,9 +319,12 @@ class FixationEvidence:
         # that join the current fixation before it can decide (_join_run).
         all_x, all_y, all_stamps = points[:, 0].tolist(), points[:, 1].tolist(), stamps.tolist()
         indices = np.flatnonzero(finite).tolist()
+        # The valid samples as arrays (views when all are valid), for _join_run.
+        valid = (points, stamps) if len(indices) == len(points) else (points[finite],
+                                                                       stamps[finite])
         position = 0
         while position < len(indices):
-            joined = self._join_run(points, stamps, indices, position, confidence)
+            joined = self._join_run(*valid, position, confidence)
             if joined:
                 position += joined
                 continue
@@ -343,55 +346,58 @@ class FixationEvidence:
                 return self.decision
         return None
 
-    def _join_run(self, points: np.ndarray, stamps: np.ndarray, indices: List[int],
-                  position: int, confidence: Optional[float]) -> int:
+    def _join_run(self, points: np.ndarray, stamps: np.ndarray, position: int,
+                  confidence: Optional[float]) -> int:
         """
-        Add at once the samples from ``indices[position]`` on that join the current fixation.
+        Add at once the valid samples from ``position`` on that join the current fixation.
 
         What one sample at a time would do, in the same floating-point operations (the
         running sums are sequential: ``np.cumsum``), for the run of samples that each lie
         within the radius of the fixation's centre so far and after which it cannot yet
         decide (:meth:`_settled`'s span and count); a distance within a rounding error of
         the radius is left to :meth:`_take` (``np.hypot`` and ``math.hypot`` may differ in
-        the last bit).  Cheap tests on the first sample first: a saccade's samples go one
-        by one without numpy work.
+        the last bit).  The first sample is tested in Python first: a saccade's samples go
+        one by one without numpy work.
 
+        :param points: the batch's valid samples (M, 2) px, in time order.
+        :param stamps: their stamps (M,) s.
         :returns: how many samples it added (0: none; :meth:`_take` takes the next).
         """
         current = self._current
-        remaining = len(indices) - position
-        if current is None or remaining < 2:
+        if current is None or len(stamps) - position < 2:
             return 0
-        first = indices[position]
-        x, y, stamp = float(points[first, 0]), float(points[first, 1]), float(stamps[first])
+        x, y = float(points[position, 0]), float(points[position, 1])
         centre_x, centre_y = current.centre_xy
-        margin = 1e-9 * max(self._radius_px, 1.0)
-        if math.hypot(x - centre_x, y - centre_y) > self._radius_px - margin:
+        limit = self._radius_px - 1e-9 * max(self._radius_px, 1.0)
+        if math.hypot(x - centre_x, y - centre_y) > limit:
             return 0
-        can_decide = confidence is not None and current.fresh
-        if can_decide and not (stamp - current.first < self.dwell_s - 1e-6
-                               or current.count + 1 < self.min_samples):
-            return 0
-        run = indices[position:]
-        xs, ys, ts = points[run, 0], points[run, 1], stamps[run]
-        sums_x = np.cumsum(np.concatenate(([current.sums_x[-1]], xs)))
-        sums_y = np.cumsum(np.concatenate(([current.sums_y[-1]], ys)))
-        counts = current.count + np.arange(len(run) + 1)
-        distance = np.hypot(xs - sums_x[:-1] / counts[:-1], ys - sums_y[:-1] / counts[:-1])
-        joins = distance <= self._radius_px - margin
-        if can_decide:
-            joins &= (ts - current.first < self.dwell_s - 1e-6) | (counts[1:] < self.min_samples)
-        count = len(run) if joins.all() else int(np.argmin(joins))
+        run = len(stamps) - position
+        if confidence is not None and current.fresh:
+            # Stamps rise: the samples after which it cannot settle yet are a prefix (by
+            # span), or as many as min_samples still needs.
+            before_dwell = int(np.count_nonzero(
+                stamps[position:] - current.first < self.dwell_s - 1e-6))
+            run = min(run, max(before_dwell, self.min_samples - current.count - 1))
+            if run < 1:
+                return 0
+        xs, ys = points[position:position + run, 0], points[position:position + run, 1]
+        sums = np.empty((3, run + 1))
+        sums[:, 0] = current.sums_x[-1], current.sums_y[-1], current.squares[-1]
+        sums[0, 1:], sums[1, 1:] = xs, ys
+        sums[2, 1:] = xs * xs + ys * ys
+        np.cumsum(sums, axis=1, out=sums)
+        counts = np.arange(current.count, current.count + run)
+        joins = np.hypot(xs - sums[0, :-1] / counts, ys - sums[1, :-1] / counts) <= limit
+        count = run if joins.all() else int(np.argmin(joins))
         if not count:
             return 0
-        squares = np.cumsum(np.concatenate(([current.squares[-1]], xs * xs + ys * ys)))
-        added = ts[:count].tolist()
+        added = stamps[position:position + count].tolist()
         current.count += count
         current.last = added[-1]
         current.stamps.extend(added)
-        current.sums_x.extend(sums_x[1:count + 1].tolist())
-        current.sums_y.extend(sums_y[1:count + 1].tolist())
-        current.squares.extend(squares[1:count + 1].tolist())
+        current.sums_x.extend(sums[0, 1:count + 1].tolist())
+        current.sums_y.extend(sums[1, 1:count + 1].tolist())
+        current.squares.extend(sums[2, 1:count + 1].tolist())
         if self._held:
             self._held.clear()    # anything held back was a spike
         self._stray = None
