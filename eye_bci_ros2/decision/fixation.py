@@ -320,8 +320,8 @@ class FixationEvidence:
         all_x, all_y, all_stamps = points[:, 0].tolist(), points[:, 1].tolist(), stamps.tolist()
         indices = np.flatnonzero(finite).tolist()
         # The valid samples as arrays (views when all are valid), for _join_run.
-        valid = (points, stamps) if len(indices) == len(points) else (points[finite],
-                                                                       stamps[finite])
+        valid = ((points, stamps) if len(indices) == len(points)
+                 else (points[finite], stamps[finite]))
         position = 0
         while position < len(indices):
             joined = self._join_run(*valid, position, confidence)
