@@ -105,6 +105,8 @@ FLUSH_S = 2.0
 #: A received point is the pushed one when they agree this closely, source px (float32 on
 #: the wire; jitter makes neighbouring samples differ by far more).
 MATCH_PX = 0.01
+#: How many of the first samples received locate them among those pushed (_expected).
+FIRST_RUN = 4
 
 #: Push period of ``--push chunk``, ms (a tracker SDK delivering 10 ms chunks).
 CHUNK_MS = 10.0
@@ -226,7 +228,8 @@ class Soak:
         self.choices_pub = self.driver.create_publisher(MarkerArray, CHOICES_TOPIC, LATCHED_QOS)
         self.request_pub = self.driver.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
         self.gaze_received = 0
-        self.first_point: Optional[np.ndarray] = None   # screen px of the first sample
+        # Screen px of the first FIRST_RUN samples received: where the count starts (_expected).
+        self.first_points = np.zeros((0, 2))
         self.driver.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
         self.driver.create_subscription(String, CHOICE_TOPIC,
                                         lambda m: self._on_outcome(m.data), EVENT_QOS)
@@ -247,10 +250,11 @@ class Soak:
         self.samples: List[Dict[str, float]] = []
 
     def _on_gaze(self, message: PointCloud2) -> None:
-        if self.first_point is None or self.leaving is not None:
+        if len(self.first_points) < FIRST_RUN or self.leaving is not None:
             xy = gaze_batch_arrays(message)[1]
-            if self.first_point is None:
-                self.first_point = xy[0].copy()
+            if len(self.first_points) < FIRST_RUN:
+                self.first_points = np.concatenate(
+                    [self.first_points, xy[:FIRST_RUN - len(self.first_points)]])
             if self.leaving is not None and np.any(
                     polygon_distances(xy, self.leaving[0]) > self.protocol.look_away_margin_px):
                 self.leaving = None
@@ -373,14 +377,17 @@ class Soak:
     def _expected(self, pushed: dict) -> Optional[int]:
         """Count the valid samples pushed from the first the bridge received (None: not found)."""
         head = pushed['head'].astype(float)
-        if self.first_point is None or not len(head):
+        if len(self.first_points) < FIRST_RUN or not len(head):
             return None
-        first = self.first_point * np.asarray(SOURCE_SIZE) / self._screen_size()
-        distance = np.abs(head - first).max(axis=1)
-        matches = np.flatnonzero(distance <= MATCH_PX)
+        # By a run of samples, not one: among 60 000 samples of a fixation another one
+        # often lies within MATCH_PX of any given sample (a run of FIRST_RUN never does).
+        first = self.first_points * np.asarray(SOURCE_SIZE) / self._screen_size()
+        starts = np.flatnonzero(np.abs(head - first[0]).max(axis=1) <= MATCH_PX)
+        matches = [int(start) for start in starts if start + FIRST_RUN <= len(head)
+                   and np.abs(head[start:start + FIRST_RUN] - first).max() <= MATCH_PX]
         if len(matches) != 1:
             return None
-        return pushed['pushed'] - pushed['nan'] - int(matches[0])
+        return pushed['pushed'] - pushed['nan'] - matches[0]
 
     def _screen_size(self) -> np.ndarray:
         """Return the bridge's screen, px (it scales source px to it)."""

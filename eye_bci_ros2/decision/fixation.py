@@ -112,8 +112,9 @@ class _Fixation:
     """
     A fixation under way: first and last stamp, running sums of its points, count.
 
-    Python floats, not numpy: it takes every sample of a 1200 Hz tracker one at a
-    time, where a numpy operation on two numbers costs more than the arithmetic.
+    Python floats, not numpy: it takes a 1200 Hz tracker's samples one at a time
+    where a run of them cannot be taken at once (:meth:`FixationEvidence._join_run`),
+    and a numpy operation on two numbers costs more than the arithmetic.
     """
 
     __slots__ = ('first', 'last', 'count', 'fresh', 'stamps', 'sums_x', 'sums_y', 'squares')

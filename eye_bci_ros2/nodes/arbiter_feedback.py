@@ -22,8 +22,10 @@ bench.lab_rate``, part ``wake_up``), and the gaze batches come as often as a
 feedback timer would tick.  An update works out what to show only when
 something it shows may have changed (the rounds' answers:
 :attr:`eye_bci_ros2.decision.rounds.RoundScheduler.changes`; the newest gaze
-point; the confirmation; their ageing), and then at most ``feedback_rate_hz``
-times a second: the ticks between gaze batches cost next to nothing.
+point; the confirmation; their ageing), and then at most twice per message
+period (``feedback_rate_hz``; a choice's confirmation at once): the ticks
+between gaze batches, and the batches that come 2 ms apart while a decision is
+due, cost next to nothing.
 """
 
 import math
