@@ -179,9 +179,10 @@ def test_param_set_get_dump_and_the_dump_as_params_file(ros2, env, tmp_path):
                         'screen_ofset_x:=64'], env, domain, tmp_path / 'projector.log')
         try:
             assert node.wait_for('waiting for camera/pose'), node.output()
-            # The typo is named, with the name that was meant.
-            assert re.search(r"unknown parameter 'screen_ofset_x'.*'screen_offset_x'",
-                             node.output()), node.output()
+            # The typo is named, with the name that was meant (once the node is built: after
+            # the line above, so waited for).
+            assert node.wait_for(r"unknown parameter 'screen_ofset_x'.*'screen_offset_x'"), \
+                node.output()
             daemonless = ['--no-daemon', *DISCOVERY]
             status, out = run_param([str(ros2), 'param', 'set', *daemonless, '/marker_projector',
                                     'screen_offset_x', '64.5'], env, domain)
