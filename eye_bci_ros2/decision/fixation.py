@@ -141,6 +141,19 @@ class _Fixation:
         self.sums_y.append(y + (self.sums_y[-1] if started else 0.0))
         self.squares.append(x * x + y * y + (self.squares[-1] if started else 0.0))
 
+    def extend(self, stamps: List[float], sums: np.ndarray) -> None:
+        """
+        Take more samples at once: their stamps (M,) s and running sums (3, M).
+
+        The sums continue :attr:`sums_x`, :attr:`sums_y` and :attr:`squares` (rows in that
+        order), added as :meth:`add` adds them.
+        """
+        self.count += len(stamps)
+        self.last = stamps[-1]
+        self.stamps.extend(stamps)
+        for column, values in zip((self.sums_x, self.sums_y, self.squares), sums.tolist()):
+            column.extend(values)
+
     def movement(self, span: float) -> Tuple[float, float]:
         """
         How far its last ``span`` s moved, and what noise alone would give, px.
@@ -392,17 +405,15 @@ class FixationEvidence:
         count = run if joins.all() else int(np.argmin(joins))
         if not count:
             return 0
-        added = stamps[position:position + count].tolist()
-        current.count += count
-        current.last = added[-1]
-        current.stamps.extend(added)
-        current.sums_x.extend(sums[0, 1:count + 1].tolist())
-        current.sums_y.extend(sums[1, 1:count + 1].tolist())
-        current.squares.extend(sums[2, 1:count + 1].tolist())
-        if self._held:
-            self._held.clear()    # anything held back was a spike
-        self._stray = None
+        current.extend(stamps[position:position + count].tolist(), sums[:, 1:count + 1])
+        self._joined()
         return count
+
+    def _joined(self) -> None:
+        """Note that a sample joined the current fixation: what was held back was a spike."""
+        if self._held:
+            self._held.clear()
+        self._stray = None
 
     def next_due(self) -> Optional[float]:
         """
@@ -495,9 +506,7 @@ class FixationEvidence:
             centre_x, centre_y = current.centre_xy
             if math.hypot(x - centre_x, y - centre_y) <= self._radius_px:
                 current.add(stamp, x, y)
-                if self._held:
-                    self._held.clear()    # anything held back was a spike
-                self._stray = None
+                self._joined()
                 return True
         point = np.array([x, y])
         if current is None:

@@ -346,7 +346,10 @@ class TolerantRegions(RegionSet):
     def classify(self, points) -> np.ndarray:
         """Region index of each point (N, 2) px by the tolerant rule, -1 = none."""
         points = np.asarray(points, dtype=float).reshape(-1, 2)
-        region = super().classify(points)
+        return self._nearby(points, super().classify(points))
+
+    def _nearby(self, points: np.ndarray, region: np.ndarray) -> np.ndarray:
+        """Give the points (N, 2) px outside every region (-1 in ``region``) the tolerant rule."""
         # extend_to_nearby with the prepared polygons: the same result.
         outside = np.flatnonzero(region < 0)
         if outside.size and len(self.labels):
@@ -362,4 +365,4 @@ class TolerantRegions(RegionSet):
         index = super().classify_one(x, y)
         if index >= 0 or not len(self.labels):
             return index      # inside an option: the tolerance is not asked
-        return int(self.classify(np.array([[x, y]]))[0])
+        return int(self._nearby(np.array([[x, y]]), np.array([-1]))[0])

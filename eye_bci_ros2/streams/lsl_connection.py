@@ -753,9 +753,7 @@ class StreamConnection:
         stamps_ns, good = acquisition_stamps_ns(
             stamps, None if opened.arrival_stamps else opened.time_correction,
             ros_now_ns, lsl_now)
-        if good.all():
-            self.newest_stamp_ns = int(stamps_ns.max())
-        elif good.any():
+        if good.any():
             self.newest_stamp_ns = int(stamps_ns[good].max())
         return Chunk(samples=samples, stamps_ns=stamps_ns, good=good)
 
