@@ -154,6 +154,24 @@ def started_pids(output: str) -> List[int]:
     return [int(pid) for pid in re.findall(r'process started with pid \[(\d+)\]', output)]
 
 
+def stopped_cleanly(output: str) -> int:
+    """
+    Count the nodes ``ros2 launch`` saw stop cleanly, or whose exit status it lost.
+
+    A node that has already left on the terminal's SIGINT (sent to the whole
+    group) when launch forwards its own is reaped by ``Popen.send_signal``,
+    which polls first (bpo-38630); asyncio's child watcher then finds no child
+    ("Unknown child process pid N, will report returncode 255") and launch says
+    the node died with 255.  That is launch's bookkeeping under CPython, not the
+    node's exit: such a node counts when both lines name its pid (that it left
+    no traceback and is gone, :func:`assert_clean_stop` checks).
+    """
+    lost = set(re.findall(r'Unknown child process pid (\d+), will report returncode 255',
+                          output))
+    died = set(re.findall(r'process has died \[pid (\d+), exit code 255,', output))
+    return output.count('process has finished cleanly') + len(lost & died)
+
+
 def executables() -> List[str]:
     """Return the console scripts of setup.py (what ``ros2 run`` offers)."""
     from test_colcon_build import console_scripts
@@ -351,7 +369,7 @@ def test_launch_ctrl_c_twice_and_during_start_up(ros2, env, tmp_path):
         status = twice.finish()
         # Every node stops cleanly; launch's own process may end on the second SIGINT when
         # it lands after the nodes have gone (launch's behaviour, not the nodes').
-        assert twice.output().count('process has finished cleanly') == 5, twice.output()
+        assert stopped_cleanly(twice.output()) == 5, twice.output()
         assert_clean_stop(twice, 0 if status == -signal.SIGINT else status, 5)
         # While the nodes still import (rclpy is loaded, no node exists yet).  Earlier, in
         # Python's own start-up, only Python itself could keep quiet.
