@@ -1,8 +1,11 @@
 """Choose among RViz markers by looking at them: gaze over LSL, projection, arbitration."""
 
 import os
+import signal
 import sys
 import tempfile
+import threading
+import time
 
 
 def _interrupted(error: BaseException) -> bool:
@@ -42,6 +45,38 @@ def _quiet_interrupt(kind, value, traceback, _previous=sys.excepthook):
     _previous(kind, value, traceback)
 
 
+#: A SIGINT this soon after the one that interrupted an executable is the same Ctrl-C, s: the
+#: terminal sends it to the whole process group, and ``ros2 launch`` forwards its own to every
+#: node within milliseconds.
+SAME_CTRL_C_S = 1.0
+
+
+def _once_per_ctrl_c(signum, frame, _last=[None]) -> None:
+    """
+    Raise KeyboardInterrupt for a Ctrl-C once: the same Ctrl-C arriving again is ignored.
+
+    Before an executable handles signals itself (it is still importing), the
+    second SIGINT of one Ctrl-C (launch's, after the terminal's) could land
+    while the first unwinds or inside :func:`_quiet_interrupt`: Python then
+    prints "Error in sys.excepthook" with both tracebacks, and the process
+    ends by the signal.  A Ctrl-C later than :data:`SAME_CTRL_C_S` interrupts
+    as usual.  The runner replaces this handler once the node handles signals
+    (:mod:`eye_bci_ros2.nodes.runner`).
+    """
+    now = time.monotonic()
+    if _last[0] is not None and now - _last[0] < SAME_CTRL_C_S:
+        return
+    _last[0] = now
+    raise KeyboardInterrupt
+
+
+def _running_an_executable() -> bool:
+    """Tell whether this process is one of the package's executables (``ros2 run``, launch)."""
+    from eye_bci_ros2.nodes.registry import EXECUTABLES   # standard library only
+    name = os.path.basename(sys.argv[0]) if sys.argv else ''
+    return any(executable.name == name for executable in EXECUTABLES)
+
+
 #: liblsl's own configuration files, in the order it looks for them (when $LSLAPICFG is unset).
 LSL_CONFIG_FILES = ('lsl_api.cfg', '~/lsl_api/lsl_api.cfg', '/etc/lsl_api/lsl_api.cfg')
 #: Our liblsl configuration: warnings and errors only (its INFO lines are build details).
@@ -69,7 +104,10 @@ def _quiet_liblsl() -> None:
     os.environ['LSLAPICFG'] = path
 
 
-# Both on import: the package is the first thing every console script imports.
+# On import: the package is the first thing every console script imports.
 if sys.excepthook is sys.__excepthook__:
     sys.excepthook = _quiet_interrupt
+if (threading.current_thread() is threading.main_thread() and _running_an_executable()
+        and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+    signal.signal(signal.SIGINT, _once_per_ctrl_c)
 _quiet_liblsl()

@@ -202,3 +202,42 @@ def test_a_clean_up_stuck_where_no_python_runs_still_ends(tmp_path):
     # faulthandler's thread ends it: status 1 and where it hung, not a SIGKILL's -9.
     assert process.returncode == 1, err[-2000:]
     assert 'Timeout' in err and 'destroy_node' in err, err[-2000:]
+
+
+def _loaded(pid: int, library: str) -> bool:
+    try:
+        with open(f'/proc/{pid}/maps') as maps:
+            return library in maps.read()
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.parametrize('gap_ms', [0.2, 1.0, 3.0, 10.0])
+def test_a_ctrl_c_while_importing_ends_quietly_even_when_it_comes_twice(gap_ms):
+    """
+    Ctrl-C under ``ros2 launch`` during start-up: the terminal's SIGINT, then launch's.
+
+    The console script (argv[0] is the executable's name, as ``ros2 run`` and
+    launch start it) is interrupted while it imports its modules (numpy is
+    loaded), then again ``gap_ms`` later: it ends with status 0 and prints nothing.
+    """
+    script = os.path.join(os.path.dirname(sys.executable), 'camera_tracker')
+    if not os.path.exists(script):
+        pytest.skip(f'no console script {script} (pip install -e . makes it)')
+    with domain_id() as domain:
+        process = subprocess.Popen([script], env=dict(os.environ, ROS_DOMAIN_ID=str(domain)),
+                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            end = time.monotonic() + 30.0
+            while not _loaded(process.pid, 'numpy') and time.monotonic() < end:
+                time.sleep(0.0005)
+            process.send_signal(signal.SIGINT)
+            time.sleep(gap_ms / 1000.0)
+            process.send_signal(signal.SIGINT)
+            out, err = process.communicate(timeout=30)
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.communicate()
+    assert process.returncode == 0, err[-2000:]
+    assert 'Traceback' not in err and 'KeyboardInterrupt' not in err, err[-2000:]
