@@ -5,6 +5,7 @@ Each runs as its own process (``python -m``, what the console scripts call) on a
 domain, the way ``ros2 run`` and ``ros2 launch`` start them.
 """
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -29,6 +30,17 @@ def start(module, *args, domain):
         [sys.executable, '-m', f'eye_bci_ros2.nodes.{module}', *args],
         env=dict(os.environ, ROS_DOMAIN_ID=str(domain)), stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True)
+
+
+@contextlib.contextmanager
+def killed_if_left(process: subprocess.Popen):
+    """Give ``process`` to the block; kill it if the block leaves it running (a failed test)."""
+    try:
+        yield process
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
 
 
 def run(module, *args, timeout=60):
@@ -107,17 +119,12 @@ def test_eye_bci_refuses_a_bad_override_with_one_line():
 @pytest.mark.parametrize('module', ['marker_projector', 'eye_bci'])
 def test_stops_cleanly_on_sigint_and_sigterm_even_twice(module, signals):
     with domain_id() as domain:
-        process = start(module, domain=domain)
-        try:
+        with killed_if_left(start(module, domain=domain)) as process:
             time.sleep(2.5)   # up and spinning
             for index, name in enumerate(signals):
                 process.send_signal(getattr(signal, f'SIG{name}'))
                 time.sleep(0.002 * index)
             out, err = process.communicate(timeout=15)
-        finally:
-            if process.poll() is None:
-                process.kill()
-                process.communicate()
     assert process.returncode == 0, err[-2000:]
     assert 'Traceback' not in err and 'Exception' not in err, err[-2000:]
 
@@ -187,17 +194,12 @@ def test_a_clean_up_stuck_where_no_python_runs_still_ends(tmp_path):
     script.write_text(STUCK_IN_DESTROY)
     limit = CLEANUP_LIMIT_S + HARD_LIMIT_S
     with domain_id() as domain:
-        process = subprocess.Popen(
-            [sys.executable, str(script)], env=dict(os.environ, ROS_DOMAIN_ID=str(domain)),
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        try:
+        with killed_if_left(subprocess.Popen(
+                [sys.executable, str(script)], env=dict(os.environ, ROS_DOMAIN_ID=str(domain)),
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)) as process:
             assert process.stdout.readline().strip() == 'spinning'
             process.send_signal(signal.SIGINT)
             out, err = process.communicate(timeout=limit + 20.0)
-        finally:
-            if process.poll() is None:
-                process.kill()
-                process.communicate()
     assert 'stopping' in out
     # faulthandler's thread ends it: status 1 and where it hung, not a SIGKILL's -9.
     assert process.returncode == 1, err[-2000:]
@@ -225,9 +227,9 @@ def test_a_ctrl_c_while_importing_ends_quietly_even_when_it_comes_twice(gap_ms):
     if not os.path.exists(script):
         pytest.skip(f'no console script {script} (pip install -e . makes it)')
     with domain_id() as domain:
-        process = subprocess.Popen([script], env=dict(os.environ, ROS_DOMAIN_ID=str(domain)),
-                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        try:
+        with killed_if_left(subprocess.Popen(
+                [script], env=dict(os.environ, ROS_DOMAIN_ID=str(domain)),
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)) as process:
             end = time.monotonic() + 30.0
             while not _loaded(process.pid, 'numpy') and time.monotonic() < end:
                 time.sleep(0.0005)
@@ -235,9 +237,5 @@ def test_a_ctrl_c_while_importing_ends_quietly_even_when_it_comes_twice(gap_ms):
             time.sleep(gap_ms / 1000.0)
             process.send_signal(signal.SIGINT)
             out, err = process.communicate(timeout=30)
-        finally:
-            if process.poll() is None:
-                process.kill()
-                process.communicate()
     assert process.returncode == 0, err[-2000:]
     assert 'Traceback' not in err and 'KeyboardInterrupt' not in err, err[-2000:]
