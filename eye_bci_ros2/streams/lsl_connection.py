@@ -294,7 +294,8 @@ def find_gaps(stamps: np.ndarray, nominal_srate: float,
     """
     Find gaps in the sample times of a regular-rate stream.
 
-    :param stamps: shape (N,), LSL s, in arrival order.
+    :param stamps: the chunk's finite sample times (N,), LSL s, in arrival order (the
+        caller drops the non-finite ones once, for this and the rate).
     :param nominal_srate: Hz; 0 (irregular) has no gaps by definition.
     :param previous: the stamp of the sample before this chunk, s, or None.
     :returns: the length of each gap, s, shape (G,).
@@ -302,12 +303,9 @@ def find_gaps(stamps: np.ndarray, nominal_srate: float,
     stamps = np.asarray(stamps, dtype=np.float64)
     if nominal_srate <= 0 or not len(stamps):
         return np.zeros(0)
-    finite = np.isfinite(stamps)
-    if not finite.all():
-        stamps = stamps[finite]
     limit = max(GAP_PERIODS / nominal_srate, GAP_MIN_S)
     # The step from the previous chunk's last sample, then the steps within this one.
-    first = float(stamps[0]) - previous if previous is not None and len(stamps) else 0.0
+    first = float(stamps[0]) - previous if previous is not None else 0.0
     steps = stamps[1:] - stamps[:-1]
     gaps = steps[steps > limit]
     return np.concatenate([[first], gaps]) if first > limit else gaps

@@ -1,4 +1,4 @@
-"""Where the repository and its files are, for tests that read or run them."""
+"""Where the repository and its files are, and what a process has loaded: for tests."""
 
 import os
 from pathlib import Path
@@ -27,3 +27,11 @@ def shared_dir() -> Optional[Path]:
         if (folder / 'shared').is_dir():
             return folder / 'shared'
     return None
+
+
+def loaded(pid: int, library: str) -> bool:
+    """Tell whether process ``pid`` has a file named like ``library`` mapped (False once gone)."""
+    try:
+        return library in Path(f'/proc/{pid}/maps').read_text()
+    except FileNotFoundError:
+        return False

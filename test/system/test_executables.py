@@ -14,6 +14,7 @@ import time
 
 from domain_coordinator import domain_id
 from lsl_outlets import make_outlet, unique_id
+from paths import loaded
 import pytest
 
 from eye_bci_ros2.nodes.runner import CLEANUP_LIMIT_S, HARD_LIMIT_S
@@ -206,14 +207,6 @@ def test_a_clean_up_stuck_where_no_python_runs_still_ends(tmp_path):
     assert 'Timeout' in err and 'destroy_node' in err, err[-2000:]
 
 
-def _loaded(pid: int, library: str) -> bool:
-    try:
-        with open(f'/proc/{pid}/maps') as maps:
-            return library in maps.read()
-    except FileNotFoundError:
-        return False
-
-
 @pytest.mark.parametrize('gap_ms', [0.2, 1.0, 3.0, 10.0])
 def test_a_ctrl_c_while_importing_ends_quietly_even_when_it_comes_twice(gap_ms):
     """
@@ -231,7 +224,7 @@ def test_a_ctrl_c_while_importing_ends_quietly_even_when_it_comes_twice(gap_ms):
                 [script], env=dict(os.environ, ROS_DOMAIN_ID=str(domain)),
                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)) as process:
             end = time.monotonic() + 30.0
-            while not _loaded(process.pid, 'numpy') and time.monotonic() < end:
+            while not loaded(process.pid, 'numpy') and time.monotonic() < end:
                 time.sleep(0.0005)
             process.send_signal(signal.SIGINT)
             time.sleep(gap_ms / 1000.0)

@@ -26,6 +26,7 @@ from typing import List, Optional
 from colcon_workspace import build_workspace, PACKAGE, ros2_command, sourced_environment
 from domain_coordinator import domain_id
 from lsl_outlets import bridge_parameters, make_outlet, sample_for
+from paths import loaded
 import pytest
 import yaml
 
@@ -347,13 +348,7 @@ def test_launch_then_ctrl_c_once_stops_every_node(ros2, env, tmp_path, file, nod
 
 def importing_rclpy(pids: List[int]) -> bool:
     """Tell whether every process has our package's imports under way (rclpy loaded)."""
-    for pid in pids:
-        try:
-            if 'rclpy' not in Path(f'/proc/{pid}/maps').read_text():
-                return False
-        except FileNotFoundError:
-            return False
-    return True
+    return all(loaded(pid, 'rclpy') for pid in pids)
 
 
 def test_launch_ctrl_c_twice_and_during_start_up(ros2, env, tmp_path):
