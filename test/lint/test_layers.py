@@ -17,7 +17,7 @@ ALLOWED = {
     'ssvep': {'streams'},
     'recordings': {'projection', 'gaze'},
 }
-OUTER = ('nodes', 'sim', 'experiments', 'tools')
+OUTER = ('ros', 'nodes', 'sim', 'experiments', 'tools')
 
 
 def imported_subpackages(path):
