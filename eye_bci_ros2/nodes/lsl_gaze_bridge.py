@@ -188,7 +188,7 @@ PARAMETERS = (
               value_range=(0.05, 3600.0)),
     ParamSpec('poll_period_s', 0.002,
               'period of pulling samples from LSL, s; a sample waits up to this long in the '
-              'inlet, so it bounds the added latency (see the README, Performance)',
+              'inlet, so it bounds the added latency (docs/performance.md, "Performance")',
               value_range=(0.001, 1.0)),
     ParamSpec('idle_poll_period_s', 0.04,
               'period of pulling samples while no decision is due, s: once a '

@@ -357,3 +357,23 @@ def test_each_application_layout_fits_its_profile_and_is_named_under_another(sen
         elif len(PROFILES[profile_name].channel_labels) != len(labels):
             assert f"does not fit profile '{profile_name}'" in reason
             assert f'profile:={sender}' in reason
+
+
+def test_an_eeg_stream_is_said_to_be_no_gaze_never_suggested_by_its_type():
+    """Looking for gaze with only an EEG amplifier on the network: what to do, not its type."""
+    conn, lsl, clock, log, connected = connection()
+    lsl.streams = [stream('amp', stream_type='EEG', name='LiveAmp', channels=8)]
+    conn.maintain()
+    clock.now += 60.0
+    conn.maintain()
+    looking = [text for level, text in log.lines if 'looking for an LSL gaze stream' in text]
+    assert looking and "stream_type:='EEG'" not in log.text()
+    assert "'LiveAmp' (type 'EEG'" in looking[-1]
+    assert ('not taken, it is an EEG stream, not gaze (a gaze bridge cannot use it): start the '
+            "eye tracker's LSL sender") in looking[-1]
+    # Selected by its type all the same, it is refused with the same reason.
+    conn2, lsl2, _, log2, _ = connection(GazeStreamProfile(build_config({'stream_type': 'EEG'})))
+    lsl2.streams = lsl.streams
+    conn2.maintain()
+    assert conn2.stream is None
+    assert "not taking 'LiveAmp' (type 'EEG'" in log2.text() and 'not gaze' in log2.text()
