@@ -154,9 +154,8 @@ class ChoiceMenu(Node):
         try:
             values = declare_parameters(self, parameters, self._on_parameters,
                                         check_all=self._check_all)
-        except ValueError as error:
-            self.get_logger().fatal(f'cannot start: {error}')
-            self.destroy_node()
+        except ValueError:
+            self.destroy_node()     # the runner says why, in one line
             raise
         scene = self._candidate[1]
         self._candidate = None

@@ -267,6 +267,7 @@ class LslGazeBridge(Node):
         self._point_at = -math.inf
         self._counters = dict.fromkeys(COUNTERS, 0)
         self._logged_counters = dict(self._counters)
+        self._counted_from = None       # the stream of the samples counted since the last stats
         # The channel mapping of the stream in use; None with the reason while it has none.
         self._mapping: Optional[GazeMapping] = None
         self._mapping_error = ''
@@ -507,6 +508,7 @@ class LslGazeBridge(Node):
         """Convert and publish one stamped chunk; count what is dropped."""
         count = len(chunk.stamps_ns)
         self._counters['received'] += count
+        self._counted_from = self._connection.stream
         if self._mapping is None:
             self._counters['layout'] += count
             self.get_logger().warning(
@@ -566,7 +568,9 @@ class LslGazeBridge(Node):
         received = self._counters['received'] - self._logged_counters['received']
         published = self._counters['published'] - self._logged_counters['published']
         self._logged_counters = dict(self._counters)
-        source = self.stream or 'no stream'
+        # The stream the samples came from: it may be lost by now.
+        counted, self._counted_from = self._counted_from, None
+        source = counted.describe() if counted else self.stream
         self.get_logger().info(
             f'gaze: {received} received, {published} published in the last '
             f"{self._params['stats_period_s']:g} s from {source}; dropped since start: "

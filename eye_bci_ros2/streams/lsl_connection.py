@@ -593,6 +593,10 @@ class StreamConnection:
             if self._gone.uid == chosen.uid:
                 self._report.info(f'{self._gone.describe()} is back (its connection broke); '
                                   'reconnecting')
+            elif self._gone.describe() == chosen.describe():
+                # Its sender restarted (a new uid): the same stream to the user, no switch.
+                self._report.info(f'{chosen.describe()} is back (its sender restarted); '
+                                  'reconnecting')
             else:
                 self._report.warning(f'{self._gone.describe()} is gone: switching to the '
                                      f'matching stream {chosen.describe()}')

@@ -433,8 +433,12 @@ class MenuProtocol:
         if goal is not None and not goal.arrived and now - goal.last_move >= \
                 self.settings.settle_s:
             goal.arrived = True
+            # Without any camera/pose (a static view, no camera_tracker) nothing settled.
             actions.append(Log('info', f'camera settled ({self.settings.settle_s:g} s '
-                                       'without moving): taken as arrived'))
+                                       'without moving): taken as arrived')
+                           if self._pose is not None else
+                           Log('info', f'no camera/pose in {self.settings.settle_s:g} s: '
+                                       'asking without waiting for the camera'))
         gate = self._look_away
         if gate is not None and not gate.done and now - gate.chosen_at >= \
                 self.settings.look_away_s:

@@ -228,7 +228,10 @@ def test_a_lost_stream_is_ignored_for_a_while_then_its_source_is_preferred():
                    stream('a2', source_id='tobii-A', created_at=2.0)]
     conn.maintain()
     assert conn.stream.uid == 'a2'
-    assert 'is gone: switching to' in log.text()
+    # To the user it is the same stream back, not a switch to one of the same name.
+    assert "source_id 'tobii-A', 2 ch, irregular rate, host host) is back (its sender " \
+        'restarted); reconnecting' in log.text()
+    assert 'switching to' not in log.text()
     conn.disconnect()
     clock.now += LOST_IGNORE_S + 0.1   # the entry expired: a1 is a candidate again
     conn.maintain()
@@ -377,3 +380,17 @@ def test_an_eeg_stream_is_said_to_be_no_gaze_never_suggested_by_its_type():
     conn2.maintain()
     assert conn2.stream is None
     assert "not taking 'LiveAmp' (type 'EEG'" in log2.text() and 'not gaze' in log2.text()
+
+
+def test_a_lost_stream_replaced_by_another_source_is_a_switch_said_as_one():
+    conn, lsl, clock, log, connected = connection()
+    lsl.streams = [stream('a1', source_id='tobii-A')]
+    conn.maintain()
+    lsl.inlets['a1'].offset = 0.0
+    lsl.inlets['a1'].lost = True
+    conn.acquire()
+    lsl.streams = [stream('b', source_id='tobii-B', created_at=3.0)]
+    conn.maintain()
+    assert conn.stream.uid == 'b'
+    assert "source_id 'tobii-A', 2 ch, irregular rate, host host) is gone: switching to the " \
+        "matching stream 'tracker' (type 'Gaze', source_id 'tobii-B'" in log.text()

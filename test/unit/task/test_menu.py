@@ -7,7 +7,7 @@ from eye_bci_ros2.projection.camera_model import look_at_pose, rviz_intrinsic
 from eye_bci_ros2.projection.geometry import project_points
 from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.task.menu import (Answer, ASKING, BACK_LABEL, back_marker, FINISHED, LOOK_AWAY,
-                                    MenuProtocol, Offer, PAUSED, ProtocolSettings, READY, Request,
+                                    Log, MenuProtocol, Offer, PAUSED, ProtocolSettings, READY, Request,
                                     Result, WAITING_FOR_CAMERA)
 from eye_bci_ros2.task.scene import load_scene
 
@@ -67,11 +67,19 @@ def test_a_camera_that_stops_short_counts_as_arrived_once_settled():
     menu.on_camera_pose(position + [2.0, 0, 0], quaternion, 0.2)
     menu.on_camera_pose(position + [1.0, 0, 0], quaternion, 0.4)    # still moving
     assert not kinds(menu.tick(1.3), Request)
-    assert kinds(menu.tick(1.41), Request)
+    actions = menu.tick(1.41)
+    assert kinds(actions, Request)
+    assert [log.text for log in kinds(actions, Log)] == [
+        'camera settled (1 s without moving): taken as arrived']
     # Without any camera/pose at all (static view): asked after settle_s.
     still = MenuProtocol(SCENE, ProtocolSettings(settle_s=1.0))
     still.start(0.0)
-    assert not kinds(still.tick(0.9), Request) and kinds(still.tick(1.0), Request)
+    assert not kinds(still.tick(0.9), Request)
+    actions = still.tick(1.0)
+    assert kinds(actions, Request)
+    # ... and says so: no "camera settled", as there is no camera.
+    said = [log.text for log in kinds(actions, Log)]
+    assert said == ['no camera/pose in 1 s: asking without waiting for the camera'], said
 
 
 def test_choices_count_only_as_answers():
