@@ -6,50 +6,22 @@ literally here (the parameter it suggests is set, the document section it
 names is opened, the figure it states is compared with what runs).
 """
 
+import math
 import os
 import re
-import selectors
-import signal
 import subprocess
 import sys
-import time
 
 from domain_coordinator import domain_id
 from lsl_outlets import make_outlet, unique_id
 from paths import REPO
 import pytest
+from user_process import UserProcess
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl, pytest.mark.slow]
 
 #: A reference to a section of a document, as the hints write it: (docs/x.md, "Section").
 DOC_REFERENCE = re.compile(r'\((README\.md|docs/[\w.-]+\.md), "([^"]+)"\)')
-
-
-def start(module, *args, domain=None):
-    """Start ``python -m eye_bci_ros2.<module> args`` with piped output."""
-    env = dict(os.environ)
-    if domain is not None:
-        env['ROS_DOMAIN_ID'] = str(domain)
-    return subprocess.Popen([sys.executable, '-m', f'eye_bci_ros2.{module}', *args], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-
-
-def output_until(process, pattern, timeout=40.0):
-    """Read the process's stderr until a line matches; stop it; return (line or None, all)."""
-    lines = []
-    found = None
-    selector = selectors.DefaultSelector()
-    selector.register(process.stderr, selectors.EVENT_READ)
-    end = time.monotonic() + timeout
-    while found is None and time.monotonic() < end and process.poll() is None:
-        if selector.select(timeout=0.5):
-            line = process.stderr.readline()
-            lines.append(line)
-            if re.search(pattern, line):
-                found = line
-    process.send_signal(signal.SIGINT)
-    rest, err = process.communicate(timeout=20)
-    return found, ''.join(lines) + err
 
 
 def section_exists(document: str, section: str) -> bool:
@@ -59,55 +31,53 @@ def section_exists(document: str, section: str) -> bool:
                    for line in stream)
 
 
-def test_the_bridge_says_an_eeg_stream_is_no_gaze_and_following_it_connects():
+def test_the_bridge_says_an_eeg_stream_is_no_gaze_and_following_it_connects(tmp_path):
     """The old hint (stream_type:='EEG') is refused with the reason; the new one works."""
     amplifier, info = make_outlet('custom', name=unique_id('LiveAmp'),
                                   source_id=unique_id('amp'), stream_type='EEG')
-    with domain_id() as domain:
-        bridge = start('nodes.lsl_gaze_bridge', '--ros-args', '-p', 'profile:=custom', '-p',
-                       'stream_type:=EEG', '-p', f'source_id:={info.source_id()}',
-                       '-p', 'resolve_period_s:=0.2', domain=domain)
-        line, text = output_until(bridge, 'not taking')
-    assert line is not None, text[-3000:]
+    with domain_id() as domain, \
+            UserProcess('nodes.lsl_gaze_bridge', '--ros-args', '-p', 'profile:=custom', '-p',
+                        'stream_type:=EEG', '-p', f'source_id:={info.source_id()}',
+                        log=tmp_path / 'eeg.log', domain=domain) as bridge:
+        line = bridge.wait_for('not taking')
+        assert bridge.stop() == 0
+    assert line is not None, bridge.output()[-3000:]
     assert (f"not taking '{info.name()}' (type 'EEG'" in line and 'it is an EEG stream, not '
             "gaze (a gaze bridge cannot use it): start the eye tracker's LSL sender (sim_gaze "
             'to try without one)' in line), line
-    assert bridge.returncode == 0 and 'Traceback' not in text
+    assert 'Traceback' not in bridge.output()
     del amplifier
     # What it says to do: a tracker's sender (here sim_gaze), and the bridge connects.
     tracker = unique_id('tracker')
-    sender = start('sim.gaze_outlet', '--source-id', tracker, '--duration', '60')
-    try:
-        with domain_id() as domain:
-            bridge = start('nodes.lsl_gaze_bridge', '--ros-args', '-p',
-                           f'source_id:={tracker}', domain=domain)
-            line, text = output_until(bridge, 'connected to gaze LSL stream')
-    finally:
-        sender.send_signal(signal.SIGINT)
-        sender.communicate(timeout=20)
-    assert line is not None and f"source_id '{tracker}'" in line, text[-3000:]
+    with UserProcess('sim.gaze_outlet', '--source-id', tracker, log=tmp_path / 'sim.log'), \
+            domain_id() as domain, \
+            UserProcess('nodes.lsl_gaze_bridge', '--ros-args', '-p', f'source_id:={tracker}',
+                        log=tmp_path / 'gaze.log', domain=domain) as bridge:
+        line = bridge.wait_for('connected to gaze LSL stream')
+    assert line is not None and f"source_id '{tracker}'" in line, bridge.output()[-3000:]
 
 
-def test_sim_eeg_help_states_the_frequencies_it_then_sends():
+def test_sim_eeg_help_states_the_frequencies_it_then_sends(tmp_path):
     help_text = subprocess.run([sys.executable, '-m', 'eye_bci_ros2.sim.eeg_outlet', '--help'],
                                capture_output=True, text=True, timeout=60).stdout
     stated = re.search(r'in order \(([\d., ]+) \.\.\. Hz, phase steps ([\d.]+) pi\)',
                        ' '.join(help_text.split()))
     assert stated, help_text
     frequencies = [float(f) for f in stated.group(1).split(',')]
-    sender = start('sim.eeg_outlet', '--source-id', unique_id('sim_eeg'), '--duration', '30')
-    line, text = output_until(sender, '^stimuli: ')
-    assert line is not None, text[-3000:]
+    with UserProcess('sim.eeg_outlet', '--source-id', unique_id('sim_eeg'),
+                     log=tmp_path / 'eeg.log') as sender:
+        line = sender.wait_for('^stimuli: ')
+    assert line is not None, sender.output()[-3000:]
     sent = [float(f) for f in re.findall(r' ([\d.]+) Hz', line)]
     assert sent[:len(frequencies)] == frequencies, (stated.group(0), line)
     phases = [float(p) for p in re.findall(r' ([\d.]+) rad', line)]
-    assert phases[1] - phases[0] == pytest.approx(float(stated.group(2)) * 3.141592653589793,
-                                                  abs=0.01)
+    assert phases[1] - phases[0] == pytest.approx(float(stated.group(2)) * math.pi, abs=0.01)
 
 
 def test_view_animated_bridge_names_a_section_that_says_how_to_build_its_messages():
-    process = start('nodes.view_animated_bridge')
-    out, err = process.communicate(timeout=60)
+    process = subprocess.run([sys.executable, '-m', 'eye_bci_ros2.nodes.view_animated_bridge'],
+                             capture_output=True, text=True, timeout=60)
+    err = process.stderr
     last = err.strip().splitlines()[-1]
     if process.returncode == 0 or 'is not available' not in last:
         pytest.skip('rviz_plugin_view_animated_msgs is installed here: no hint to follow')
