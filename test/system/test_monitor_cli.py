@@ -1,6 +1,5 @@
 """
-``monitor --once`` as a user runs it beside a running ``eye_bci``: which nodes are up, and
-what each waits for.
+``monitor --once`` beside a running ``eye_bci``: which nodes are up, what each waits for.
 
 The pipeline runs as ``ros2 run`` starts it (``eye_bci`` in its own process), the
 tracker is ``sim_gaze`` (a real LSL outlet), and the monitor is started once the

@@ -75,5 +75,5 @@ def test_x_and_y_naming_one_channel_are_refused_with_the_reason(tmp_path, x, y, 
     text = bridge.output()
     assert status == 1 and 'Traceback' not in text, text
     assert text.strip().splitlines()[-1] == (
-        f"cannot start: invalid parameter overrides: x_channel and y_channel both name channel "
+        'cannot start: invalid parameter overrides: x_channel and y_channel both name channel '
         f"'{shared}': x and y must be two different channels of the stream"), text
