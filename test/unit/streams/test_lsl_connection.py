@@ -211,12 +211,18 @@ def test_a_further_stream_is_reported_once_and_never_used():
     assert len(reports) == 1 and "set the parameter source_id to 'tobii-B'" in reports[0]
 
 
-def test_a_lost_stream_is_ignored_for_a_while_then_its_source_is_preferred():
-    conn, lsl, clock, log, connected = connection()
+def connected_then_lost():
+    """Return (conn, lsl, clock, log) connected to stream 'a1' of 'tobii-A', its sender gone."""
+    conn, lsl, clock, log, _ = connection()
     lsl.streams = [stream('a1', source_id='tobii-A')]
     conn.maintain()
     lsl.inlets['a1'].offset = 0.0
     lsl.inlets['a1'].lost = True
+    return conn, lsl, clock, log
+
+
+def test_a_lost_stream_is_ignored_for_a_while_then_its_source_is_preferred():
+    conn, lsl, clock, log = connected_then_lost()
     assert conn.acquire() == [] and conn.stream is None
     assert 'lost gaze stream' in log.text()
     # The dead outlet is still listed: not reopened until the ignore-list entry expires.
@@ -383,11 +389,7 @@ def test_an_eeg_stream_is_said_to_be_no_gaze_never_suggested_by_its_type():
 
 
 def test_a_lost_stream_replaced_by_another_source_is_a_switch_said_as_one():
-    conn, lsl, clock, log, connected = connection()
-    lsl.streams = [stream('a1', source_id='tobii-A')]
-    conn.maintain()
-    lsl.inlets['a1'].offset = 0.0
-    lsl.inlets['a1'].lost = True
+    conn, lsl, clock, log = connected_then_lost()
     conn.acquire()
     lsl.streams = [stream('b', source_id='tobii-B', created_at=3.0)]
     conn.maintain()
