@@ -59,7 +59,7 @@ def _check_robot(context):
 
 
 def _robot(context):
-    """Add sim_robot (robot:=sim), required like the other nodes."""
+    """Start the simulated robot when robot:=sim, required like the other nodes."""
     if LaunchConfiguration('robot').perform(context) != 'sim':
         return []
     return [Node(package=PACKAGE, executable='sim_robot', name='sim_robot',
