@@ -164,6 +164,8 @@ class ProtocolSettings:
     validate_first: bool = False
     validation_retries: int = 1
     robot_goals: bool = True
+    # Arrived as sim_robot counts it (navigation.robot_settings.GOAL_TOLERANCE_M, _DEG; the
+    # layers keep task from importing navigation: a unit test holds them equal).
     goal_tolerance_m: float = 0.2
     goal_tolerance_deg: float = 15.0
     drive_timeout_s: float = 10.0

@@ -401,3 +401,10 @@ def test_confirmation_layout_go_is_far_from_the_chosen_table():
         assert np.hypot(*(uv[2] - uv[0])) < 60                 # back: where the table was
         assert go.position[2] > table.marker.position[2]        # above the tables and floor
         assert (go.text, back.text) == (GO_LABEL, BACK_LABEL)
+
+
+def test_arrival_tolerances_are_the_robots():
+    from eye_bci_ros2.navigation.robot_settings import GOAL_TOLERANCE_DEG, GOAL_TOLERANCE_M
+    settings = ProtocolSettings()
+    assert (settings.goal_tolerance_m, settings.goal_tolerance_deg) == (GOAL_TOLERANCE_M,
+                                                                        GOAL_TOLERANCE_DEG)
