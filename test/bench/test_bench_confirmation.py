@@ -26,7 +26,7 @@ def test_the_confirmation_step_on_real_gaze(capsys):
 def test_rounds_put_back_on_the_dot_and_go_beside_it():
     class Targets:
         jumps = True
-        places = np.array([[500.0, 400.0], [960.0, 540.0], [40.0, 540.0]])
+        places = np.array([[500.0, 400.0], [960.0, 540.0], [60.0, 540.0]])
         onsets = np.array([0.0, 1.0, 2.0])
 
         def __len__(self):
@@ -44,4 +44,4 @@ def test_rounds_put_back_on_the_dot_and_go_beside_it():
     for (start, centres), dot in zip(rounds, Targets.places[1:]):
         np.testing.assert_allclose(centres[1], dot)                 # 'back' on the dot
         assert abs(abs(centres[0, 0] - dot[0]) - 300.0) < 1e-9     # 'go' 300 px beside it
-    assert rounds[1][1][0, 0] == 340.0      # the side that keeps 'go' on the screen
+    assert rounds[1][1][0, 0] == 360.0      # the side that keeps 'go' on the screen
