@@ -134,7 +134,8 @@ class Planner:
                          f'y in [{y0:.2f}, {y1:.2f}] m)')
         if not self.grid.is_free(point)[0]:
             raise NoPath(f'the {name} {_xy(point)} is inside a wall or table')
-        if not self.free_space.is_free(point)[0] and not (snap and self._near_free(point)):
+        if not self.free_space.is_free(point)[0] and not (
+                snap and self._near_free(point) is not None):
             raise NoPath(f'the {name} {_xy(point)} is closer to a wall or table than the '
                          f"robot's radius {self.radius_m:g} m allows")
 

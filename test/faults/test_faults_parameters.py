@@ -143,6 +143,12 @@ SPECIFIC = {
                  'inconsistent: eye == focus')],
         'up': [([0.0, 0.0, 0.0], 'zero vector')],
     },
+    'sim_robot': {
+        'scene_file': [('/nonexistent/scene.yaml', 'missing file'),
+                       (lambda _, tmp_path: _bad_scene(tmp_path), 'malformed YAML')],
+        'start_pose': [([1.0, 2.0], '2 numbers'), ([5.0, NAN, 0.0], 'NaN'),
+                       ([10.0, 3.0, 0.0], 'inside a wall'), ([30.0, 5.0, 0.0], 'off the map')],
+    },
 }
 
 #: One good change per node, to show it still accepts one after all the bad ones (None: every
@@ -159,6 +165,7 @@ GOOD_CHANGE = {
     'ssvep_stimulus': None,
     'view_animated_bridge': ('transition_time_s', 3.0),
     'sim_rviz_view': ('transition_time_s', 2.0),
+    'sim_robot': ('max_speed', 0.8),
 }
 
 #: Parameters a node is started with here: the LSL readers look for streams nobody
