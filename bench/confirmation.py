@@ -69,7 +69,7 @@ def confirm_rounds(recording: GazeRecording, gap_px, rng: np.random.Generator):
 
 
 def confirmation(recordings: Sequence[GazeRecording], gap_px, seed: int = 0) -> Dict:
-    """Confirmation rounds under the default rule: rounds, go, back, none."""
+    """Count the confirmation rounds' outcomes under the default rule: go, back, none."""
     counts = {'rounds': 0, 'go': 0, 'back': 0, 'none': 0}
     rng = np.random.default_rng([seed, 31])
     for recording in recordings:

@@ -83,6 +83,7 @@ from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings, METHODS
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
+from eye_bci_ros2.navigation.occupancy import yaw_of
 from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
                                             pose_to_arrays)
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
@@ -92,7 +93,6 @@ from eye_bci_ros2.nodes.runner import make_executor, spin_until as _spin_until
 from eye_bci_ros2.nodes.ssvep_decoder import SsvepDecoder
 from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
 from eye_bci_ros2.nodes.ssvep_stimulus_map import SsvepStimulusMap
-from eye_bci_ros2.navigation.occupancy import yaw_of
 from eye_bci_ros2.nodes.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC,
                                        GAZE_QOS, GAZE_SAMPLES_TOPIC, GOAL_POSE_TOPIC, GOAL_QOS,
                                        LATCHED_QOS, MAP_QOS, MAP_TOPIC, MENU_ANSWER_TOPIC,
@@ -530,7 +530,7 @@ class ExperimentDriver(Node):
         self.map = message
 
     def _on_progress(self, message: String) -> None:
-        """The menu's word on the robot: when the drive ended (arrived, stopped, not moving)."""
+        """Take the menu's word on the robot: when the drive ended (arrived, stopped, stuck)."""
         self.progress.append(message.data)
         if self._drive is None or message.data.startswith('driving'):
             return
@@ -559,8 +559,8 @@ class ExperimentDriver(Node):
         occupancy, origin, resolution = None, (0.0, 0.0), 0.05
         if self.map is not None:
             info = self.map.info
-            occupancy = np.array(self.map.data, dtype=np.int16).reshape(info.height,
-                                                                         info.width)
+            occupancy = np.array(self.map.data, dtype=np.int16).reshape(
+                info.height, info.width)
             origin = (info.origin.position.x, info.origin.position.y)
             resolution = info.resolution
         tables = [(t.marker.text, (float(t.marker.position[0]), float(t.marker.position[1])))

@@ -94,6 +94,9 @@ from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.gaze.validation import ValidationOutcome
+from eye_bci_ros2.navigation.approach import scene_goals
+from eye_bci_ros2.navigation.occupancy import yaw_of
+from eye_bci_ros2.navigation.robot_settings import RobotSettings
 from eye_bci_ros2.nodes.conversions import (arrays_to_pose, cube_marker, marker_array_to_regions,
                                             pose_to_arrays)
 from eye_bci_ros2.nodes.log_throttle import QuietRepeats, WARN_PERIOD_S
@@ -107,9 +110,6 @@ from eye_bci_ros2.nodes.topics import (CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC, CHO
                                        MENU_STATE_TOPIC, NO_CHOICE_TOPIC, ODOM_QOS, ODOM_TOPIC,
                                        REGIONS_TOPIC, REQUEST_TOPIC, VALIDATION_RESULT_TOPIC,
                                        VALIDATION_START_TOPIC, VIEW_QOS)
-from eye_bci_ros2.navigation.approach import scene_goals
-from eye_bci_ros2.navigation.occupancy import yaw_of
-from eye_bci_ros2.navigation.robot_settings import RobotSettings
 from eye_bci_ros2.projection.camera_model import look_at_pose
 from eye_bci_ros2.projection.geometry import WORLD_FRAME
 from eye_bci_ros2.task.menu import (Action, Answer, Log, MenuProtocol, Offer, Progress,
@@ -190,7 +190,7 @@ class ChoiceMenu(Node):
                       check=self._check_scene_file),
             ParamSpec('repeat', defaults.repeat, _PROTOCOL_PARAMETERS['repeat'][0]),
             ParamSpec('world_frame', WORLD_FRAME,
-                      "Frame of the markers, camera goals, goal_pose and odom; must match the "
+                      'Frame of the markers, camera goals, goal_pose and odom; must match the '
                       "scene's frame_id", check=check_frame_id),
             ParamSpec('robot_radius_m', _ROBOT.radius_m,
                       "Radius of the robot's footprint, m: each table's goal is where a robot "

@@ -698,7 +698,7 @@ class MenuProtocol:
     # -- the robot --------------------------------------------------------------------------
 
     def _confirmed(self, go: bool, now: float) -> List[Action]:
-        """The confirmation step's answer: 'go' sends the goal, 'back' offers the tables."""
+        """Act on the confirmation step's answer: 'go' sends the goal, 'back' offers the tables."""
         label, self.pending = self.pending, None
         if not go:
             return [Log('info', f"'{label}' not confirmed: back to the tables"),
@@ -725,7 +725,7 @@ class MenuProtocol:
     def _hold(self, progress: str) -> List[Action]:
         """Hold the robot where it is: a goal at its pose (topics only: no nav2 cancel)."""
         if self._robot is None:
-            return [Log('warning', 'no odometry: cannot send a goal at the robot\'s pose'),
+            return [Log('warning', "no odometry: cannot send a goal at the robot's pose"),
                     Progress(progress + ' (no odometry: pose unknown)')]
         return [SendGoal(STOP_LABEL, self._robot.copy()), Progress(progress)]
 
@@ -736,7 +736,7 @@ class MenuProtocol:
                 Progress(f"arrived at '{label}'"), *self._next_task(now)]
 
     def _not_moving(self, now: float) -> List[Action]:
-        """The robot came no nearer for drive_timeout_s: say so, hold it, offer the tables."""
+        """Say the robot came no nearer for drive_timeout_s, hold it, offer the tables."""
         drive, self.drive = self.drive, None
         why = ('no odometry on odom' if self._robot is None or drive.best_m == math.inf
                else f'{drive.best_m:.1f} m left, no nearer')

@@ -11,10 +11,10 @@ from ros_harness import Collector
 from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
+from eye_bci_ros2.navigation.approach import scene_goals
 from eye_bci_ros2.nodes.choice_menu import ChoiceMenu
 from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays, regions_to_marker_array
 from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.navigation.approach import scene_goals
 from eye_bci_ros2.nodes.topics import EVENT_QOS, GOAL_QOS, LATCHED_QOS, ODOM_QOS, VIEW_QOS
 from eye_bci_ros2.projection.camera_model import look_at_pose
 from eye_bci_ros2.task.scene import load_scene
@@ -353,7 +353,7 @@ def same_heading(a, b):
 
 
 def confirming(graph, table='kitchen/table_2', **overrides):
-    """A menu that asks 'go' or 'back' after the person chose a table."""
+    """Start a menu and answer up to its 'go' or 'back' question after a table."""
     menu, probe = start(graph, **overrides)
     probe.ask_and_answer(table.split('/')[0])
     probe.wait_labels(KITCHEN_TABLES)

@@ -7,9 +7,9 @@ from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.projection.camera_model import look_at_pose, rviz_intrinsic
 from eye_bci_ros2.projection.geometry import project_points
 from eye_bci_ros2.task.menu import (Answer, ASKING, BACK_LABEL, back_marker, confirm_markers,
-                                    DRIVING, FINISHED, GO_LABEL, LOOK_AWAY, MenuProtocol, Offer,
-                                    PAUSED, Progress, ProtocolSettings, READY, Request, Result,
-                                    Log, SendGoal, STOP_LABEL, WAITING_FOR_CAMERA)
+                                    DRIVING, FINISHED, GO_LABEL, Log, LOOK_AWAY, MenuProtocol,
+                                    Offer, PAUSED, Progress, ProtocolSettings, READY, Request,
+                                    Result, SendGoal, STOP_LABEL, WAITING_FOR_CAMERA)
 from eye_bci_ros2.task.scene import load_scene
 
 SCENE = load_scene(default_scene_path())
@@ -256,7 +256,7 @@ TABLE = 'kitchen/table_2'
 
 def confirming(**settings):
     """Return a menu asking 'go' or 'back' after kitchen/table_2 was chosen, and the time."""
-    menu = MenuProtocol(SCENE, ProtocolSettings(**dict(dict(look_away_s=0.2), **settings)),
+    menu = MenuProtocol(SCENE, ProtocolSettings(**{'look_away_s': 0.2, **settings}),
                         GOALS)
     menu.start(0.0)
     arrive(menu, SCENE.overview, 0.5)
