@@ -1,7 +1,7 @@
 """
 Every parameter of every executable, set to a wrong type, out of range and inconsistent values.
 
-The nodes are those of the registry (:func:`eye_bci_ros2.nodes.registry.parameter_nodes`:
+The nodes are those of the registry (:func:`eye_bci_ros2.ros.registry.parameter_nodes`:
 every executable that runs a node with parameters), so a node added there is
 covered here, and must say here which good change it accepts afterwards
 (``GOOD_CHANGE``).  A node whose creation needs what this machine lacks (a
@@ -32,7 +32,7 @@ import pytest
 from rcl_interfaces.msg import ParameterType
 from rclpy.parameter import Parameter
 
-from eye_bci_ros2.nodes.registry import missing, parameter_nodes
+from eye_bci_ros2.ros.registry import missing, parameter_nodes
 
 pytestmark = pytest.mark.ros
 
@@ -52,7 +52,7 @@ WRONG_TYPES = {
 }
 
 #: Wrong-type values that are what a person types and mean the declared type, so
-#: they are accepted (see eye_bci_ros2.nodes.parameters and test_param_typing.py):
+#: they are accepted (see eye_bci_ros2.ros.parameters and test_param_typing.py):
 #: an integer for a string parameter that holds a channel index or a stream
 #: name/type/id (``-p x_channel:=0``).  Integers for doubles are not in
 #: WRONG_TYPES; every other wrong type above is still refused.

@@ -18,7 +18,7 @@ ALLOWED = {
     'recordings': {'projection', 'gaze'},
     'navigation': {'task'},
 }
-OUTER = ('nodes', 'sim', 'experiments', 'tools')
+OUTER = ('ros', 'nodes', 'sim', 'experiments', 'tools')
 
 
 def imported_subpackages(path):

@@ -9,7 +9,7 @@ from paths import REPO
 import eye_bci_ros2
 
 #: Packages of the package that may use ROS, LSL, plots or a window.
-IMPURE_PACKAGES = ('nodes', 'sim', 'experiments', 'tools')
+IMPURE_PACKAGES = ('ros', 'nodes', 'sim', 'experiments', 'tools')
 #: What the pure core must not load.
 FORBIDDEN = ('rclpy', 'pylsl', 'matplotlib', 'pyglet', 'ament_index_python')
 

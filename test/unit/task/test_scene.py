@@ -8,8 +8,8 @@ from paths import CONFIG
 import pytest
 import yaml
 
-from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.projection import geometry
+from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.task.scene import load_scene, parse_scene
 
 #: The set-up the default scene is laid out for: 1280x720 render panel,

@@ -8,7 +8,7 @@ whole pipeline.  docs/DESIGN.md ("Topics") says what each carries.
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 #: Every gaze sample, batched: sensor_msgs/PointCloud2, one message per LSL chunk
-#: (see :mod:`eye_bci_ros2.nodes.conversions`, "Gaze batches").
+#: (see :mod:`eye_bci_ros2.ros.conversions`, "Gaze batches").
 GAZE_SAMPLES_TOPIC = 'gaze/samples'
 #: A per-sample view for people and simple tools (``ros2 topic echo``, a gaze cursor):
 #: geometry_msgs/PointStamped, the newest sample, at most ``point_rate_hz``.
@@ -50,7 +50,7 @@ DECISION_DUE_TOPIC = 'choice/due'
 
 #: What the person is shown of the selection while it happens (choice_arbiter ->
 #: RViz): visualization_msgs/MarkerArray in the options' frame, one halo per option
-#: with the option's ns and id (eye_bci_ros2.nodes.feedback_markers), at most
+#: with the option's ns and id (eye_bci_ros2.ros.feedback_markers), at most
 #: ``feedback_rate_hz``; FEEDBACK_QOS.
 FEEDBACK_TOPIC = 'choices/feedback'
 
@@ -68,7 +68,7 @@ VALIDATION_TARGETS_TOPIC = 'validation/targets'
 VALIDATION_START_TOPIC = 'validation/start'
 VALIDATION_RESULT_TOPIC = 'validation/result'
 
-#: SSVEP (eye_bci_ros2.nodes.ssvep_messages): each option's stimulus (latched,
+#: SSVEP (eye_bci_ros2.ros.ssvep_messages): each option's stimulus (latched,
 #: sensor_msgs/JointState), the decoder's per-option posterior and score per step
 #: (JointState, SCORES_QOS) and its choice (std_msgs/String, EVENT_QOS).
 SSVEP_STIMULI_TOPIC = 'ssvep/stimuli'
