@@ -64,6 +64,7 @@ REGISTRY: Dict[str, str] = {
     'calibration': 'bench.calibration_protocol',
     'ssvep': 'bench.ssvep',
     'ssvep_real': 'bench.ssvep_real',
+    'robot': 'bench.robot',
 }
 
 #: The default run of a section: ``(keyword arguments of run(), what that leaves out of

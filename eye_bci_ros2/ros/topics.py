@@ -139,22 +139,19 @@ FEEDBACK_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=10,
     reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 
-#: ``goal_pose``: what RViz's "2D Goal Pose" tool publishes with and bt_navigator takes.
-GOAL_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=10,
-    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
-
-#: ``map``: as nav2's map_server publishes it: reliable, transient local, depth 1 (a
-#: subscriber must ask for transient local, as RViz's Map display does when told to).
-MAP_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=1,
-    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-
 #: ``odom``: a stream at >= 20 Hz, reliable (a menu that waits for arrival must not miss
 #: the last message) and a second deep; as a robot driver's odometry, volatile.
 ODOM_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=20,
     reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+#: ``goal_pose``: what RViz's "2D Goal Pose" tool publishes with (as its view controllers) and
+#: nav2's bt_navigator takes.
+GOAL_QOS = RVIZ_POSE_QOS
+
+#: ``map``: as nav2's map_server publishes it: reliable, transient local, depth 1 (a
+#: subscriber must ask for transient local, as RViz's Map display does when told to).
+MAP_QOS = LATCHED_QOS
 
 #: ``plan``: one message per new goal; latched, so RViz started later shows the path.
 PLAN_QOS = LATCHED_QOS

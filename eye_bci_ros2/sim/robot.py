@@ -119,7 +119,7 @@ class SimRobot(Node):
         self._publish_state()
         pose = self.drive.pose
         self.get_logger().info(
-            f"simulated robot (radius {self._robot.settings.radius_m:g} m) at "
+            f'simulated robot (radius {self._robot.settings.radius_m:g} m) at '
             f'({pose[0]:.2f}, {pose[1]:.2f}, {math.degrees(pose[2]):.0f} deg) on the map of '
             f"{self._scene.source} in '{self.frame_id}'; goals on {GOAL_POSE_TOPIC}, "
             f'time x{self._time_scale:g}')

@@ -77,7 +77,7 @@ class Rig:
         return self.odom.messages[first:]
 
     def free_cell_near(self, x, y, clearance):
-        """A cell centre of the received map, nearest (x, y), >= clearance m from occupied."""
+        """Return the free cell centre nearest (x, y) with clearance m of free space."""
         grid = self.map.last
         info = grid.info
         cells = np.array(grid.data, dtype=np.int16).reshape(info.height, info.width)

@@ -15,7 +15,7 @@ SCENE = load_scene(CONFIG / 'scene.yaml')
 
 
 def two_rooms(door_width):
-    """A 6 m x 3 m box split at x = 3 by a wall with a door of ``door_width`` at y = 1.5."""
+    """Return a 6 m x 3 m box split at x = 3 by a wall with a door ``door_width`` wide."""
     half = door_width / 2
     walls = np.array([[0, 0, 6, 0], [6, 0, 6, 3], [6, 3, 0, 3], [0, 3, 0, 0],
                       [3, 0, 3, 1.5 - half], [3, 1.5 + half, 3, 3]], dtype=float)
