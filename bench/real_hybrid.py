@@ -53,6 +53,7 @@ import argparse
 from dataclasses import dataclass
 import itertools
 import math
+from pathlib import Path
 import sys
 import time
 from typing import Dict, Iterator, List, Optional, Sequence, Tuple
@@ -71,7 +72,7 @@ from eye_bci_ros2.projection.visual_angle import ScreenGeometry
 from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EegRecording,
                                          find_eeg_recordings, load_eeg)
-from eye_bci_ros2.recordings.gaze import GazeRecording
+from eye_bci_ros2.recordings.gaze import find_recordings, GazeRecording
 from eye_bci_ros2.ssvep.online import OnlineSettings
 
 #: Side of the square options, px.
@@ -137,7 +138,7 @@ class Pairing:
 
     @property
     def regions(self) -> RegionSet:
-        """The options as the choice_arbiter receives them (``choices/regions``), from the cue."""
+        """Return the options as the choice_arbiter receives them (``choices/regions``)."""
         return RegionSet(list(self.labels), squares(self.centres, OPTION_PX), self.cue)
 
 
@@ -418,12 +419,19 @@ def evaluate(pairings: Sequence[Pairing], with_bound: bool = True) -> Dict:
     return result
 
 
-def unavailable() -> Optional[str]:
-    """Say why the benchmark cannot run here (no recordings), or None (``bench.run_all``)."""
-    if find_data('real_gaze') is None:
+def unavailable(gaze_data: Optional[str] = None, eeg_data: Optional[str] = None
+                ) -> Optional[str]:
+    """
+    Say why the benchmark cannot run here (no recordings), or None (``bench.run_all``).
+
+    :param gaze_data: the gaze folder named (None: the development copy's).
+    :param eeg_data: the EEG folder named (None: the development copy's).
+    """
+    gaze_folder = gaze_data or find_data('real_gaze')
+    if gaze_folder is None or not Path(gaze_folder).is_dir() or not find_recordings(gaze_folder):
         return 'no real gaze recordings (../shared/data/real_gaze or --gaze-data DIR)'
-    folder = eeg_data_dir()
-    if folder is None or not find_eeg_recordings(folder):
+    eeg_folder = eeg_data or eeg_data_dir()
+    if eeg_folder is None or not find_eeg_recordings(eeg_folder):
         return 'no real EEG recordings (../shared/data/real_eeg or --eeg-data DIR)'
     return None
 

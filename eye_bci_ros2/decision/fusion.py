@@ -17,11 +17,11 @@ Input modes of an experiment: gaze, SSVEP, or both (hybrid), and how they make a
   stimulus against rest), not "which of the K?": the posterior is
   conditioned on the two hypotheses left, ``p_c / (p_c + p_rest)``, and the
   candidate must lead the posterior (strong evidence for another option
-  means the gaze, not the EEG, is wrong).  A gaze decision is a candidate only when the gaze stayed on it:
-  its margin (leader's share of the in-region gaze minus the runner-up's) is
-  at least ``min_gaze_margin``.  Gaze narrows the options and SSVEP, which
-  needs sustained attention to a flickering option, supplies the intent: looking
-  over the options (the "Midas touch") nominates candidates but never
+  means the gaze, not the EEG, is wrong).  A gaze decision is a candidate
+  only when the gaze stayed on it: its margin (leader's share of the
+  in-region gaze minus the runner-up's) is at least ``min_gaze_margin``.
+  Gaze narrows the options and SSVEP, which needs sustained attention to a
+  flickering option, supplies the intent: looking over the options (the "Midas touch") nominates candidates but never
   confirms one.  (Sequential gaze-then-SSVEP confirmation as in Stawicki et
   al. 2017 and the sequential mode of Guo et al. 2023.)
 

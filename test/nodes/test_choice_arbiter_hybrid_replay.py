@@ -14,14 +14,13 @@ the next waits until the node has taken it.
 import dataclasses
 import itertools
 
+from arbiter_rig import ArbiterRig
 import numpy as np
 import pytest
-from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
-from arbiter_rig import ArbiterRig
 from bench import real_hybrid
 from bench.real_gaze import load_folder
 from bench.ssvep_real import _online
@@ -48,7 +47,7 @@ def _ns(seconds: float) -> int:
 
 @pytest.fixture(scope='module')
 def pairings():
-    """The paired rounds of 8 trials of a real session (rest and stimuli), as the bench pairs."""
+    """Pair 8 trials of a real session (rest and stimuli) with gaze rounds, as the bench does."""
     gaze_folder, eeg_folder = find_data('real_gaze'), eeg_data_dir()
     paths = find_eeg_recordings(eeg_folder) if eeg_folder else []
     if gaze_folder is None or not paths:
