@@ -21,9 +21,10 @@ Input modes of an experiment: gaze, SSVEP, or both (hybrid), and how they make a
   only when the gaze stayed on it: its margin (leader's share of the
   in-region gaze minus the runner-up's) is at least ``min_gaze_margin``.
   Gaze narrows the options and SSVEP, which needs sustained attention to a
-  flickering option, supplies the intent: looking over the options (the "Midas touch") nominates candidates but never
-  confirms one.  (Sequential gaze-then-SSVEP confirmation as in Stawicki et
-  al. 2017 and the sequential mode of Guo et al. 2023.)
+  flickering option, supplies the intent: looking over the options (the
+  "Midas touch") nominates candidates but never confirms one.  (Sequential
+  gaze-then-SSVEP confirmation as in Stawicki et al. 2017 and the sequential
+  mode of Guo et al. 2023.)
 
 At most one choice per round; a round starts with :meth:`ChoiceFusion.new_round`
 (new options or a request).  Times are seconds on one clock (the node clock).
