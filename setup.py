@@ -11,7 +11,7 @@ package_name = 'eye_bci_ros2'
 # Executables, as `ros2 run eye_bci_ros2 <exe>` finds them in lib/eye_bci_ros2: from the one
 # registry (read by path: the package and rclpy cannot be imported while it is being built).
 _REGISTRY = runpy.run_path(os.path.join(os.path.dirname(os.path.abspath(__file__)),
-                                        package_name, 'nodes', 'registry.py'))
+                                        package_name, 'ros', 'registry.py'))
 console_scripts = list(_REGISTRY['console_scripts']())
 
 setup(

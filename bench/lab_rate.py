@@ -106,9 +106,9 @@ from std_msgs.msg import Empty, String
 
 from bench.latency import default_poll_period, Driver, encode_xy_pixels, make_outlet
 from bench.timing import machine_info
-from eye_bci_ros2.nodes.runner import (freeze_startup_objects, make_executor, spin_for,
-                                       spin_until, STOP_POLL_S)
-from eye_bci_ros2.nodes.topics import EVENT_QOS, NO_CHOICE_TOPIC
+from eye_bci_ros2.ros.runner import (freeze_startup_objects, make_executor, spin_for,
+                                     spin_until, STOP_POLL_S)
+from eye_bci_ros2.ros.topics import EVENT_QOS, NO_CHOICE_TOPIC
 
 #: Round window, s, and the request period: a round is always open.
 WINDOW_S = 0.2

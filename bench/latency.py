@@ -74,11 +74,11 @@ from eye_bci_ros2.gaze.profiles import PROFILES
 from eye_bci_ros2.nodes import lsl_gaze_bridge
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import cube_marker, marker_array_to_regions
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.runner import make_executor, spin_for, spin_until
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, LATCHED_QOS,
-                                       REGIONS_TOPIC, REQUEST_TOPIC)
+from eye_bci_ros2.ros.conversions import cube_marker, marker_array_to_regions
+from eye_bci_ros2.ros.runner import make_executor, spin_for, spin_until
+from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, LATCHED_QOS,
+                                     REGIONS_TOPIC, REQUEST_TOPIC)
 from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
 
 #: Push rate of the simulated tracker, Hz.

@@ -72,7 +72,8 @@ from eye_bci_ros2.projection.visual_angle import ScreenGeometry
 from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.eeg import (by_subject, eeg_data_dir, EegRecording,
                                          find_eeg_recordings, load_eeg)
-from eye_bci_ros2.recordings.gaze import find_recordings, GazeRecording
+from eye_bci_ros2.recordings.gaze import find_recordings
+from eye_bci_ros2.recordings.gaze_recording import GazeRecording
 from eye_bci_ros2.ssvep.online import OnlineSettings
 
 #: Side of the square options, px.

@@ -65,6 +65,7 @@ REGISTRY: Dict[str, str] = {
     'ssvep': 'bench.ssvep',
     'ssvep_real': 'bench.ssvep_real',
     'real_hybrid': 'bench.real_hybrid',
+    'robot': 'bench.robot',
 }
 
 #: The default run of a section: ``(keyword arguments of run(), what that leaves out of

@@ -68,14 +68,14 @@ from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.decision.tolerance import polygon_distances
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import cube_marker, gaze_batch_arrays
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.runner import executor_kind, make_executor, spin_until
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, GAZE_QOS,
-                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
-                                       REQUEST_TOPIC)
 from eye_bci_ros2.projection.camera_model import RvizCamera
+from eye_bci_ros2.ros.conversions import cube_marker, gaze_batch_arrays
+from eye_bci_ros2.ros.runner import executor_kind, make_executor, spin_until
+from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, GAZE_QOS,
+                                     GAZE_SAMPLES_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
+                                     REQUEST_TOPIC)
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer, SOURCE_SIZE
 from eye_bci_ros2.sim.person import IDEAL_EYE, PRO_TRACKER
 from eye_bci_ros2.task.menu import ProtocolSettings

@@ -72,7 +72,7 @@ from eye_bci_ros2.decision.tolerance import DEFAULT_RATIO, GazeErrorModel, Toler
 from eye_bci_ros2.experiments import accuracy_test
 from eye_bci_ros2.gaze.validation import (apply_correction, CorrectionRefused, fit_correction,
                                           IDENTITY, samples_per_target, target_layout)
-from eye_bci_ros2.nodes.package_files import default_scene_path
+from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER, GazeParams, GazeSimulator, ORIGINAL_TOBII_4C
 from eye_bci_ros2.task.scene import load_scene
 

@@ -37,12 +37,12 @@ from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from eye_bci_ros2.nodes.conversions import arrays_to_pose
 from eye_bci_ros2.nodes.gaze_validation import GazeValidation
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
-from eye_bci_ros2.nodes.runner import make_executor, spin_until
-from eye_bci_ros2.nodes.topics import CAMERA_POSE_TOPIC, LATCHED_QOS
 from eye_bci_ros2.projection.camera_model import look_at_pose
+from eye_bci_ros2.ros.conversions import arrays_to_pose
+from eye_bci_ros2.ros.runner import make_executor, spin_until
+from eye_bci_ros2.ros.topics import CAMERA_POSE_TOPIC, LATCHED_QOS
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
 from eye_bci_ros2.sim.person import IDEAL_EYE, PRESETS
 from eye_bci_ros2.sim.target_follower import TargetFollower

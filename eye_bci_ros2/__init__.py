@@ -32,7 +32,7 @@ def _quiet_interrupt(kind, value, traceback, _previous=sys.excepthook):
     importing rclpy and numpy (the first seconds): Python would print a
     KeyboardInterrupt traceback for each.  Nothing was started yet, so there
     is nothing to report: the process ends with status 0, as a node stopped
-    by Ctrl-C does (:mod:`eye_bci_ros2.nodes.runner`).  Other errors, and an
+    by Ctrl-C does (:mod:`eye_bci_ros2.ros.runner`).  Other errors, and an
     interactive session, keep Python's report.
     """
     if _interrupted(value) and not hasattr(sys, 'ps1'):
@@ -61,7 +61,7 @@ def _once_per_ctrl_c(signum, frame, _last=[None]) -> None:
     prints "Error in sys.excepthook" with both tracebacks, and the process
     ends by the signal.  A Ctrl-C later than :data:`SAME_CTRL_C_S` interrupts
     as usual.  The runner replaces this handler once the node handles signals
-    (:mod:`eye_bci_ros2.nodes.runner`).
+    (:mod:`eye_bci_ros2.ros.runner`).
     """
     now = time.monotonic()
     if _last[0] is not None and now - _last[0] < SAME_CTRL_C_S:
@@ -72,7 +72,7 @@ def _once_per_ctrl_c(signum, frame, _last=[None]) -> None:
 
 def _running_an_executable() -> bool:
     """Tell whether this process is one of the package's executables (``ros2 run``, launch)."""
-    from eye_bci_ros2.nodes.registry import EXECUTABLES   # standard library only
+    from eye_bci_ros2.ros.registry import EXECUTABLES   # standard library only
     name = os.path.basename(sys.argv[0]) if sys.argv else ''
     return any(executable.name == name for executable in EXECUTABLES)
 

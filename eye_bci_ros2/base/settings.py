@@ -7,10 +7,10 @@ A settings dataclass (:class:`eye_bci_ros2.decision.rounds.ArbiterSettings`,
 declaration come:
 
 * the dataclass's checks: :func:`check_settings` in its ``__post_init__``;
-* the node parameter: :func:`eye_bci_ros2.nodes.parameters.param_specs`
+* the node parameter: :func:`eye_bci_ros2.ros.parameters.param_specs`
   (ParameterDescriptor with the description and the range, the same check
   when set), and the typed settings object a node keeps
-  (:class:`eye_bci_ros2.nodes.parameters.SettingsParameters`);
+  (:class:`eye_bci_ros2.ros.parameters.SettingsParameters`);
 * the generated parameter tables and defaults file
   (``python -m eye_bci_ros2.tools.describe``), which read the declared parameters;
 * per-field flags a class needs, as ``field(**flags)`` metadata (the

@@ -5,7 +5,7 @@ Every check here returns None when the value is fine, else the reason it is
 not, as a phrase that follows the value's name ("must be in (0.5, 1), got
 1.2"); :func:`require` turns a reason into a ``ValueError``.  The settings
 declarations (:mod:`eye_bci_ros2.base.settings`) and the node parameter tables
-(:mod:`eye_bci_ros2.nodes.parameters`) both use them, so a value is refused
+(:mod:`eye_bci_ros2.ros.parameters`) both use them, so a value is refused
 with the same words whether it comes from Python or from ``ros2 param set``.
 """
 

@@ -4,7 +4,7 @@ What the person sees of a decision while it happens: the content of ``choices/fe
 Pure Python and numpy.  Per offered option (by label): a highlight state
 (:data:`NONE`, :data:`GAZED`: the gaze is on it now, :data:`CHOSEN`: it was
 just chosen) and the progress of the decision towards it, 0..1.  The node side
-(:mod:`eye_bci_ros2.nodes.feedback_markers`) turns it into RViz markers; the
+(:mod:`eye_bci_ros2.ros.feedback_markers`) turns it into RViz markers; the
 arbiter side builds it with :func:`build_feedback` from its round state.
 
 Progress: each rule's ``progress`` (the count rules':

@@ -53,10 +53,10 @@ from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.experiments.trials import decide_trial, RULES, settings_for
-from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.projection.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET,
                                                   RVIZ_FOV_Y_DEG, RvizCamera)
 from eye_bci_ros2.projection.geometry import polygon_signed_area
+from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.sim.person import GazeParams, GazeSimulator, ORIGINAL_TOBII_4C, PRESETS
 from eye_bci_ros2.task.scene import load_scene, Scene
 
@@ -585,12 +585,12 @@ def run_live(args, scene: Scene, methods: Sequence[str]) -> int:
     from std_msgs.msg import Empty
     from visualization_msgs.msg import Marker, MarkerArray
 
-    from eye_bci_ros2.nodes.conversions import arrays_to_pose, cube_marker
     from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes
-    from eye_bci_ros2.nodes.runner import make_executor, spin_until as spin
-    from eye_bci_ros2.nodes.topics import (CAMERA_GOAL_TOPIC, CHOICES_TOPIC, EVENT_QOS,
-                                           LATCHED_QOS, REQUEST_TOPIC)
     from eye_bci_ros2.projection.camera_model import look_at_pose
+    from eye_bci_ros2.ros.conversions import arrays_to_pose, cube_marker
+    from eye_bci_ros2.ros.runner import make_executor, spin_until as spin
+    from eye_bci_ros2.ros.topics import (CAMERA_GOAL_TOPIC, CHOICES_TOPIC, EVENT_QOS,
+                                         LATCHED_QOS, REQUEST_TOPIC)
 
     scenario = RoomScenario(scene, image_size=args.image_size, screen_offset=args.screen_offset)
     method = methods[0]

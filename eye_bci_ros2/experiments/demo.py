@@ -76,23 +76,23 @@ from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings, METHODS
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
-from eye_bci_ros2.nodes.conversions import (gaze_batch_arrays, marker_array_to_regions,
-                                            pose_to_arrays)
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
-from eye_bci_ros2.nodes.feedback_markers import option_label, OptionMarkers
-from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.nodes.runner import make_executor, spin_until as _spin_until
 from eye_bci_ros2.nodes.ssvep_decoder import SsvepDecoder
-from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
 from eye_bci_ros2.nodes.ssvep_stimulus_map import SsvepStimulusMap
-from eye_bci_ros2.nodes.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC,
-                                       GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
-                                       MENU_ANSWER_TOPIC, MENU_RESULT_TOPIC, REGIONS_TOPIC,
-                                       REQUEST_TOPIC, RVIZ_CAMERA_POSE_TOPIC, SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.projection.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET,
                                                   optical_pose_from_ogre, RVIZ_FOV_Y_DEG,
                                                   RvizCamera)
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
+from eye_bci_ros2.ros.conversions import (gaze_batch_arrays, marker_array_to_regions,
+                                          pose_to_arrays)
+from eye_bci_ros2.ros.feedback_markers import option_label, OptionMarkers
+from eye_bci_ros2.ros.package_files import default_scene_path
+from eye_bci_ros2.ros.runner import make_executor, spin_until as _spin_until
+from eye_bci_ros2.ros.ssvep_messages import msg_to_stimulus_map
+from eye_bci_ros2.ros.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC,
+                                     GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                     MENU_ANSWER_TOPIC, MENU_RESULT_TOPIC, REGIONS_TOPIC,
+                                     REQUEST_TOPIC, RVIZ_CAMERA_POSE_TOPIC, SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
 from eye_bci_ros2.sim.eeg_outlet import EegStreamer
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer

@@ -37,16 +37,16 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.validate_topic_name import validate_topic_name
 
-from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
-from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
-from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
-from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
-from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, LATCHED_QOS, RVIZ_CAMERA_POSE_TOPIC,
-                                       RVIZ_POSE_QOS)
 from eye_bci_ros2.projection.camera_model import look_at_pose, optical_pose_from, POSE_CONVENTIONS
 from eye_bci_ros2.projection.geometry import WORLD_FRAME
+from eye_bci_ros2.ros.conversions import arrays_to_pose, pose_to_arrays
+from eye_bci_ros2.ros.log_throttle import WARN_PERIOD_S
+from eye_bci_ros2.ros.parameters import check_frame_id, check_vector3
+from eye_bci_ros2.ros.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.ros.runner import spin_node
+from eye_bci_ros2.ros.rviz_file import at_default, rviz_config_spec, rviz_view
+from eye_bci_ros2.ros.topics import (CAMERA_POSE_TOPIC, LATCHED_QOS, RVIZ_CAMERA_POSE_TOPIC,
+                                     RVIZ_POSE_QOS)
 
 #: Default static view: the overview of the default scene (config/scene.yaml,
 #: a 20 m x 12 m map), from 17 m up and 8 m south of the map centre (10, 6, 0),
@@ -76,7 +76,7 @@ def static_view(values: Dict[str, Any]) -> Tuple[List[float], List[float], List[
     from its built-in default (set on the command line, in a params file or by
     ``ros2 param set``), the three parameters are the view.  Otherwise, if
     ``rviz_config`` names a file, its current view is the view.  Otherwise the
-    built-in default view (see :mod:`eye_bci_ros2.nodes.rviz_file`).
+    built-in default view (see :mod:`eye_bci_ros2.ros.rviz_file`).
 
     :param values: the node's parameter values.
     :returns: ``(eye, focus, up, source)`` where source says where it came from.

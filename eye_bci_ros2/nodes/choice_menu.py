@@ -66,20 +66,20 @@ from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.gaze.validation import ValidationOutcome
-from eye_bci_ros2.nodes.conversions import (arrays_to_pose, cube_marker, marker_array_to_regions,
-                                            pose_to_arrays)
-from eye_bci_ros2.nodes.log_throttle import QuietRepeats, WARN_PERIOD_S
-from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC, CHOICE_TOPIC,
-                                       CHOICES_TOPIC, EVENT_QOS, GAZE_ON_SCREEN_TOPIC,
-                                       GAZE_POINT_TOPIC, LATCHED_QOS, MENU_ANSWER_TOPIC,
-                                       MENU_RESULT_TOPIC, MENU_STATE_TOPIC, NO_CHOICE_TOPIC,
-                                       REGIONS_TOPIC, REQUEST_TOPIC, VALIDATION_RESULT_TOPIC,
-                                       VALIDATION_START_TOPIC, VIEW_QOS)
 from eye_bci_ros2.projection.camera_model import look_at_pose
 from eye_bci_ros2.projection.geometry import WORLD_FRAME
+from eye_bci_ros2.ros.conversions import (arrays_to_pose, cube_marker, marker_array_to_regions,
+                                          pose_to_arrays)
+from eye_bci_ros2.ros.log_throttle import QuietRepeats, WARN_PERIOD_S
+from eye_bci_ros2.ros.package_files import default_scene_path
+from eye_bci_ros2.ros.parameters import check_frame_id, declare_parameters, ParamSpec
+from eye_bci_ros2.ros.runner import spin_node
+from eye_bci_ros2.ros.topics import (CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC, CHOICE_TOPIC,
+                                     CHOICES_TOPIC, EVENT_QOS, GAZE_ON_SCREEN_TOPIC,
+                                     GAZE_POINT_TOPIC, LATCHED_QOS, MENU_ANSWER_TOPIC,
+                                     MENU_RESULT_TOPIC, MENU_STATE_TOPIC, NO_CHOICE_TOPIC,
+                                     REGIONS_TOPIC, REQUEST_TOPIC, VALIDATION_RESULT_TOPIC,
+                                     VALIDATION_START_TOPIC, VIEW_QOS)
 from eye_bci_ros2.task.menu import (Action, Answer, Log, MenuProtocol, Offer, ProtocolSettings,
                                     Request, Result, ROOMS_NS, TABLES_NS, Validate)
 from eye_bci_ros2.task.scene import CubeMarker, load_scene, Scene, View

@@ -6,7 +6,7 @@ marker_projector and choice_arbiter (RViz, the eye tracker and the task that
 publishes ``choices`` stay outside).  The original experiment's menu is
 started explicitly: ``ros2 run eye_bci_ros2 choice_menu``, or
 ``eye_bci --with-menu`` to compose it too.  One executor
-(:mod:`eye_bci_ros2.nodes.runner`) runs them all: every callback is short and
+(:mod:`eye_bci_ros2.ros.runner`) runs them all: every callback is short and
 non-blocking, so one thread keeps latency low without locks or the GIL
 contention of a thread pool.  ``--ros-args`` apply to every node, so name
 the node in parameter files (``/marker_projector:``) or use ``/**``.
@@ -20,8 +20,8 @@ from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from eye_bci_ros2.nodes import registry
-from eye_bci_ros2.nodes.runner import non_ros_args, spin_nodes
+from eye_bci_ros2.ros import registry
+from eye_bci_ros2.ros.runner import non_ros_args, spin_nodes
 
 #: (node name, module, class) of each pipeline node, in start-up order (from the registry).
 PIPELINE = registry.pipeline()

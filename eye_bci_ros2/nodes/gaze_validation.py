@@ -62,19 +62,19 @@ from eye_bci_ros2.gaze.validation import (as_matrix, compose_corrections, correc
                                           implausibility, KINDS, measure, MIN_SAMPLES, MIN_TARGETS,
                                           NODE, PARAMETER, samples_per_target, save_correction,
                                           SETTLE_S, target_layout, ValidationOutcome)
-from eye_bci_ros2.nodes.conversions import (arrays_to_pose, gaze_batch_arrays, ns_to_stamp,
-                                            pose_to_arrays, SCREEN_FRAME)
-from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
 from eye_bci_ros2.nodes.marker_projector import (camera_from_parameters,
                                                  PARAMETERS as PROJECTOR_PARAMETERS)
-from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.screen_parameters import person_screen, person_screen_parameters
-from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
-                                       LATCHED_QOS, VALIDATION_RESULT_TOPIC,
-                                       VALIDATION_START_TOPIC, VALIDATION_TARGET_TOPIC,
-                                       VALIDATION_TARGETS_TOPIC)
 from eye_bci_ros2.projection.visual_angle import degrees_to_px, ScreenGeometry
+from eye_bci_ros2.ros.conversions import (arrays_to_pose, gaze_batch_arrays, ns_to_stamp,
+                                          pose_to_arrays, SCREEN_FRAME)
+from eye_bci_ros2.ros.log_throttle import WARN_PERIOD_S
+from eye_bci_ros2.ros.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.ros.runner import spin_node
+from eye_bci_ros2.ros.screen_parameters import person_screen, person_screen_parameters
+from eye_bci_ros2.ros.topics import (CAMERA_POSE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
+                                     LATCHED_QOS, VALIDATION_RESULT_TOPIC,
+                                     VALIDATION_START_TOPIC, VALIDATION_TARGET_TOPIC,
+                                     VALIDATION_TARGETS_TOPIC)
 
 #: Step of the procedure's timer, s.
 TICK_S = 0.02

@@ -8,9 +8,9 @@ publishes
 
 * every valid sample on ``gaze/samples`` (sensor_msgs/PointCloud2), one
   message per pulled chunk, each sample with its own acquisition time on the
-  ROS clock (:mod:`eye_bci_ros2.nodes.conversions`, "Gaze batches";
+  ROS clock (:mod:`eye_bci_ros2.ros.conversions`, "Gaze batches";
   :mod:`eye_bci_ros2.streams.lsl_connection` for the stamps), published serialized
-  (:class:`eye_bci_ros2.nodes.conversions.GazeCdr`): the cost follows the
+  (:class:`eye_bci_ros2.ros.conversions.GazeCdr`): the cost follows the
   batches (below), not the tracker rate;
 * the newest sample on ``gaze/point`` (geometry_msgs/PointStamped) at most
   ``point_rate_hz`` times a second, for people and simple tools;
@@ -90,15 +90,15 @@ from eye_bci_ros2.gaze.profiles import (ANY, build_config, convert, DEFAULT_PROF
 from eye_bci_ros2.gaze.stream import GazeStreamProfile
 from eye_bci_ros2.gaze.validation import (as_matrix, correction_values, IDENTITY, implausibility,
                                           is_identity, PARAMETER as CORRECTION_PARAMETER)
-from eye_bci_ros2.nodes.conversions import gaze_cdr, gaze_point_cdr, stamp_to_ns
-from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
-from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
-from eye_bci_ros2.nodes.node_clock import NodeClock
-from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (DECISION_DUE_TOPIC, GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC,
-                                       GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS, VIEW_QOS)
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
+from eye_bci_ros2.ros.conversions import gaze_cdr, gaze_point_cdr, stamp_to_ns
+from eye_bci_ros2.ros.log_throttle import WARN_PERIOD_S
+from eye_bci_ros2.ros.lsl_adapter import LogReporter, PylslBackend
+from eye_bci_ros2.ros.node_clock import NodeClock
+from eye_bci_ros2.ros.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.ros.runner import spin_node
+from eye_bci_ros2.ros.topics import (DECISION_DUE_TOPIC, GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC,
+                                     GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS, VIEW_QOS)
 from eye_bci_ros2.streams.lsl_connection import (Chunk, ConnectionSettings, StreamConnection,
                                                  StreamDescription)
 

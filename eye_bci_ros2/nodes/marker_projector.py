@@ -6,10 +6,10 @@ reads it) and ``camera/pose`` (geometry_msgs/PoseStamped, optical convention,
 latched) and publishes ``choices/regions`` (visualization_msgs/MarkerArray,
 latched): the complete current set, one closed LINE_STRIP per visible marker,
 points in screen px, same ns/id/text as the marker (see
-:mod:`eye_bci_ros2.nodes.conversions`).
+:mod:`eye_bci_ros2.ros.conversions`).
 
 Markers are kept by (ns, id) with RViz2's semantics
-(:class:`eye_bci_ros2.nodes.marker_store.MarkerStore`: ADD/MODIFY adds or
+(:class:`eye_bci_ros2.ros.marker_store.MarkerStore`: ADD/MODIFY adds or
 replaces, DELETE removes one, DELETEALL with an ns that namespace's, without
 one all; a marker with a NaN or infinite value is ignored); a marker with a
 ``lifetime`` (> 0.1 ms) expires that long after it was received, on the node's
@@ -36,17 +36,17 @@ from rclpy.node import Node
 from rclpy.time import Time
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.nodes.conversions import pose_to_arrays, regions_to_marker_array
-from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
-from eye_bci_ros2.nodes.marker_store import Box, Key, MarkerStore
-from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.rviz_file import at_default, rviz_config_spec, rviz_view
-from eye_bci_ros2.nodes.topics import (CAMERA_POSE_TOPIC, CHOICES_QOS, CHOICES_TOPIC, LATCHED_QOS,
-                                       REGIONS_TOPIC)
 from eye_bci_ros2.projection.camera_model import (DEFAULT_PANEL_OFFSET, OrthographicCamera,
                                                   parse_intrinsic, rviz_intrinsic, RvizCamera)
 from eye_bci_ros2.projection.geometry import external_from_pose, WORLD_FRAME
+from eye_bci_ros2.ros.conversions import pose_to_arrays, regions_to_marker_array
+from eye_bci_ros2.ros.log_throttle import KeyedWarnings
+from eye_bci_ros2.ros.marker_store import Box, Key, MarkerStore
+from eye_bci_ros2.ros.parameters import check_frame_id, declare_parameters, ParamSpec
+from eye_bci_ros2.ros.runner import spin_node
+from eye_bci_ros2.ros.rviz_file import at_default, rviz_config_spec, rviz_view
+from eye_bci_ros2.ros.topics import (CAMERA_POSE_TOPIC, CHOICES_QOS, CHOICES_TOPIC, LATCHED_QOS,
+                                     REGIONS_TOPIC)
 
 #: Largest render panel side accepted, px.
 MAX_IMAGE_SIDE = 16384
@@ -212,7 +212,7 @@ def camera_from_parameters(values: Dict[str, Any], external=None):
     """
     Build the camera that the projector's parameters (and ``rviz_config``) describe.
 
-    Precedence (see :mod:`eye_bci_ros2.nodes.rviz_file`): image size from
+    Precedence (see :mod:`eye_bci_ros2.ros.rviz_file`): image size from
     ``image_width``/``image_height`` unless both are at their defaults and the
     file's window state gives a panel size; projection from ``projection``
     unless it is ``auto`` (then the file's view controller, perspective without

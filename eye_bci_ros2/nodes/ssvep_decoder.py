@@ -4,7 +4,7 @@ Node ``ssvep_decoder``: choose among the offered options from SSVEP in EEG over 
 Subscribes ``choices/regions`` (visualization_msgs/MarkerArray, latched: the
 offered options' labels, the marker's text else ``ns/id``), ``ssvep/stimuli``
 (sensor_msgs/JointState, latched: each option's flicker, see
-:mod:`eye_bci_ros2.nodes.ssvep_messages`) and ``choice/request``
+:mod:`eye_bci_ros2.ros.ssvep_messages`) and ``choice/request``
 (std_msgs/Empty); reads an EEG stream from LSL (:mod:`eye_bci_ros2.ssvep.layouts`);
 publishes ``ssvep/scores`` (sensor_msgs/JointState, every ``decide_period_s``
 while a round is open, and after its choice with ``keep_scoring``: per-option
@@ -39,16 +39,16 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.nodes.conversions import marker_array_to_regions
-from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
-from eye_bci_ros2.nodes.lsl_adapter import LogReporter, PylslBackend
-from eye_bci_ros2.nodes.node_clock import NodeClock
-from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map, scores_to_msg, time_to_seconds
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, LATCHED_QOS, REGIONS_TOPIC, REQUEST_TOPIC,
-                                       SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC,
-                                       SSVEP_STIMULI_TOPIC)
+from eye_bci_ros2.ros.conversions import marker_array_to_regions
+from eye_bci_ros2.ros.log_throttle import KeyedWarnings
+from eye_bci_ros2.ros.lsl_adapter import LogReporter, PylslBackend
+from eye_bci_ros2.ros.node_clock import NodeClock
+from eye_bci_ros2.ros.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.ros.runner import spin_node
+from eye_bci_ros2.ros.ssvep_messages import msg_to_stimulus_map, scores_to_msg, time_to_seconds
+from eye_bci_ros2.ros.topics import (EVENT_QOS, LATCHED_QOS, REGIONS_TOPIC, REQUEST_TOPIC,
+                                     SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC,
+                                     SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.ssvep.decision import DEFAULT_GAIN, DEFAULT_HOLD_S, DEFAULT_REST_Z, RULES
 from eye_bci_ros2.ssvep.decoders import DECODERS, TrcaModel
 from eye_bci_ros2.ssvep.eeg_stream import EegStreamProfile

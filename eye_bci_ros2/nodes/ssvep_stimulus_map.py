@@ -17,12 +17,12 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.nodes.conversions import marker_array_to_regions
-from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
-from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.ssvep_messages import stimulus_map_to_msg
-from eye_bci_ros2.nodes.topics import LATCHED_QOS, REGIONS_TOPIC, SSVEP_STIMULI_TOPIC
+from eye_bci_ros2.ros.conversions import marker_array_to_regions
+from eye_bci_ros2.ros.log_throttle import WARN_PERIOD_S
+from eye_bci_ros2.ros.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.ros.runner import spin_node
+from eye_bci_ros2.ros.ssvep_messages import stimulus_map_to_msg
+from eye_bci_ros2.ros.topics import LATCHED_QOS, REGIONS_TOPIC, SSVEP_STIMULI_TOPIC
 from eye_bci_ros2.ssvep.stimuli import (assign_stimuli, DEFAULT_FREQUENCIES, DEFAULT_PHASE_STEP,
                                         MAX_FREQUENCY_HZ)
 

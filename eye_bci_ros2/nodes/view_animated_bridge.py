@@ -28,13 +28,13 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from eye_bci_ros2.nodes.conversions import pose_to_arrays
-from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
-from eye_bci_ros2.nodes.parameters import check_frame_id, declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import CAMERA_GOAL_TOPIC, LATCHED_QOS
 from eye_bci_ros2.projection.geometry import WORLD_FRAME
 from eye_bci_ros2.projection.view_animation import view_from_optical_pose
+from eye_bci_ros2.ros.conversions import pose_to_arrays
+from eye_bci_ros2.ros.log_throttle import WARN_PERIOD_S
+from eye_bci_ros2.ros.parameters import check_frame_id, declare_parameters, ParamSpec
+from eye_bci_ros2.ros.runner import spin_node
+from eye_bci_ros2.ros.topics import CAMERA_GOAL_TOPIC, LATCHED_QOS
 
 #: The port's speed profiles (ViewMovement.msg constants), by name.
 SPEED_PROFILES = ('DECLINING', 'RISING', 'WAVE', 'FULL', 'QUADRATIC', 'EXPONENTIAL')

@@ -33,20 +33,18 @@ Both eyes: the mean of the eyes that are valid at a sample (a binocular
 tracker's combined gaze); one eye where the other is lost.
 """
 
-from dataclasses import dataclass
 import gzip
 import io
-import math
-import os
 from pathlib import Path
 import re
-from typing import Dict, List, Optional, Sequence, Tuple, Union
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, ScreenGeometry
-
-PathLike = Union[str, os.PathLike]
+from eye_bci_ros2.recordings.gaze_recording import (GazeRecording, PathLike, RecordingError,
+                                                    TargetSchedule)
+from eye_bci_ros2.recordings.xdf import load_xdf_gaze
 
 #: The X2-60 "lookAtPoint" set-up (its README): 1920 x 1080 px, 510 x 288 mm, 565 mm.
 X260_SCREEN = ScreenGeometry(width_px=1920, height_px=1080, width_mm=510.0, height_mm=288.0,
@@ -55,79 +53,6 @@ X260_SCREEN = ScreenGeometry(width_px=1920, height_px=1080, width_mm=510.0, heig
 #: The ETDQualitizer set-up (its README): 1920 x 1080 px, 528 x 297 mm, 650 mm.
 ETDQ_SCREEN = ScreenGeometry(width_px=1920, height_px=1080, width_mm=528.0, height_mm=297.0,
                              distance_mm=650.0)
-
-
-@dataclass(frozen=True)
-class TargetSchedule:
-    """
-    Where the person was asked to look, and when.
-
-    :param onsets: (K,) s, when target k appeared (a jump) or started moving
-        towards its place (a glide); ascending.
-    :param still: (K,) s, from when target k is shown still at its place
-        (equal to ``onsets`` for a jump).
-    :param ends: (K,) s, when target k gives way to the next (the next onset;
-        the last sample's stamp for the last target).
-    :param places: (K, 2) screen px, each target's place.
-    """
-
-    onsets: np.ndarray
-    still: np.ndarray
-    ends: np.ndarray
-    places: np.ndarray
-
-    def __len__(self) -> int:
-        """Return the number of targets."""
-        return len(self.onsets)
-
-    @property
-    def jumps(self) -> bool:
-        """Whether every target appears at its place at once (no glide)."""
-        return bool(np.allclose(self.onsets, self.still))
-
-
-@dataclass(frozen=True)
-class GazeRecording:
-    """
-    One person's recorded gaze and the targets they were shown.
-
-    :param name: the recording's name (its file name without extensions).
-    :param stamps: (N,) s from the first sample, ascending.
-    :param points: (N, 2) screen px; NaN where the eyes were lost.
-    :param screen: the person's screen and viewing distance.
-    :param targets: the target schedule, same clock as ``stamps``.
-    :param tracker: what recorded it, as far as the file says (free text).
-    """
-
-    name: str
-    stamps: np.ndarray
-    points: np.ndarray
-    screen: ScreenGeometry
-    targets: TargetSchedule
-    tracker: str = ''
-
-    @property
-    def rate_hz(self) -> float:
-        """Nominal sample rate: 1 / the median sample interval, Hz."""
-        steps = np.diff(self.stamps)
-        steps = steps[steps > 0]
-        return float(1.0 / np.median(steps)) if steps.size else math.nan
-
-    @property
-    def lost_share(self) -> float:
-        """Fraction of the samples without gaze (blinks, lost eyes)."""
-        if not len(self.points):
-            return 0.0
-        return float(np.mean(~np.isfinite(self.points).all(axis=1)))
-
-    def between(self, start: float, end: float) -> Tuple[np.ndarray, np.ndarray]:
-        """Return the samples stamped in [start, end): stamps (M,), points (M, 2) (views)."""
-        low, high = np.searchsorted(self.stamps, [start, end], side='left')
-        return self.stamps[low:high], self.points[low:high]
-
-
-class RecordingError(ValueError):
-    """A file that is not a gaze recording of a known format (one-line message)."""
 
 
 def _open_text(path: Path) -> io.TextIOBase:
@@ -360,18 +285,12 @@ def _recording(name: str, stamps: np.ndarray, points: np.ndarray, screen: Screen
     return GazeRecording(name, stamps - origin, points, screen, shifted, tracker)
 
 
-def _load_xdf(path: Path) -> GazeRecording:
-    """Load the gaze stream of a LabRecorder XDF file (:mod:`eye_bci_ros2.recordings.xdf`)."""
-    from eye_bci_ros2.recordings.xdf import load_xdf_gaze   # it builds on this module
-    return load_xdf_gaze(path)
-
-
 #: File name patterns of the formats, and their loaders (module doc).
 _FORMATS = (
     (re.compile(r'^human_samples_.*\.txt(\.gz)?$'), load_x260),
     (re.compile(r'^etdq_.*\.tsv(\.gz)?$'), load_etdq),
     (re.compile(r'^.*\.gaze\.csv(\.gz)?$'), load_csv),
-    (re.compile(r'^.*\.xdfz?$'), _load_xdf),
+    (re.compile(r'^.*\.xdfz?$'), load_xdf_gaze),
 )
 
 

@@ -6,8 +6,8 @@ An XDF file holds every stream LabRecorder saw (EEG, markers, gaze, ...).
 the tracker application that sent it (a profile of
 :mod:`eye_bci_ros2.gaze.profiles`, found from the stream's type and name, or
 given), through the bridge's own conversion (:func:`~eye_bci_ros2.
-gaze.profiles.convert`), into a :class:`~eye_bci_ros2.recordings.gaze.
-GazeRecording` in the ``screen`` frame.  Samples the bridge would drop
+gaze.profiles.convert`), into a :class:`~eye_bci_ros2.recordings.
+gaze_recording.GazeRecording` in the ``screen`` frame.  Samples the bridge would drop
 (lost eyes, low confidence, far off the screen) become NaN, so the
 recording keeps every stamp.
 
@@ -21,18 +21,16 @@ is empty.
 """
 
 import logging
-import os
 from pathlib import Path
-from typing import Dict, List, Optional, Sequence, Union
+from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
 from eye_bci_ros2.gaze.profiles import (build_config, convert, PROFILE_NAMES, resolve_mapping,
                                         stream_matches)
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, ScreenGeometry
-from eye_bci_ros2.recordings.gaze import GazeRecording, RecordingError, TargetSchedule
-
-PathLike = Union[str, os.PathLike]
+from eye_bci_ros2.recordings.gaze_recording import (GazeRecording, PathLike, RecordingError,
+                                                    TargetSchedule)
 
 #: Stream types (lower case) that carry gaze, besides those of the profiles.
 GAZE_TYPES = ('gaze', 'eyetracker', 'eye-tracker', 'eyetracking', 'eye_tracker')

@@ -27,15 +27,15 @@ import numpy as np
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
-from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
-from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
-from eye_bci_ros2.nodes.parameters import check_frame_id, check_vector3
-from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import CAMERA_GOAL_TOPIC, LATCHED_QOS, RVIZ_CAMERA_POSE_TOPIC
 from eye_bci_ros2.projection import geometry
 from eye_bci_ros2.projection.view_animation import (as_view, ogre_pose, view_from_optical_pose,
                                                     ViewAnimation, ViewTuple)
+from eye_bci_ros2.ros.conversions import arrays_to_pose, pose_to_arrays
+from eye_bci_ros2.ros.log_throttle import WARN_PERIOD_S
+from eye_bci_ros2.ros.parameters import check_frame_id, check_vector3
+from eye_bci_ros2.ros.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.ros.runner import spin_node
+from eye_bci_ros2.ros.topics import CAMERA_GOAL_TOPIC, LATCHED_QOS, RVIZ_CAMERA_POSE_TOPIC
 
 #: Initial view: the overview of the default config/scene.yaml.
 DEFAULT_EYE = (10.0, -2.0, 17.0)

@@ -26,10 +26,10 @@ from rclpy.context import Context
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 
-from eye_bci_ros2.nodes.conversions import SCREEN_FRAME, stamp_to_ns
-from eye_bci_ros2.nodes.log_throttle import WARN_PERIOD_S
-from eye_bci_ros2.nodes.runner import make_executor
-from eye_bci_ros2.nodes.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
+from eye_bci_ros2.ros.conversions import SCREEN_FRAME, stamp_to_ns
+from eye_bci_ros2.ros.log_throttle import WARN_PERIOD_S
+from eye_bci_ros2.ros.runner import make_executor
+from eye_bci_ros2.ros.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
 
 
 class Looker(Protocol):

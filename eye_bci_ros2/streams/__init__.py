@@ -1,5 +1,5 @@
 """
 LSL stream connections shared by the gaze and the EEG input: pure and clock-injected.
 
-pylsl itself is behind :mod:`eye_bci_ros2.nodes.lsl_adapter`; nothing here loads it.
+pylsl itself is behind :mod:`eye_bci_ros2.ros.lsl_adapter`; nothing here loads it.
 """

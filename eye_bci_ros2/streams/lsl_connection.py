@@ -6,7 +6,7 @@ keeps it or switches, pulls its samples and stamps them on the ROS clock; the
 gaze bridge (:mod:`eye_bci_ros2.nodes.lsl_gaze_bridge`) and the SSVEP decoder
 (:mod:`eye_bci_ros2.nodes.ssvep_decoder`) only turn its chunks into messages.
 No pylsl here: liblsl sits behind the small :class:`Lsl` / :class:`Inlet`
-interfaces, implemented with pylsl by :mod:`eye_bci_ros2.nodes.lsl_adapter`,
+interfaces, implemented with pylsl by :mod:`eye_bci_ros2.ros.lsl_adapter`,
 so every rule below is tested with a fake clock and a fake network
 (``test/unit/streams/test_lsl_connection.py``) and with real liblsl in the node
 tests.  The model is mne-lsl's ``StreamLSL`` (connect / acquire /
@@ -143,7 +143,7 @@ class Resolver(Protocol):
 
 
 class Lsl(Protocol):
-    """liblsl, as the connection uses it (:mod:`eye_bci_ros2.nodes.lsl_adapter`)."""
+    """liblsl, as the connection uses it (:mod:`eye_bci_ros2.ros.lsl_adapter`)."""
 
     def local_clock(self) -> float:
         """Return this machine's LSL clock, s."""

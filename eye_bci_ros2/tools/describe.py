@@ -25,7 +25,7 @@ import rclpy
 from rclpy.context import Context
 from rclpy.parameter import Parameter
 
-from eye_bci_ros2.nodes.registry import Executable, parameter_nodes
+from eye_bci_ros2.ros.registry import Executable, parameter_nodes
 
 #: Every executable that runs a node with parameters, in table order (the registry's).
 NODES: Tuple[Executable, ...] = parameter_nodes()

@@ -47,11 +47,11 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.nodes.conversions import gaze_batch_arrays, marker_array_to_regions
-from eye_bci_ros2.nodes.runner import make_executor
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
-                                       LISTENER_QOS, REGIONS_TOPIC)
 from eye_bci_ros2.projection.geometry import points_in_convex_polygons
+from eye_bci_ros2.ros.conversions import gaze_batch_arrays, marker_array_to_regions
+from eye_bci_ros2.ros.runner import make_executor
+from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                     LISTENER_QOS, REGIONS_TOPIC)
 
 #: Rates are counted over the last this many seconds of arrivals.
 RATE_WINDOW_S = 2.0

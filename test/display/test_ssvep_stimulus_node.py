@@ -6,9 +6,9 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.nodes.conversions import regions_to_marker_array
-from eye_bci_ros2.nodes.ssvep_messages import seconds_to_time, stimulus_map_to_msg
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
+from eye_bci_ros2.ros.conversions import regions_to_marker_array
+from eye_bci_ros2.ros.ssvep_messages import seconds_to_time, stimulus_map_to_msg
+from eye_bci_ros2.ros.topics import LATCHED_QOS
 from eye_bci_ros2.ssvep.stimuli import assign_stimuli, luminance
 
 pytestmark = pytest.mark.ros

@@ -11,7 +11,7 @@ WIDTH, HEIGHT = 640, 360
 
 @pytest.fixture
 def window(xvfb):
-    from eye_bci_ros2.nodes.stimulus_window import StimulusWindow
+    from eye_bci_ros2.nodes.ssvep_stimulus.window import StimulusWindow
     win = StimulusWindow(WIDTH, HEIGHT, refresh_hz=60.0, origin=(100.0, 50.0), vsync=False)
     yield win
     win.close()

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.nodes.conversions import pose_to_arrays
 from eye_bci_ros2.projection.camera_model import look_at_pose, ogre_pose_from_optical
+from eye_bci_ros2.ros.conversions import pose_to_arrays
 
 pytestmark = pytest.mark.ros
 

@@ -1,7 +1,7 @@
 """
 Every parameter of every executable, set to a wrong type, out of range and inconsistent values.
 
-The nodes are those of the registry (:func:`eye_bci_ros2.nodes.registry.parameter_nodes`:
+The nodes are those of the registry (:func:`eye_bci_ros2.ros.registry.parameter_nodes`:
 every executable that runs a node with parameters), so a node added there is
 covered here, and must say here which good change it accepts afterwards
 (``GOOD_CHANGE``).  A node whose creation needs what this machine lacks (a
@@ -32,7 +32,7 @@ import pytest
 from rcl_interfaces.msg import ParameterType
 from rclpy.parameter import Parameter
 
-from eye_bci_ros2.nodes.registry import missing, parameter_nodes
+from eye_bci_ros2.ros.registry import missing, parameter_nodes
 
 pytestmark = pytest.mark.ros
 
@@ -52,7 +52,7 @@ WRONG_TYPES = {
 }
 
 #: Wrong-type values that are what a person types and mean the declared type, so
-#: they are accepted (see eye_bci_ros2.nodes.parameters and test_param_typing.py):
+#: they are accepted (see eye_bci_ros2.ros.parameters and test_param_typing.py):
 #: an integer for a string parameter that holds a channel index or a stream
 #: name/type/id (``-p x_channel:=0``).  Integers for doubles are not in
 #: WRONG_TYPES; every other wrong type above is still refused.
@@ -142,6 +142,12 @@ SPECIFIC = {
                  'inconsistent: eye == focus')],
         'up': [([0.0, 0.0, 0.0], 'zero vector')],
     },
+    'sim_robot': {
+        'scene_file': [('/nonexistent/scene.yaml', 'missing file'),
+                       (lambda _, tmp_path: _bad_scene(tmp_path), 'malformed YAML')],
+        'start_pose': [([1.0, 2.0], '2 numbers'), ([5.0, NAN, 0.0], 'NaN'),
+                       ([10.0, 3.0, 0.0], 'inside a wall'), ([30.0, 5.0, 0.0], 'off the map')],
+    },
 }
 
 #: One good change per node, to show it still accepts one after all the bad ones (None: every
@@ -158,6 +164,7 @@ GOOD_CHANGE = {
     'ssvep_stimulus': None,
     'view_animated_bridge': ('transition_time_s', 3.0),
     'sim_rviz_view': ('transition_time_s', 2.0),
+    'sim_robot': ('max_speed', 0.8),
 }
 
 #: Parameters a node is started with here: the LSL readers look for streams nobody

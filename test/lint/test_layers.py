@@ -16,8 +16,9 @@ ALLOWED = {
     'task': {'projection', 'decision'},
     'ssvep': {'streams'},
     'recordings': {'projection', 'gaze'},
+    'navigation': {'task'},
 }
-OUTER = ('nodes', 'sim', 'experiments', 'tools')
+OUTER = ('ros', 'nodes', 'sim', 'experiments', 'tools')
 
 
 def imported_subpackages(path):

@@ -2,11 +2,11 @@
 Single homes that a test enforces: topic names and the node registry.
 
 * Every publisher and subscription of the package and the benchmarks names
-  its topic by a constant of ``eye_bci_ros2/nodes/topics.py`` (or a
+  its topic by a constant of ``eye_bci_ros2/ros/topics.py`` (or a
   parameter), never by a string literal: the topic contract has one home.
   Tests may spell names out, to check that contract from the outside.
 * Every module that declares ROS parameters runs a node of the registry
-  (``eye_bci_ros2/nodes/registry.py``), whose executables are what setup.py
+  (``eye_bci_ros2/ros/registry.py``), whose executables are what setup.py
   installs, so the parameter tables, the defaults file and the parameter
   fault suite reach every parameter.
 
@@ -27,7 +27,7 @@ TOPIC_CALLS = ('create_publisher', 'create_subscription')
 #: Folders whose code must name topics by constant.
 CHECKED = ('eye_bci_ros2', 'bench')
 
-REGISTRY = runpy.run_path(str(REPO / 'eye_bci_ros2' / 'nodes' / 'registry.py'))
+REGISTRY = runpy.run_path(str(REPO / 'eye_bci_ros2' / 'ros' / 'registry.py'))
 
 
 def sources(*folders: str) -> Iterator[Path]:
@@ -52,7 +52,7 @@ def test_topics_are_named_by_their_constants():
     found = [f'{path.relative_to(REPO)}:{line}: {text}' for path in sources(*CHECKED)
              for line, text in topic_literals(path)]
     assert not found, ('topic literals in publisher/subscription calls; use (or add) the '
-                       'constant in eye_bci_ros2/nodes/topics.py:\n' + '\n'.join(found))
+                       'constant in eye_bci_ros2/ros/topics.py:\n' + '\n'.join(found))
 
 
 def test_the_check_finds_a_literal(tmp_path):
@@ -76,17 +76,24 @@ def declares_parameters(path: Path) -> bool:
 
 
 def module_path(module: str) -> Path:
-    """Return the file of a dotted module name of the repository."""
-    return REPO / (module.replace('.', '/') + '.py')
+    """Return the file of a dotted module name of the repository (a package's ``__init__``)."""
+    package = REPO / module.replace('.', '/') / '__init__.py'
+    return package if package.exists() else REPO / (module.replace('.', '/') + '.py')
+
+
+def module_name(path: Path) -> str:
+    """Return the dotted module name of a file of the repository (a package for ``__init__``)."""
+    parts = path.relative_to(REPO).with_suffix('').parts
+    return '.'.join(parts[:-1] if parts[-1] == '__init__' else parts)
 
 
 def test_every_module_with_parameters_runs_a_registered_node():
     registered = {entry.module for entry in REGISTRY['parameter_nodes']()}
-    helpers = {'eye_bci_ros2.nodes.parameters'}     # the declaration helper itself
-    declaring = {'.'.join(path.relative_to(REPO).with_suffix('').parts)
-                 for path in sources('eye_bci_ros2') if declares_parameters(path)}
+    helpers = {'eye_bci_ros2.ros.parameters'}     # the declaration helper itself
+    declaring = {module_name(path) for path in sources('eye_bci_ros2')
+                 if declares_parameters(path)}
     assert declaring - helpers <= registered, \
-        f'declare parameters but are not in nodes/registry.py: {declaring - helpers - registered}'
+        f'declare parameters but are not in ros/registry.py: {declaring - helpers - registered}'
 
 
 def test_every_registered_executable_exists():
@@ -107,4 +114,4 @@ def test_the_installed_executables_are_the_registry():
         pytest.skip('eye_bci_ros2 is not installed (make .venv/.installed)')
     installed = {f'{e.name} = {e.value}' for e in scripts if e.group == 'console_scripts'}
     assert installed == set(REGISTRY['console_scripts']()), \
-        'setup.py installs other executables than nodes/registry.py lists (reinstall?)'
+        'setup.py installs other executables than ros/registry.py lists (reinstall?)'

@@ -9,7 +9,7 @@ from std_msgs.msg import Bool
 
 from eye_bci_ros2.gaze.validation import correction_values, IDENTITY, save_correction
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
-from eye_bci_ros2.nodes.topics import GAZE_ON_SCREEN_TOPIC, LATCHED_QOS
+from eye_bci_ros2.ros.topics import GAZE_ON_SCREEN_TOPIC, LATCHED_QOS
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 

@@ -7,9 +7,9 @@ from rclpy.parameter import Parameter
 from ros_harness import Collector
 
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker, DEFAULT_EYE, DEFAULT_FOCUS, DEFAULT_UP
-from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
-from eye_bci_ros2.nodes.topics import LATCHED_QOS, RVIZ_POSE_QOS
 from eye_bci_ros2.projection import geometry
+from eye_bci_ros2.ros.conversions import arrays_to_pose, pose_to_arrays
+from eye_bci_ros2.ros.topics import LATCHED_QOS, RVIZ_POSE_QOS
 
 pytestmark = pytest.mark.ros
 

@@ -11,10 +11,10 @@ from ros_harness import Collector
 from std_msgs.msg import String
 
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker, DEFAULT_EYE, DEFAULT_FOCUS
-from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
-from eye_bci_ros2.nodes.topics import LATCHED_QOS, RVIZ_POSE_QOS
 from eye_bci_ros2.projection import geometry
 from eye_bci_ros2.projection.camera_model import look_at_pose, pose_from_optical
+from eye_bci_ros2.ros.conversions import arrays_to_pose, pose_to_arrays
+from eye_bci_ros2.ros.topics import LATCHED_QOS, RVIZ_POSE_QOS
 
 pytestmark = pytest.mark.ros
 

@@ -12,8 +12,8 @@ from visualization_msgs.msg import Marker
 
 from eye_bci_ros2.decision.rounds import ArbiterSettings, COUNT_RULE
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import regions_to_marker_array, stamp_to_ns
-from eye_bci_ros2.nodes.topics import DECISION_DUE_TOPIC, LATCHED_QOS
+from eye_bci_ros2.ros.conversions import regions_to_marker_array, stamp_to_ns
+from eye_bci_ros2.ros.topics import DECISION_DUE_TOPIC, LATCHED_QOS
 
 pytestmark = pytest.mark.ros
 

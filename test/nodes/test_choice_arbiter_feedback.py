@@ -8,8 +8,8 @@ from ros_harness import Collector, gaze_messages
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.decision.feedback import STATE_COLOURS
-from eye_bci_ros2.nodes.conversions import cube_marker, regions_to_marker_array
-from eye_bci_ros2.nodes.topics import CHOICES_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC
+from eye_bci_ros2.ros.conversions import cube_marker, regions_to_marker_array
+from eye_bci_ros2.ros.topics import CHOICES_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC
 
 pytestmark = pytest.mark.ros
 

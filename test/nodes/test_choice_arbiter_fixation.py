@@ -10,7 +10,7 @@ from std_msgs.msg import String
 from test_choice_arbiter import LEFT, OFF, Rig, RIGHT
 
 from eye_bci_ros2.decision.rounds import ArbiterSettings, COUNT_RULE
-from eye_bci_ros2.nodes.topics import EVENT_QOS, NO_CHOICE_TOPIC
+from eye_bci_ros2.ros.topics import EVENT_QOS, NO_CHOICE_TOPIC
 
 pytestmark = pytest.mark.ros
 

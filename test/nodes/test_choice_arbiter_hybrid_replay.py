@@ -26,13 +26,13 @@ from bench.real_gaze import load_folder
 from bench.ssvep_real import _online
 from eye_bci_ros2.decision.fusion import FusionSettings
 from eye_bci_ros2.decision.rounds import ArbiterSettings, COUNT_RULE
-from eye_bci_ros2.nodes.conversions import (cube_marker, gaze_batch, ns_to_stamp,
-                                            regions_to_marker_array)
-from eye_bci_ros2.nodes.ssvep_messages import scores_to_msg
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, SCORES_QOS, SSVEP_CHOICE_TOPIC,
-                                       SSVEP_SCORES_TOPIC)
 from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.eeg import eeg_data_dir, find_eeg_recordings, load_eeg
+from eye_bci_ros2.ros.conversions import (cube_marker, gaze_batch, ns_to_stamp,
+                                          regions_to_marker_array)
+from eye_bci_ros2.ros.ssvep_messages import scores_to_msg
+from eye_bci_ros2.ros.topics import (EVENT_QOS, SCORES_QOS, SSVEP_CHOICE_TOPIC,
+                                     SSVEP_SCORES_TOPIC)
 from eye_bci_ros2.ssvep.online import OnlineSettings
 
 pytestmark = [pytest.mark.ros]

@@ -10,8 +10,8 @@ from std_msgs.msg import Empty, String
 
 from eye_bci_ros2.decision.rounds import COUNT_RULE
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import gaze_batch
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC
+from eye_bci_ros2.ros.conversions import gaze_batch
+from eye_bci_ros2.ros.topics import EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl, pytest.mark.slow]

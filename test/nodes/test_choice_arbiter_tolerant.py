@@ -8,7 +8,7 @@ from ros_harness import gaze_messages
 from visualization_msgs.msg import Marker
 
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import regions_to_marker_array
+from eye_bci_ros2.ros.conversions import regions_to_marker_array
 
 pytestmark = pytest.mark.ros
 

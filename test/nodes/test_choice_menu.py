@@ -9,10 +9,10 @@ from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.nodes.choice_menu import ChoiceMenu
-from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays, regions_to_marker_array
-from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS, VIEW_QOS
 from eye_bci_ros2.projection.camera_model import look_at_pose
+from eye_bci_ros2.ros.conversions import arrays_to_pose, pose_to_arrays, regions_to_marker_array
+from eye_bci_ros2.ros.package_files import default_scene_path
+from eye_bci_ros2.ros.topics import EVENT_QOS, LATCHED_QOS, VIEW_QOS
 from eye_bci_ros2.task.scene import load_scene
 
 pytestmark = pytest.mark.ros

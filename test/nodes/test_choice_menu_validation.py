@@ -9,8 +9,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.gaze.validation import ValidationOutcome
 from eye_bci_ros2.nodes.choice_menu import ChoiceMenu
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, LATCHED_QOS, VALIDATION_RESULT_TOPIC,
-                                       VALIDATION_START_TOPIC)
+from eye_bci_ros2.ros.topics import (EVENT_QOS, LATCHED_QOS, VALIDATION_RESULT_TOPIC,
+                                     VALIDATION_START_TOPIC)
 
 pytestmark = pytest.mark.ros
 

@@ -10,9 +10,9 @@ from validation_rig import camera_pose, make_rig, VIEW
 
 from eye_bci_ros2.gaze.validation import correction_values, load_correction, ValidationOutcome
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import pose_to_arrays
-from eye_bci_ros2.nodes.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
 from eye_bci_ros2.projection.camera_model import RvizCamera
+from eye_bci_ros2.ros.conversions import pose_to_arrays
+from eye_bci_ros2.ros.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
 from eye_bci_ros2.sim.person import IDEAL_EYE, ORIGINAL_TOBII_4C
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl, pytest.mark.slow]
@@ -139,7 +139,7 @@ def test_a_target_without_gaze_refuses_and_leaves_the_bridge_unchanged(graph, ri
 def test_on_request_answers_each_start_and_keeps_running(graph, rigs):
     from std_msgs.msg import Empty
 
-    from eye_bci_ros2.nodes.topics import EVENT_QOS, VALIDATION_START_TOPIC
+    from eye_bci_ros2.ros.topics import EVENT_QOS, VALIDATION_START_TOPIC
     rig = rigs(graph)
     node = rig.start_validation(graph, on_request=True, targets=5, target_s=0.8, settle_s=0.4,
                                 output='', validate_again=False)

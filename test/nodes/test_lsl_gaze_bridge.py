@@ -13,7 +13,7 @@ from rclpy.parameter import Parameter
 from ros_harness import Collector, GazeCollector
 
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
-from eye_bci_ros2.nodes.topics import GAZE_POINT_TOPIC, VIEW_QOS
+from eye_bci_ros2.ros.topics import GAZE_POINT_TOPIC, VIEW_QOS
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 

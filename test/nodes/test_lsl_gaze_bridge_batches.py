@@ -10,9 +10,9 @@ import pytest
 from rclpy.parameter import Parameter
 from ros_harness import GazeCollector
 
-from eye_bci_ros2.nodes.conversions import ns_to_stamp
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
-from eye_bci_ros2.nodes.topics import DECISION_DUE_TOPIC, LATCHED_QOS
+from eye_bci_ros2.ros.conversions import ns_to_stamp
+from eye_bci_ros2.ros.topics import DECISION_DUE_TOPIC, LATCHED_QOS
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 

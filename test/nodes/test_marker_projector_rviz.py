@@ -9,12 +9,12 @@ from ros_harness import Collector
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker
-from eye_bci_ros2.nodes.conversions import arrays_to_pose, marker_array_to_regions
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.topics import CHOICES_QOS
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
 from eye_bci_ros2.projection.camera_model import look_at_pose
 from eye_bci_ros2.projection.rviz_config import encode_window_state
+from eye_bci_ros2.ros.conversions import arrays_to_pose, marker_array_to_regions
+from eye_bci_ros2.ros.topics import CHOICES_QOS
+from eye_bci_ros2.ros.topics import LATCHED_QOS
 
 pytestmark = pytest.mark.ros
 

@@ -22,8 +22,8 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.nodes.conversions import gaze_batch, regions_to_marker_array
-from eye_bci_ros2.nodes.topics import EVENT_QOS, GAZE_QOS, LATCHED_QOS
+from eye_bci_ros2.ros.conversions import gaze_batch, regions_to_marker_array
+from eye_bci_ros2.ros.topics import EVENT_QOS, GAZE_QOS, LATCHED_QOS
 from eye_bci_ros2.tools import monitor as monitor_tool
 from eye_bci_ros2.tools.monitor import Monitor, Screen, status_line, status_lines
 

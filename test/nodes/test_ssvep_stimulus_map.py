@@ -7,10 +7,10 @@ from ros_harness import Collector
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.nodes.conversions import regions_to_marker_array
-from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map, seconds_to_time
 from eye_bci_ros2.nodes.ssvep_stimulus_map import SsvepStimulusMap
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
+from eye_bci_ros2.ros.conversions import regions_to_marker_array
+from eye_bci_ros2.ros.ssvep_messages import msg_to_stimulus_map, seconds_to_time
+from eye_bci_ros2.ros.topics import LATCHED_QOS
 
 pytestmark = pytest.mark.ros
 

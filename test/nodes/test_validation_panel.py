@@ -20,7 +20,7 @@ from validation_rig import camera_pose
 from eye_bci_ros2.gaze.validation import target_layout
 from eye_bci_ros2.nodes.gaze_validation import GazeValidation
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
+from eye_bci_ros2.ros.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
 
 pytestmark = pytest.mark.ros
 

@@ -10,10 +10,10 @@ from rclpy.parameter import Parameter
 from ros_harness import Collector
 
 from eye_bci_ros2.nodes import view_animated_bridge
-from eye_bci_ros2.nodes.conversions import arrays_to_pose
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
 from eye_bci_ros2.projection import geometry
 from eye_bci_ros2.projection.camera_model import look_at_pose
+from eye_bci_ros2.ros.conversions import arrays_to_pose
+from eye_bci_ros2.ros.topics import LATCHED_QOS
 
 pytestmark = pytest.mark.ros
 

@@ -8,11 +8,11 @@ import pytest
 from rclpy.time import Time
 from ros_harness import Collector
 
-from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
-from eye_bci_ros2.nodes.topics import LATCHED_QOS
 from eye_bci_ros2.projection import geometry
 from eye_bci_ros2.projection.camera_model import look_at_pose
 from eye_bci_ros2.projection.view_animation import as_view, ogre_pose
+from eye_bci_ros2.ros.conversions import arrays_to_pose, pose_to_arrays
+from eye_bci_ros2.ros.topics import LATCHED_QOS
 from eye_bci_ros2.sim.rviz_view import SimRvizView
 
 pytestmark = pytest.mark.ros

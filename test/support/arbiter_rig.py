@@ -10,9 +10,9 @@ from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.decision.rounds import COUNT_RULE
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import ns_to_stamp
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
-                                       LATCHED_QOS, REQUEST_TOPIC)
+from eye_bci_ros2.ros.conversions import ns_to_stamp
+from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
+                                     LATCHED_QOS, REQUEST_TOPIC)
 
 #: The tests publish a round's gaze at once, stamped up to ~1 s ahead of the clock.
 MAX_FUTURE_S = 5.0

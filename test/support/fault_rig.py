@@ -29,12 +29,12 @@ from visualization_msgs.msg import Marker, MarkerArray
 from eye_bci_ros2.decision.rounds import COUNT_RULE
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import arrays_to_pose, marker_array_to_regions
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
-                                       RVIZ_POSE_QOS)
 from eye_bci_ros2.projection.camera_model import RvizCamera
+from eye_bci_ros2.ros.conversions import arrays_to_pose, marker_array_to_regions
+from eye_bci_ros2.ros.topics import (EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                     RVIZ_POSE_QOS)
 
 #: Generous wait for anything to arrive, s (2 shared cores; never a timing assertion).
 WAIT_S = 10.0

@@ -1,7 +1,7 @@
 """
 In-process ROS 2 test harness: private Context, own domain id, one executor.
 
-The executor is the one the executables use (:func:`eye_bci_ros2.nodes.runner.make_executor`:
+The executor is the one the executables use (:func:`eye_bci_ros2.ros.runner.make_executor`:
 the EventsExecutor unless ``EYE_BCI_EXECUTOR=single``).
 
 Modelled on rclpy's own tests: every test gets a fresh ``Context`` on a
@@ -22,9 +22,9 @@ from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from sensor_msgs.msg import PointCloud2
 
-from eye_bci_ros2.nodes.conversions import gaze_batch, gaze_batch_arrays, SCREEN_FRAME
-from eye_bci_ros2.nodes.runner import make_executor, spin_for, spin_until
-from eye_bci_ros2.nodes.topics import GAZE_QOS, GAZE_SAMPLES_TOPIC
+from eye_bci_ros2.ros.conversions import gaze_batch, gaze_batch_arrays, SCREEN_FRAME
+from eye_bci_ros2.ros.runner import make_executor, spin_for, spin_until
+from eye_bci_ros2.ros.topics import GAZE_QOS, GAZE_SAMPLES_TOPIC
 
 #: Samples per gaze/samples message the test publishers send (20 ms at 1200 Hz; the
 #: bridge sends what it pulls each poll, a few samples at its default 2 ms).

@@ -18,10 +18,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.nodes.conversions import cube_marker, regions_to_marker_array
 from eye_bci_ros2.nodes.ssvep_decoder import SsvepDecoder
-from eye_bci_ros2.nodes.ssvep_messages import seconds_to_time, stimulus_map_to_msg
-from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
+from eye_bci_ros2.ros.conversions import cube_marker, regions_to_marker_array
+from eye_bci_ros2.ros.ssvep_messages import seconds_to_time, stimulus_map_to_msg
+from eye_bci_ros2.ros.topics import EVENT_QOS, LATCHED_QOS
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
 from eye_bci_ros2.sim.eeg_outlet import EegStreamer
 from eye_bci_ros2.ssvep.stimuli import assign_stimuli, StimulusMap

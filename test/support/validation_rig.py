@@ -18,12 +18,12 @@ from ros_harness import Collector
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.nodes.conversions import arrays_to_pose
 from eye_bci_ros2.nodes.gaze_validation import GazeValidation
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
-from eye_bci_ros2.nodes.topics import (EVENT_QOS, LATCHED_QOS, VALIDATION_RESULT_TOPIC,
-                                       VALIDATION_TARGETS_TOPIC)
 from eye_bci_ros2.projection.camera_model import look_at_pose
+from eye_bci_ros2.ros.conversions import arrays_to_pose
+from eye_bci_ros2.ros.topics import (EVENT_QOS, LATCHED_QOS, VALIDATION_RESULT_TOPIC,
+                                     VALIDATION_TARGETS_TOPIC)
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
 from eye_bci_ros2.sim.person import GazeParams, ORIGINAL_TOBII_4C
 from eye_bci_ros2.sim.target_follower import TargetFollower

@@ -56,7 +56,7 @@ print(json.dumps(failures))
 
 def console_scripts() -> list:
     """Return the ``console_scripts`` setup.py installs: the node registry's (it reads them)."""
-    registry = runpy.run_path(str(REPO / PACKAGE / 'nodes' / 'registry.py'))
+    registry = runpy.run_path(str(REPO / PACKAGE / 'ros' / 'registry.py'))
     return list(registry['console_scripts']())
 
 

@@ -13,7 +13,7 @@ from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.experiments import demo
 from eye_bci_ros2.experiments.render import png_size
-from eye_bci_ros2.nodes.package_files import default_scene_path
+from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.task.menu import BACK_LABEL
 from eye_bci_ros2.task.scene import load_scene
 
@@ -55,7 +55,7 @@ def test_samples_are_classified_against_the_regions_shown_at_their_time():
 def test_the_driver_sees_the_options_as_rviz_does_deleteall_clears_its_namespace(graph):
     from visualization_msgs.msg import Marker, MarkerArray
 
-    from eye_bci_ros2.nodes.topics import CHOICES_QOS, CHOICES_TOPIC
+    from eye_bci_ros2.ros.topics import CHOICES_QOS, CHOICES_TOPIC
 
     driver = graph.add(demo.ExperimentDriver, SCENE, [], None, None, demo.DemoOptions())
     publisher = graph.node('task').create_publisher(MarkerArray, CHOICES_TOPIC, CHOICES_QOS)

@@ -17,7 +17,7 @@ from lsl_outlets import make_outlet, unique_id
 from paths import loaded
 import pytest
 
-from eye_bci_ros2.nodes.runner import CLEANUP_LIMIT_S, HARD_LIMIT_S
+from eye_bci_ros2.ros.runner import CLEANUP_LIMIT_S, HARD_LIMIT_S
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -172,7 +172,7 @@ def test_ssvep_stimulus_needs_the_opt_in_and_a_display_and_says_so_in_one_line()
 STUCK_IN_DESTROY = """
 import re
 from rclpy.node import Node
-from eye_bci_ros2.nodes.runner import spin_node
+from eye_bci_ros2.ros.runner import spin_node
 
 
 class Stuck(Node):

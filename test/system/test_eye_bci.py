@@ -8,11 +8,11 @@ from ros_harness import Collector
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.nodes.conversions import marker_array_to_regions
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
-from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
 from eye_bci_ros2.projection import geometry
+from eye_bci_ros2.ros.conversions import marker_array_to_regions
+from eye_bci_ros2.ros.package_files import default_scene_path
+from eye_bci_ros2.ros.topics import EVENT_QOS, LATCHED_QOS
 from eye_bci_ros2.sim.rviz_view import SimRvizView
 from eye_bci_ros2.task.scene import load_scene
 

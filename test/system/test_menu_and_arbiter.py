@@ -8,10 +8,10 @@ from std_msgs.msg import Empty, String
 
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.choice_menu import ChoiceMenu
-from eye_bci_ros2.nodes.conversions import arrays_to_pose
-from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS, NO_CHOICE_TOPIC, REQUEST_TOPIC
 from eye_bci_ros2.projection.camera_model import look_at_pose
+from eye_bci_ros2.ros.conversions import arrays_to_pose
+from eye_bci_ros2.ros.package_files import default_scene_path
+from eye_bci_ros2.ros.topics import EVENT_QOS, LATCHED_QOS, NO_CHOICE_TOPIC, REQUEST_TOPIC
 from eye_bci_ros2.task.scene import load_scene
 
 pytestmark = pytest.mark.ros

@@ -279,7 +279,7 @@ def test_topic_echo_choice_while_the_tracker_looks_at_an_option(ros2, env, tmp_p
     from std_msgs.msg import Empty
     from visualization_msgs.msg import MarkerArray
 
-    from eye_bci_ros2.nodes.topics import CHOICES_TOPIC, EVENT_QOS, LATCHED_QOS, REQUEST_TOPIC
+    from eye_bci_ros2.ros.topics import CHOICES_TOPIC, EVENT_QOS, LATCHED_QOS, REQUEST_TOPIC
 
     outlet, info = make_outlet('xy_pixels', rate=100.0)
     rules = [f'{name}:={value}' for name, value in bridge_parameters('xy_pixels', info).items()]

@@ -22,12 +22,12 @@ from visualization_msgs.msg import Marker, MarkerArray
 from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker, DEFAULT_EYE, DEFAULT_FOCUS, DEFAULT_UP
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.nodes.conversions import arrays_to_pose
 from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import DEFAULT_SCREEN_OFFSET, MarkerProjector
-from eye_bci_ros2.nodes.topics import EVENT_QOS, LATCHED_QOS
 from eye_bci_ros2.projection.camera_model import rviz_intrinsic
 from eye_bci_ros2.projection.geometry import look_at, project_points
+from eye_bci_ros2.ros.conversions import arrays_to_pose
+from eye_bci_ros2.ros.topics import EVENT_QOS, LATCHED_QOS
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 

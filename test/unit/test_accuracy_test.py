@@ -15,7 +15,7 @@ from eye_bci_ros2.experiments import accuracy_test
 from eye_bci_ros2.experiments.accuracy_test import (binary_search_threshold, CURVE_COLUMNS,
                                                     RoomScenario, run_trials, TrialSettings)
 from eye_bci_ros2.experiments.render import png_size
-from eye_bci_ros2.nodes.package_files import default_scene_path
+from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.sim.person import CONSUMER_TRACKER
 from eye_bci_ros2.task.scene import load_scene
 

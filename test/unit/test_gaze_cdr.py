@@ -6,8 +6,8 @@ import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import PointCloud2, PointField
 
-from eye_bci_ros2.nodes.conversions import (gaze_batch, gaze_batch_arrays, gaze_cdr, gaze_point,
-                                            gaze_point_cdr)
+from eye_bci_ros2.ros.conversions import (gaze_batch, gaze_batch_arrays, gaze_cdr, gaze_point,
+                                          gaze_point_cdr)
 
 RNG = np.random.default_rng(4)
 

@@ -9,7 +9,7 @@ from paths import REPO
 import eye_bci_ros2
 
 #: Packages of the package that may use ROS, LSL, plots or a window.
-IMPURE_PACKAGES = ('nodes', 'sim', 'experiments', 'tools')
+IMPURE_PACKAGES = ('ros', 'nodes', 'sim', 'experiments', 'tools')
 #: What the pure core must not load.
 FORBIDDEN = ('rclpy', 'pylsl', 'matplotlib', 'pyglet', 'ament_index_python')
 
@@ -27,7 +27,8 @@ def test_the_pure_core_is_found():
     names = pure_modules()
     for expected in ('eye_bci_ros2.projection.geometry', 'eye_bci_ros2.decision.rounds',
                      'eye_bci_ros2.gaze.stream',
-                     'eye_bci_ros2.projection.camera_model', 'eye_bci_ros2.task.scene'):
+                     'eye_bci_ros2.projection.camera_model', 'eye_bci_ros2.task.scene',
+                     'eye_bci_ros2.navigation.planner', 'eye_bci_ros2.navigation.drive'):
         assert expected in names
     assert not [name for name in names if '.nodes' in name or '.sim' in name]
 

@@ -9,8 +9,8 @@ import pytest
 from eye_bci_ros2.gaze.profiles import build_config, convert, resolve_mapping
 from eye_bci_ros2.gaze.validation import (apply_correction, compose_corrections, correction_values,
                                           IDENTITY, is_identity, ValidationOutcome)
-from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.projection.camera_model import OrthographicCamera, RvizCamera
+from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.task.menu import (Log, MenuProtocol, Offer, ProtocolSettings, Request, Validate,
                                     VALIDATING, WAITING_FOR_CAMERA)
 from eye_bci_ros2.task.scene import load_scene

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from eye_bci_ros2.nodes.package_files import default_scene_path
 from eye_bci_ros2.projection.camera_model import look_at_pose, rviz_intrinsic
 from eye_bci_ros2.projection.geometry import project_points
+from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.task.menu import (Answer, ASKING, BACK_LABEL, back_marker, FINISHED, LOOK_AWAY,
                                     MenuProtocol, Offer, PAUSED, ProtocolSettings, READY, Request,
                                     Result, WAITING_FOR_CAMERA)

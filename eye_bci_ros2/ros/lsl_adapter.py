@@ -16,7 +16,7 @@ import numpy as np
 import pylsl
 from pylsl.util import LostError, TimeoutError as LslTimeoutError
 
-from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
+from eye_bci_ros2.ros.log_throttle import KeyedWarnings
 from eye_bci_ros2.streams.lsl_connection import (INFO_TIMEOUT_S, inlet_buflen, NotReady,
                                                  RESOLVER_FORGET_S, StreamDescription, StreamLost)
 

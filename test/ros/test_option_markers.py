@@ -4,8 +4,8 @@ import math
 
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.nodes.conversions import cube_marker
-from eye_bci_ros2.nodes.feedback_markers import option_label, OptionMarkers
+from eye_bci_ros2.ros.conversions import cube_marker
+from eye_bci_ros2.ros.feedback_markers import option_label, OptionMarkers
 
 
 def _cube(ns, marker_id, text='', x=0.0, scale=(1.0, 1.0, 0.1)):

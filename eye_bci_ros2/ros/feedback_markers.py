@@ -10,7 +10,7 @@ progress of the decision (:func:`eye_bci_ros2.decision.feedback.halo_scale`).  A
 option no longer offered gets a DELETE (same ns and id) once.
 
 :class:`OptionMarkers` keeps the options of the ``choices`` topic with RViz2's
-MarkerArray semantics (:class:`eye_bci_ros2.nodes.marker_store.MarkerStore`, as
+MarkerArray semantics (:class:`eye_bci_ros2.ros.marker_store.MarkerStore`, as
 the marker_projector does).
 """
 
@@ -20,8 +20,8 @@ from builtin_interfaces.msg import Time
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.decision.feedback import Feedback, halo_scale, NONE, STATE_COLOURS
-from eye_bci_ros2.nodes.conversions import cube_marker, marker_label, pose_to_arrays
-from eye_bci_ros2.nodes.marker_store import Key, MarkerStore
+from eye_bci_ros2.ros.conversions import cube_marker, marker_label, pose_to_arrays
+from eye_bci_ros2.ros.marker_store import Key, MarkerStore
 
 
 def option_markers(choices: MarkerArray) -> Sequence[Marker]:

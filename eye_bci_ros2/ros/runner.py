@@ -67,7 +67,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
-from eye_bci_ros2.nodes.parameters import quote_param_rules, warn_unknown_overrides
+from eye_bci_ros2.ros.parameters import quote_param_rules, warn_unknown_overrides
 
 #: rcl's error type (a bad params file, a malformed --ros-args rule).  rclpy raises it
 #: from ``rclpy.init`` but exports it only from its private C extension
@@ -288,6 +288,8 @@ def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] =
     """
     argv = list(sys.argv if args is None else args)
     program = os.path.splitext(os.path.basename(argv[0]))[0] if argv else 'NODE'
+    if program == '__main__':   # python -m of a node's subpackage: the subpackage's name
+        program = os.path.basename(os.path.dirname(os.path.abspath(argv[0])))
     if {'-h', '--help'} & set(non_ros_args(argv)[1:]):
         try:
             print(help_text(help_modules, usage or f'ros2 run eye_bci_ros2 {program}', options))

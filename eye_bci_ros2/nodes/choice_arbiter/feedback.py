@@ -7,7 +7,7 @@ part of the node: the feedback parameters
 (:class:`eye_bci_ros2.decision.feedback.FeedbackSettings`), the ``choices``
 subscription (the options, visualization_msgs/MarkerArray, as RViz reads
 them) and the ``choices/feedback`` publisher (one halo per option with its ns and
-id, :mod:`eye_bci_ros2.nodes.feedback_markers`).  It shows the
+id, :mod:`eye_bci_ros2.ros.feedback_markers`).  It shows the
 option the newest gaze sample counts for under the round's rule ('gazed'), the
 progress of the decision (:meth:`eye_bci_ros2.decision.rounds.RoundScheduler.progress`)
 as the halo's growth, and the option just chosen green for
@@ -37,9 +37,9 @@ from visualization_msgs.msg import Marker, MarkerArray
 from eye_bci_ros2.decision.feedback import (build_feedback, Feedback, FeedbackSettings,
                                             FeedbackThrottle)
 from eye_bci_ros2.decision.rounds import RoundScheduler
-from eye_bci_ros2.nodes.feedback_markers import FeedbackMarkers, option_label, OptionMarkers
-from eye_bci_ros2.nodes.parameters import param_specs, SettingsParameters
-from eye_bci_ros2.nodes.topics import CHOICES_QOS, CHOICES_TOPIC, FEEDBACK_QOS, FEEDBACK_TOPIC
+from eye_bci_ros2.ros.feedback_markers import FeedbackMarkers, option_label, OptionMarkers
+from eye_bci_ros2.ros.parameters import param_specs, SettingsParameters
+from eye_bci_ros2.ros.topics import CHOICES_QOS, CHOICES_TOPIC, FEEDBACK_QOS, FEEDBACK_TOPIC
 
 #: The feedback parameters (one per FeedbackSettings field, declared there).
 FEEDBACK_PARAMETERS = param_specs(FeedbackSettings)

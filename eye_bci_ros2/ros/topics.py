@@ -8,7 +8,7 @@ whole pipeline.  docs/DESIGN.md ("Topics") says what each carries.
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 #: Every gaze sample, batched: sensor_msgs/PointCloud2, one message per LSL chunk
-#: (see :mod:`eye_bci_ros2.nodes.conversions`, "Gaze batches").
+#: (see :mod:`eye_bci_ros2.ros.conversions`, "Gaze batches").
 GAZE_SAMPLES_TOPIC = 'gaze/samples'
 #: A per-sample view for people and simple tools (``ros2 topic echo``, a gaze cursor):
 #: geometry_msgs/PointStamped, the newest sample, at most ``point_rate_hz``.
@@ -48,7 +48,7 @@ DECISION_DUE_TOPIC = 'choice/due'
 
 #: What the person is shown of the selection while it happens (choice_arbiter ->
 #: RViz): visualization_msgs/MarkerArray in the options' frame, one halo per option
-#: with the option's ns and id (eye_bci_ros2.nodes.feedback_markers), at most
+#: with the option's ns and id (eye_bci_ros2.ros.feedback_markers), at most
 #: ``feedback_rate_hz``; FEEDBACK_QOS.
 FEEDBACK_TOPIC = 'choices/feedback'
 
@@ -66,12 +66,24 @@ VALIDATION_TARGETS_TOPIC = 'validation/targets'
 VALIDATION_START_TOPIC = 'validation/start'
 VALIDATION_RESULT_TOPIC = 'validation/result'
 
-#: SSVEP (eye_bci_ros2.nodes.ssvep_messages): each option's stimulus (latched,
+#: SSVEP (eye_bci_ros2.ros.ssvep_messages): each option's stimulus (latched,
 #: sensor_msgs/JointState), the decoder's per-option posterior and score per step
 #: (JointState, SCORES_QOS) and its choice (std_msgs/String, EVENT_QOS).
 SSVEP_STIMULI_TOPIC = 'ssvep/stimuli'
 SSVEP_SCORES_TOPIC = 'ssvep/scores'
 SSVEP_CHOICE_TOPIC = 'ssvep/choice'
+
+#: The robot (eye_bci_ros2.navigation, sim_robot; nav2's names): the goal
+#: (geometry_msgs/PoseStamped in the map frame, what nav2's bt_navigator and RViz's
+#: "2D Goal Pose" use; GOAL_QOS), the robot's odometry (nav_msgs/Odometry, pose in the map
+#: frame; ODOM_QOS), the map (nav_msgs/OccupancyGrid; MAP_QOS, as map_server), the planned
+#: path (nav_msgs/Path; PLAN_QOS) and the robot drawn for RViz (visualization_msgs/MarkerArray:
+#: its body and heading, and its footprint; ROBOT_MARKER_QOS).
+GOAL_POSE_TOPIC = 'goal_pose'
+ODOM_TOPIC = 'odom'
+MAP_TOPIC = 'map'
+PLAN_TOPIC = 'plan'
+ROBOT_MARKER_TOPIC = 'robot/marker'
 
 #: Gaze batches: reliable and deep; a message holds a whole chunk (up to max_chunk
 #: samples), so 1000 messages are seconds of gaze even at 2000 Hz.
@@ -124,3 +136,24 @@ RVIZ_POSE_QOS = QoSProfile(
 FEEDBACK_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=10,
     reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+#: ``odom``: a stream at >= 20 Hz, reliable (a menu that waits for arrival must not miss
+#: the last message) and a second deep; as a robot driver's odometry, volatile.
+ODOM_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=20,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+#: ``goal_pose``: what RViz's "2D Goal Pose" tool publishes with (as its view controllers) and
+#: nav2's bt_navigator takes.
+GOAL_QOS = RVIZ_POSE_QOS
+
+#: ``map``: as nav2's map_server publishes it: reliable, transient local, depth 1 (a
+#: subscriber must ask for transient local, as RViz's Map display does when told to).
+MAP_QOS = LATCHED_QOS
+
+#: ``plan``: one message per new goal; latched, so RViz started later shows the path.
+PLAN_QOS = LATCHED_QOS
+
+#: ``robot/marker``: reliable and volatile, like the feedback halos (what RViz's
+#: MarkerArray display asks for), a few messages deep.
+ROBOT_MARKER_QOS = FEEDBACK_QOS

@@ -5,7 +5,7 @@ from rclpy.parameter import Parameter
 
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
-from eye_bci_ros2.nodes.parameters import unknown_overrides
+from eye_bci_ros2.ros.parameters import unknown_overrides
 
 pytestmark = pytest.mark.ros
 

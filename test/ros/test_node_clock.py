@@ -7,8 +7,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
-from eye_bci_ros2.nodes.conversions import ns_to_stamp
-from eye_bci_ros2.nodes.node_clock import NodeClock
+from eye_bci_ros2.ros.conversions import ns_to_stamp
+from eye_bci_ros2.ros.node_clock import NodeClock
 
 pytestmark = pytest.mark.ros
 

@@ -1,6 +1,6 @@
 """QuietRepeats: a line repeated with other numbers is logged once, then summed up."""
 
-from eye_bci_ros2.nodes.log_throttle import QuietRepeats
+from eye_bci_ros2.ros.log_throttle import QuietRepeats
 
 
 class Logger:

@@ -3,7 +3,7 @@ Node choice_arbiter: decide from gaze which offered region the person chose.
 
 Subscribes ``gaze/samples`` (sensor_msgs/PointCloud2 batches, frame
 ``screen``, px, every sample with its acquisition stamp; see
-:mod:`eye_bci_ros2.nodes.conversions`), ``choices/regions``
+:mod:`eye_bci_ros2.ros.conversions`), ``choices/regions``
 (visualization_msgs/MarkerArray, latched) and ``choice/request``
 (std_msgs/Empty); publishes ``choice`` (std_msgs/String, the region's label:
 its text if set, else ``ns/id``) and ``choice/none`` (std_msgs/String, why a
@@ -32,9 +32,9 @@ degrees on the person's screen, ``accuracy_deg``, ``precision_deg``, ``k_sigma``
 A change of the rule applies from the next round on.
 
 The node is composed of two adapters that take it and own their part
-(parameters, topics, state): :class:`~eye_bci_ros2.nodes.arbiter_feedback.FeedbackPublisher`
+(parameters, topics, state): :class:`~eye_bci_ros2.nodes.choice_arbiter.feedback.FeedbackPublisher`
 (``choices`` -> ``choices/feedback``: the gazed option, the progress, the choice
-confirmed) and :class:`~eye_bci_ros2.nodes.arbiter_fusion.FusionInput` (parameter
+confirmed) and :class:`~eye_bci_ros2.nodes.choice_arbiter.fusion.FusionInput` (parameter
 ``input_mode`` and the ssvep_decoder's ``ssvep/choice`` and ``ssvep/scores``,
 :mod:`eye_bci_ros2.decision.fusion`).  Input modes: ``gaze`` (default): as above.
 ``ssvep``: ``choice`` is the ``ssvep/choice`` of the ssvep_decoder
@@ -58,20 +58,20 @@ from eye_bci_ros2.decision.evidence import Decision
 from eye_bci_ros2.decision.fusion import FusionOutcome
 from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings, RoundScheduler
-from eye_bci_ros2.nodes.arbiter_feedback import FEEDBACK_PARAMETERS, FeedbackPublisher
-from eye_bci_ros2.nodes.arbiter_fusion import FUSION_PARAMETERS, FusionInput
-from eye_bci_ros2.nodes.conversions import gaze_cdr, marker_array_to_regions, ns_to_stamp
-from eye_bci_ros2.nodes.graph_watch import GraphWatch
-from eye_bci_ros2.nodes.log_throttle import KeyedWarnings, QuietRepeats
-from eye_bci_ros2.nodes.node_clock import NodeClock
-from eye_bci_ros2.nodes.parameters import param_specs, SettingsParameters
-from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (CHOICE_TOPIC, DECISION_DUE_TOPIC, EVENT_QOS, GAZE_QOS,
-                                       GAZE_SAMPLES_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
-                                       REGIONS_TOPIC, REQUEST_TOPIC)
+from eye_bci_ros2.nodes.choice_arbiter.feedback import FEEDBACK_PARAMETERS, FeedbackPublisher
+from eye_bci_ros2.nodes.choice_arbiter.fusion import FUSION_PARAMETERS, FusionInput
+from eye_bci_ros2.ros.conversions import gaze_cdr, marker_array_to_regions, ns_to_stamp
+from eye_bci_ros2.ros.graph_watch import GraphWatch
+from eye_bci_ros2.ros.log_throttle import KeyedWarnings, QuietRepeats
+from eye_bci_ros2.ros.node_clock import NodeClock
+from eye_bci_ros2.ros.parameters import param_specs, SettingsParameters
+from eye_bci_ros2.ros.runner import spin_node
+from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, DECISION_DUE_TOPIC, EVENT_QOS, GAZE_QOS,
+                                     GAZE_SAMPLES_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
+                                     REGIONS_TOPIC, REQUEST_TOPIC)
 
 #: Period of the timer that closes quiet rounds, releases held decisions and updates the
-#: feedback between gaze batches (arbiter_feedback's module doc), s: a round
+#: feedback between gaze batches (the feedback module's doc), s: a round
 #: whose stream went quiet closes up to this long after its stall timeout, a held decision
 #: up to this long after ``reorder_s``.  Every decision that gaze completes is made when
 #: that gaze arrives, never on a tick; each tick's wake-up costs about 0.1 ms of CPU

@@ -12,8 +12,8 @@ the file.  So config/eye_bci.yaml, which holds the defaults, does not hide an
 from functools import lru_cache
 from typing import Any, Dict, Optional
 
-from eye_bci_ros2.nodes.parameters import ParamSpec
 from eye_bci_ros2.projection.rviz_config import read_rviz_config, RvizView
+from eye_bci_ros2.ros.parameters import ParamSpec
 
 
 def rviz_config_spec(uses: str) -> ParamSpec:

@@ -3,9 +3,9 @@
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.decision.feedback import build_feedback, STATE_COLOURS
-from eye_bci_ros2.nodes.conversions import cube_marker
-from eye_bci_ros2.nodes.feedback_markers import (feedback_to_marker_array, FeedbackMarkers,
-                                                 option_markers)
+from eye_bci_ros2.ros.conversions import cube_marker
+from eye_bci_ros2.ros.feedback_markers import (feedback_to_marker_array, FeedbackMarkers,
+                                               option_markers)
 
 
 def _choices(labels, ns='rooms'):

@@ -12,8 +12,8 @@ are the same, and a params file with a ``/**:`` section sets both at once.
 
 from typing import Any, Dict, Tuple
 
-from eye_bci_ros2.nodes.parameters import param_specs, ParamSpec
 from eye_bci_ros2.projection.visual_angle import SCREEN_SETTINGS, ScreenGeometry
+from eye_bci_ros2.ros.parameters import param_specs, ParamSpec
 
 #: The parameter names, in the order :class:`ScreenGeometry` takes them.
 NAMES = tuple(setting.name for setting in SCREEN_SETTINGS)

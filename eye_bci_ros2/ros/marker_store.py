@@ -13,7 +13,7 @@ Each skipped marker gives one reason.
 
 Users: ``marker_projector`` (which keeps a projection table beside it, through
 the ``on_add`` / ``on_remove`` hooks), ``choice_arbiter``'s options
-(:class:`eye_bci_ros2.nodes.feedback_markers.OptionMarkers`) and the demo's
+(:class:`eye_bci_ros2.ros.feedback_markers.OptionMarkers`) and the demo's
 driver.
 """
 
@@ -22,7 +22,7 @@ from typing import Any, Callable, Dict, Iterable, List, Optional, Tuple
 import numpy as np
 from visualization_msgs.msg import Marker, MarkerArray
 
-from eye_bci_ros2.nodes.conversions import pose_to_arrays
+from eye_bci_ros2.ros.conversions import pose_to_arrays
 
 #: A marker's identity in RViz.
 Key = Tuple[str, int]

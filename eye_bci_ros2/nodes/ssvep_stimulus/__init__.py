@@ -4,8 +4,8 @@ Node ``ssvep_stimulus``: flicker the offered options' screen regions for SSVEP.
 Subscribes ``choices/regions`` (visualization_msgs/MarkerArray, latched:
 the options' outlines in ``screen`` px and labels) and ``ssvep/stimuli``
 (sensor_msgs/JointState, latched: each option's frequency and phase, stamp =
-epoch, :mod:`eye_bci_ros2.nodes.ssvep_messages`), and draws one patch per
-option in a pyglet window (:class:`eye_bci_ros2.nodes.stimulus_window.StimulusWindow`)
+epoch, :mod:`eye_bci_ros2.ros.ssvep_messages`), and draws one patch per
+option in a pyglet window (:class:`eye_bci_ros2.nodes.ssvep_stimulus.window.StimulusWindow`)
 at every display refresh, frame k of the epoch showing ``L(k) = 0.5 (1 +
 sin(2 pi f k / refresh + phase))``.  Options without a stimulus stay dark.
 
@@ -29,12 +29,12 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
-from eye_bci_ros2.nodes.conversions import marker_array_to_regions
-from eye_bci_ros2.nodes.log_throttle import KeyedWarnings
-from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec
-from eye_bci_ros2.nodes.runner import spin_node, StartError
-from eye_bci_ros2.nodes.ssvep_messages import msg_to_stimulus_map
-from eye_bci_ros2.nodes.topics import LATCHED_QOS, REGIONS_TOPIC, SSVEP_STIMULI_TOPIC
+from eye_bci_ros2.ros.conversions import marker_array_to_regions
+from eye_bci_ros2.ros.log_throttle import KeyedWarnings
+from eye_bci_ros2.ros.parameters import declare_parameters, ParamSpec
+from eye_bci_ros2.ros.runner import spin_node, StartError
+from eye_bci_ros2.ros.ssvep_messages import msg_to_stimulus_map
+from eye_bci_ros2.ros.topics import LATCHED_QOS, REGIONS_TOPIC, SSVEP_STIMULI_TOPIC
 from eye_bci_ros2.ssvep.stimuli import StimulusMap
 
 
@@ -79,7 +79,7 @@ class SsvepStimulus(Node):
         fullscreen = not (self._params['width'] and self._params['height'])
         try:
             # Imported here: pyglet opens the display on import of its window module.
-            from eye_bci_ros2.nodes.stimulus_window import StimulusWindow
+            from eye_bci_ros2.nodes.ssvep_stimulus.window import StimulusWindow
             self.window = StimulusWindow(
                 self._params['width'] or 1, self._params['height'] or 1,
                 self._params['refresh_hz'],

@@ -18,7 +18,7 @@ from builtin_interfaces.msg import Time
 import numpy as np
 from sensor_msgs.msg import JointState
 
-from eye_bci_ros2.nodes.conversions import SCREEN_FRAME
+from eye_bci_ros2.ros.conversions import SCREEN_FRAME
 from eye_bci_ros2.ssvep.stimuli import decode_stimulus_map, encode_stimulus_map, StimulusMap
 
 #: frame_id of the scores (they describe EEG, not a place).

@@ -20,8 +20,8 @@ from std_msgs.msg import String
 
 from eye_bci_ros2.decision.evidence import Decision
 from eye_bci_ros2.decision.fusion import ChoiceFusion, FusionOutcome, FusionSettings, GAZE, SSVEP
-from eye_bci_ros2.nodes.parameters import param_specs, SettingsParameters
-from eye_bci_ros2.nodes.topics import EVENT_QOS, SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC
+from eye_bci_ros2.ros.parameters import param_specs, SettingsParameters
+from eye_bci_ros2.ros.topics import EVENT_QOS, SCORES_QOS, SSVEP_CHOICE_TOPIC, SSVEP_SCORES_TOPIC
 
 #: The input-mode parameters (one per FusionSettings field, declared there).
 FUSION_PARAMETERS = param_specs(FusionSettings)

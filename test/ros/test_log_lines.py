@@ -6,7 +6,7 @@ import pytest
 from rcl_interfaces.msg import Log
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from eye_bci_ros2.nodes.log_throttle import log_info, QuietRepeats
+from eye_bci_ros2.ros.log_throttle import log_info, QuietRepeats
 
 pytestmark = pytest.mark.ros
 
