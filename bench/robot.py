@@ -38,9 +38,9 @@ from eye_bci_ros2.navigation.approach import scene_goals
 from eye_bci_ros2.navigation.occupancy import scene_grid
 from eye_bci_ros2.navigation.planner import Planner
 from eye_bci_ros2.navigation.robot_settings import RobotSettings
-from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.nodes.runner import make_executor, spin_until
-from eye_bci_ros2.nodes.topics import GOAL_POSE_TOPIC, GOAL_QOS, ODOM_QOS, ODOM_TOPIC
+from eye_bci_ros2.ros.package_files import default_scene_path
+from eye_bci_ros2.ros.runner import make_executor, spin_until
+from eye_bci_ros2.ros.topics import GOAL_POSE_TOPIC, GOAL_QOS, ODOM_QOS, ODOM_TOPIC
 from eye_bci_ros2.task.scene import load_scene
 
 #: Metrics shown in the printed table (the JSON has them all).
@@ -59,7 +59,7 @@ QUICK_DRIVE_S = 4.0
 REFERENCE_NODE = """
 import rclpy
 from nav_msgs.msg import Odometry
-from eye_bci_ros2.nodes.topics import ODOM_QOS, ODOM_TOPIC
+from eye_bci_ros2.ros.topics import ODOM_QOS, ODOM_TOPIC
 rclpy.init()
 node = rclpy.create_node('odom_only')
 publisher = node.create_publisher(Odometry, ODOM_TOPIC, ODOM_QOS)

@@ -6,7 +6,7 @@ scene file (RViz, a robot and nav2 cannot run here; this is the mock, as
 sim_gaze is for the tracker): the map, a plan to a goal and a robot that
 drives it (:mod:`eye_bci_ros2.navigation`).
 
-Topics (names and QoS: :mod:`eye_bci_ros2.nodes.topics`):
+Topics (names and QoS: :mod:`eye_bci_ros2.ros.topics`):
 
 * publishes ``map`` nav_msgs/OccupancyGrid (walls, doors and tables of
   ``scene_file``; 0 free / 100 occupied; transient local, as map_server);
@@ -46,11 +46,11 @@ from eye_bci_ros2.navigation.drive import Drive, heading_error, Mode, pose_error
 from eye_bci_ros2.navigation.occupancy import DEFAULT_RESOLUTION_M, scene_grid, yaw_of
 from eye_bci_ros2.navigation.planner import NoPath, Planner
 from eye_bci_ros2.navigation.robot_settings import RobotSettings
-from eye_bci_ros2.nodes.conversions import arrays_to_pose, pose_to_arrays
-from eye_bci_ros2.nodes.package_files import default_scene_path
-from eye_bci_ros2.nodes.parameters import declare_parameters, ParamSpec, SettingsParameters
-from eye_bci_ros2.nodes.runner import spin_node
-from eye_bci_ros2.nodes.topics import (
+from eye_bci_ros2.ros.conversions import arrays_to_pose, pose_to_arrays
+from eye_bci_ros2.ros.package_files import default_scene_path
+from eye_bci_ros2.ros.parameters import declare_parameters, ParamSpec, SettingsParameters
+from eye_bci_ros2.ros.runner import spin_node
+from eye_bci_ros2.ros.topics import (
     GOAL_POSE_TOPIC, GOAL_QOS, MAP_QOS, MAP_TOPIC, ODOM_QOS, ODOM_TOPIC, PLAN_QOS, PLAN_TOPIC,
     ROBOT_MARKER_QOS, ROBOT_MARKER_TOPIC)
 from eye_bci_ros2.task.scene import load_scene, Scene

@@ -5,10 +5,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from eye_bci_ros2.nodes import topics
 from eye_bci_ros2.nodes.camera_tracker import DEFAULT_EYE, DEFAULT_FOCUS, DEFAULT_UP
 from eye_bci_ros2.nodes.marker_projector import PARAMETERS as PROJECTOR_PARAMETERS
 from eye_bci_ros2.projection.rviz_config import read_rviz_config
+from eye_bci_ros2.ros import topics
 
 CONFIG = Path(__file__).resolve().parents[2] / 'config' / 'eye_bci.rviz'
 

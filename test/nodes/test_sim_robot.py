@@ -14,7 +14,7 @@ from scipy import ndimage
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.navigation.robot_settings import GOAL_TOLERANCE_DEG, GOAL_TOLERANCE_M
-from eye_bci_ros2.nodes.topics import (
+from eye_bci_ros2.ros.topics import (
     GOAL_POSE_TOPIC, GOAL_QOS, MAP_QOS, MAP_TOPIC, ODOM_QOS, ODOM_TOPIC, PLAN_QOS, PLAN_TOPIC,
     ROBOT_MARKER_QOS, ROBOT_MARKER_TOPIC)
 from eye_bci_ros2.sim.robot import DEFAULT_START_POSE, SimRobot
