@@ -211,18 +211,12 @@ def test_a_further_stream_is_reported_once_and_never_used():
     assert len(reports) == 1 and "set the parameter source_id to 'tobii-B'" in reports[0]
 
 
-def connected_then_lost():
-    """Return (conn, lsl, clock, log) connected to stream 'a1' of 'tobii-A', its sender gone."""
-    conn, lsl, clock, log, _ = connection()
+def test_a_lost_stream_is_ignored_for_a_while_then_its_source_is_preferred():
+    conn, lsl, clock, log, connected = connection()
     lsl.streams = [stream('a1', source_id='tobii-A')]
     conn.maintain()
     lsl.inlets['a1'].offset = 0.0
     lsl.inlets['a1'].lost = True
-    return conn, lsl, clock, log
-
-
-def test_a_lost_stream_is_ignored_for_a_while_then_its_source_is_preferred():
-    conn, lsl, clock, log = connected_then_lost()
     assert conn.acquire() == [] and conn.stream is None
     assert 'lost gaze stream' in log.text()
     # The dead outlet is still listed: not reopened until the ignore-list entry expires.
@@ -366,33 +360,3 @@ def test_each_application_layout_fits_its_profile_and_is_named_under_another(sen
         elif len(PROFILES[profile_name].channel_labels) != len(labels):
             assert f"does not fit profile '{profile_name}'" in reason
             assert f'profile:={sender}' in reason
-
-
-def test_an_eeg_stream_is_said_to_be_no_gaze_never_suggested_by_its_type():
-    """Looking for gaze with only an EEG amplifier on the network: what to do, not its type."""
-    conn, lsl, clock, log, connected = connection()
-    lsl.streams = [stream('amp', stream_type='EEG', name='LiveAmp', channels=8)]
-    conn.maintain()
-    clock.now += 60.0
-    conn.maintain()
-    looking = [text for level, text in log.lines if 'looking for an LSL gaze stream' in text]
-    assert looking and "stream_type:='EEG'" not in log.text()
-    assert "'LiveAmp' (type 'EEG'" in looking[-1]
-    assert ('not taken, it is an EEG stream, not gaze (a gaze bridge cannot use it): start the '
-            "eye tracker's LSL sender") in looking[-1]
-    # Selected by its type all the same, it is refused with the same reason.
-    conn2, lsl2, _, log2, _ = connection(GazeStreamProfile(build_config({'stream_type': 'EEG'})))
-    lsl2.streams = lsl.streams
-    conn2.maintain()
-    assert conn2.stream is None
-    assert "not taking 'LiveAmp' (type 'EEG'" in log2.text() and 'not gaze' in log2.text()
-
-
-def test_a_lost_stream_replaced_by_another_source_is_a_switch_said_as_one():
-    conn, lsl, clock, log = connected_then_lost()
-    conn.acquire()
-    lsl.streams = [stream('b', source_id='tobii-B', created_at=3.0)]
-    conn.maintain()
-    assert conn.stream.uid == 'b'
-    assert "source_id 'tobii-A', 2 ch, irregular rate, host host) is gone: switching to the " \
-        "matching stream 'tracker' (type 'Gaze', source_id 'tobii-B'" in log.text()
