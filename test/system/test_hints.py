@@ -14,9 +14,9 @@ import sys
 
 from domain_coordinator import domain_id
 from lsl_outlets import make_outlet, unique_id
+from package_commands import lines, running, stop
 from paths import REPO
 import pytest
-from user_process import UserProcess
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl, pytest.mark.slow]
 
@@ -36,12 +36,12 @@ def test_the_bridge_says_an_eeg_stream_is_no_gaze_and_following_it_connects(tmp_
     amplifier, info = make_outlet('custom', name=unique_id('LiveAmp'),
                                   source_id=unique_id('amp'), stream_type='EEG')
     with domain_id() as domain, \
-            UserProcess('nodes.lsl_gaze_bridge', '--ros-args', '-p', 'profile:=custom', '-p',
-                        'stream_type:=EEG', '-p', f'source_id:={info.source_id()}',
-                        log=tmp_path / 'eeg.log', domain=domain) as bridge:
-        line = bridge.wait_for('not taking')
-        assert bridge.stop() == 0
-    assert line is not None, bridge.output()[-3000:]
+            running('nodes.lsl_gaze_bridge', '--ros-args', '-p', 'profile:=custom', '-p',
+                    'stream_type:=EEG', '-p', f'source_id:={info.source_id()}',
+                    log=tmp_path / 'eeg.log', domain=domain) as bridge:
+        assert bridge.wait_for('not taking'), bridge.output()[-3000:]
+        assert stop(bridge) == 0
+    line, = lines(bridge, 'not taking')
     assert (f"not taking '{info.name()}' (type 'EEG'" in line and 'it is an EEG stream, not '
             "gaze (a gaze bridge cannot use it): start the eye tracker's LSL sender (sim_gaze "
             'to try without one)' in line), line
@@ -49,12 +49,14 @@ def test_the_bridge_says_an_eeg_stream_is_no_gaze_and_following_it_connects(tmp_
     del amplifier
     # What it says to do: a tracker's sender (here sim_gaze), and the bridge connects.
     tracker = unique_id('tracker')
-    with UserProcess('sim.gaze_outlet', '--source-id', tracker, log=tmp_path / 'sim.log'), \
-            domain_id() as domain, \
-            UserProcess('nodes.lsl_gaze_bridge', '--ros-args', '-p', f'source_id:={tracker}',
-                        log=tmp_path / 'gaze.log', domain=domain) as bridge:
-        line = bridge.wait_for('connected to gaze LSL stream')
-    assert line is not None and f"source_id '{tracker}'" in line, bridge.output()[-3000:]
+    with domain_id() as domain, \
+            running('sim.gaze_outlet', '--source-id', tracker, log=tmp_path / 'sim.log',
+                    domain=domain), \
+            running('nodes.lsl_gaze_bridge', '--ros-args', '-p', f'source_id:={tracker}',
+                    log=tmp_path / 'gaze.log', domain=domain) as bridge:
+        assert bridge.wait_for('connected to gaze LSL stream'), bridge.output()[-3000:]
+    line, = lines(bridge, 'connected to gaze LSL stream')
+    assert f"source_id '{tracker}'" in line, line
 
 
 def test_sim_eeg_help_states_the_frequencies_it_then_sends(tmp_path):
@@ -64,10 +66,11 @@ def test_sim_eeg_help_states_the_frequencies_it_then_sends(tmp_path):
                        ' '.join(help_text.split()))
     assert stated, help_text
     frequencies = [float(f) for f in stated.group(1).split(',')]
-    with UserProcess('sim.eeg_outlet', '--source-id', unique_id('sim_eeg'),
-                     log=tmp_path / 'eeg.log') as sender:
-        line = sender.wait_for('^stimuli: ')
-    assert line is not None, sender.output()[-3000:]
+    with domain_id() as domain, \
+            running('sim.eeg_outlet', '--source-id', unique_id('sim_eeg'),
+                    log=tmp_path / 'eeg.log', domain=domain) as sender:
+        assert sender.wait_for('(?m)^stimuli: '), sender.output()[-3000:]
+    line, = lines(sender, '^stimuli: ')
     sent = [float(f) for f in re.findall(r' ([\d.]+) Hz', line)]
     assert sent[:len(frequencies)] == frequencies, (stated.group(0), line)
     phases = [float(p) for p in re.findall(r' ([\d.]+) rad', line)]

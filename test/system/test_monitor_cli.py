@@ -12,8 +12,8 @@ import sys
 
 from domain_coordinator import domain_id
 from lsl_outlets import unique_id
+from package_commands import running, stop
 import pytest
-from user_process import UserProcess
 
 from eye_bci_ros2.tools.monitor import node_lines
 
@@ -41,23 +41,23 @@ def test_once_names_the_running_nodes_and_what_each_waits_for(tmp_path):
         # Nothing running: it says so (after waiting for discovery), not just dashes.
         assert field(monitor_once(domain), 'nodes') == '-'
         tracker = unique_id('tracker')
-        with UserProcess('nodes.eye_bci', '--ros-args', '-p', f'source_id:={tracker}',
-                         log=tmp_path / 'eye_bci.log', domain=domain) as pipeline:
+        with running('nodes.eye_bci', '--ros-args', '-p', f'source_id:={tracker}',
+                     log=tmp_path / 'eye_bci.log', domain=domain) as pipeline:
             assert pipeline.wait_for('waiting for camera/pose'), pipeline.output()[-3000:]
             # No tracker yet, no RViz, no menu: each node waits for its own input.
             assert field(monitor_once(domain), 'nodes') == (
                 'lsl_gaze_bridge(gaze_stream),camera_tracker(rviz_camera),'
                 'marker_projector(options),choice_arbiter(regions+gaze)')
             # The tracker starts: the bridge and the arbiter have their gaze.
-            with UserProcess('sim.gaze_outlet', '--source-id', tracker,
-                             log=tmp_path / 'sim.log'):
+            with running('sim.gaze_outlet', '--source-id', tracker, log=tmp_path / 'sim.log',
+                         domain=domain):
                 assert pipeline.wait_for('connected to gaze LSL stream'), \
                     pipeline.output()[-3000:]
                 line = monitor_once(domain)
             assert field(line, 'nodes') == ('lsl_gaze_bridge,camera_tracker(rviz_camera),'
                                             'marker_projector(options),choice_arbiter(regions)')
             assert int(field(line, 'samples')) > 0
-            assert pipeline.stop() == 0
+            assert stop(pipeline) == 0
 
 
 def test_the_terminal_block_says_it_in_words():

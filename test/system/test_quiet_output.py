@@ -6,12 +6,13 @@ is ``sim_gaze`` (a real LSL outlet in its own process), stopped and started
 again as a person unplugging and restarting a tracker would.
 """
 
-import re
+import os
 
 from domain_coordinator import domain_id
 from lsl_outlets import unique_id
+from package_commands import command, ended, lines, stop_all
 import pytest
-from user_process import UserProcess
+from watched_process import Process
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl, pytest.mark.slow]
 
@@ -21,45 +22,50 @@ STATS = r'gaze: \d+ received'
 
 def test_a_tracker_that_stops_and_restarts_is_reported_once_each_without_liblsl(tmp_path):
     tracker, name = unique_id('tracker'), unique_id('eyes')
-    sender_args = ('sim.gaze_outlet', '--source-id', tracker, '--name', name)
-    with domain_id() as domain, \
-            UserProcess('nodes.lsl_gaze_bridge', '--ros-args', '-p', f'source_id:={tracker}',
-                        '-p', 'stats_period_s:=0.5', '-p', 'stale_timeout_s:=30.0',
-                        log=tmp_path / 'bridge.log', domain=domain) as bridge:
-        with UserProcess(*sender_args, log=tmp_path / 'sender1.log') as sender:
+    sender = command('sim.gaze_outlet', '--source-id', tracker, '--name', name)
+    with domain_id() as domain:
+        bridge = Process(command('nodes.lsl_gaze_bridge', '--ros-args', '-p',
+                                 f'source_id:={tracker}', '-p', 'stats_period_s:=0.5', '-p',
+                                 'stale_timeout_s:=30.0'), os.environ, domain,
+                         tmp_path / 'bridge.log')
+        first = Process(sender, os.environ, domain, tmp_path / 'sender1.log')
+        second = None
+        try:
             assert bridge.wait_for('connected to gaze LSL stream'), bridge.output()[-3000:]
             assert bridge.wait_for(STATS), bridge.output()[-3000:]
-            assert sender.stop() == 0            # the tracker stops
-        assert bridge.wait_for('lost gaze stream'), bridge.output()[-3000:]
-        with UserProcess(*sender_args, log=tmp_path / 'sender2.log'):
-            back = bridge.wait_for('is back')
-            assert back, bridge.output()[-3000:]
+            first.interrupt()                    # the tracker stops
+            assert first.finish() == 0
+            assert bridge.wait_for('lost gaze stream'), bridge.output()[-3000:]
+            second = Process(sender, os.environ, domain, tmp_path / 'sender2.log')
+            assert bridge.wait_for('is back'), bridge.output()[-3000:]
             # A statistics line of the stream back.
-            stats = len(re.findall(STATS, bridge.output()))
-            assert bridge.wait_for(STATS, count=stats + 1), bridge.output()[-3000:]
-            assert bridge.stop() == 0            # before this tracker stops too
+            assert bridge.wait_for(STATS, count=len(lines(bridge, STATS)) + 1), \
+                bridge.output()[-3000:]
+            bridge.interrupt()                   # before this tracker stops too
+            assert bridge.finish() == 0
+        finally:
+            stop_all(bridge, first, second)
     text = bridge.output()
     # liblsl's receiver thread said nothing; the bridge said it once, in one line.
     assert 'ERR|' not in text and 'Stream transmission broke off' not in text, text[-3000:]
     assert text.count('lost gaze stream') == 1, text[-3000:]
     # The same tracker again is not "switching to" a stream of the same name.
+    back, = lines(bridge, 'is back')
     assert back.endswith('is back (its sender restarted); reconnecting') and \
         f"'{name}'" in back, back
     assert 'switching to' not in text, text[-3000:]
     # Statistics name the stream their samples came from, also after it was lost.
-    stats_lines = [line for line in text.splitlines() if re.search(STATS, line)]
-    assert stats_lines and all(f"from '{name}'" in line for line in stats_lines), stats_lines
+    stats = lines(bridge, STATS)
+    assert stats and all(f"from '{name}'" in line for line in stats), stats
     assert 'Traceback' not in text
 
 
 def test_a_missing_scene_is_said_once(tmp_path):
     missing = tmp_path / 'no_such_scene.yaml'
-    with domain_id() as domain, \
-            UserProcess('nodes.choice_menu', '--ros-args', '-p', f'scene_file:={missing}',
-                        log=tmp_path / 'menu.log', domain=domain) as menu:
-        status = menu.process.wait(60)
+    menu = ended('nodes.choice_menu', '--ros-args', '-p', f'scene_file:={missing}',
+                 log=tmp_path / 'menu.log')
     text = menu.output()
-    assert status == 1 and 'Traceback' not in text, text
+    assert menu.process.returncode == 1 and 'Traceback' not in text, text
     assert text.count(f'cannot read scene file {missing}') == 1, text
     assert text.strip().splitlines()[-1].startswith('cannot start: '), text
 
@@ -67,13 +73,10 @@ def test_a_missing_scene_is_said_once(tmp_path):
 @pytest.mark.parametrize('x, y, shared', [('gaze_x', 'gaze_x', 'gaze_x'),
                                           ('left_x,right_x', 'left_y,left_x', 'left_x')])
 def test_x_and_y_naming_one_channel_are_refused_with_the_reason(tmp_path, x, y, shared):
-    with domain_id() as domain, \
-            UserProcess('nodes.lsl_gaze_bridge', '--ros-args', '-p', 'profile:=custom', '-p',
-                        f'x_channel:={x}', '-p', f'y_channel:={y}',
-                        log=tmp_path / 'bridge.log', domain=domain) as bridge:
-        status = bridge.process.wait(60)
+    bridge = ended('nodes.lsl_gaze_bridge', '--ros-args', '-p', 'profile:=custom', '-p',
+                   f'x_channel:={x}', '-p', f'y_channel:={y}', log=tmp_path / 'bridge.log')
     text = bridge.output()
-    assert status == 1 and 'Traceback' not in text, text
+    assert bridge.process.returncode == 1 and 'Traceback' not in text, text
     assert text.strip().splitlines()[-1] == (
         'cannot start: invalid parameter overrides: x_channel and y_channel both name channel '
         f"'{shared}': x and y must be two different channels of the stream"), text
