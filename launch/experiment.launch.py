@@ -10,7 +10,9 @@ Starts ``pipeline.launch.py`` (same ``params_file``, ``profile`` and
 and moves the camera) and ``rviz2 -d rviz_config`` (default: the installed
 config/eye_bci.rviz, whose view and panel size the pipeline reads too, so
 what RViz shows and what the projector computes agree).  ``rviz:=false``
-starts no RViz2 (one already running with the same file).
+starts no RViz2 (one already running with the same file); a value that is
+not a boolean (``rviz:=maybe``) is refused with the accepted ones
+(:mod:`eye_bci_ros2.ros.launch_arguments`).
 
 Nothing starts when RViz2 is asked for but not installed, or ``params_file``
 does not exist (one line says which).  Every node is required: when one
@@ -26,12 +28,14 @@ from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
+from eye_bci_ros2.ros.launch_arguments import boolean_arguments, is_true
+
 PACKAGE = 'eye_bci_ros2'
 
 
 def _check_rviz(context):
     """Refuse to start anything when RViz2 is asked for but not installed."""
-    if LaunchConfiguration('rviz').perform(context).lower() not in ('true', '1', 'yes'):
+    if not is_true(context, 'rviz'):
         return []
     try:
         get_package_prefix('rviz2')
@@ -48,7 +52,7 @@ def _menu_and_rviz(context):
     actions = [Node(package=PACKAGE, executable='choice_menu', name='choice_menu',
                     parameters=[params_file], output='screen',
                     on_exit=Shutdown(reason='choice_menu ended'))]
-    if LaunchConfiguration('rviz').perform(context).lower() in ('true', '1', 'yes'):
+    if is_true(context, 'rviz'):
         actions.append(Node(package='rviz2', executable='rviz2', name='rviz2',
                             arguments=['-d', LaunchConfiguration('rviz_config')],
                             output='screen', on_exit=Shutdown(reason='RViz2 closed')))
@@ -75,9 +79,8 @@ def generate_launch_description():
             default_value=PathJoinSubstitution([FindPackageShare(PACKAGE), 'config',
                                                 'eye_bci.rviz']),
             description='.rviz file RViz2 opens and the pipeline reads (view, panel size)'),
-        DeclareLaunchArgument(
-            'rviz', default_value='true', description='start RViz2 (true/false)'),
         # Checked before anything starts (actions run in this order).
+        *boolean_arguments(('rviz', True, 'start RViz2')),
         OpaqueFunction(function=_check_rviz),
         IncludeLaunchDescription(
             PythonLaunchDescriptionSource(PathJoinSubstitution(
