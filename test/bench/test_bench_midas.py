@@ -1,5 +1,6 @@
 """bench/midas.py: choices per minute of a person who only looks around, the command a lab runs."""
 
+from lab_recording import write_lab_csv
 import numpy as np
 import pytest
 
@@ -21,11 +22,7 @@ def write_lab_recording(folder, seconds=60.0):
     stamps = np.arange(0, steps * 1.5, 1 / 60)
     looked_at = np.minimum(((stamps - 0.25) / 1.5).astype(int).clip(0), steps - 1)
     points = places[looked_at] + rng.normal(0, 8, (len(stamps), 2))
-    rows = '\n'.join(f'{t:.4f},{x:.1f},{y:.1f}' for t, (x, y) in zip(stamps, points))
-    (folder / 'lab.gaze.csv').write_text('time_s,x_px,y_px\n' + rows + '\n')
-    (folder / 'lab.targets.csv').write_text(
-        'onset_s,x_px,y_px\n' + '\n'.join(f'{1.5 * k},{x},{y}' for k, (x, y) in
-                                          enumerate(places)) + '\n')
+    write_lab_csv(folder, stamps, points, places, 1.5)
 
 
 def table_rows(out, table=0):
