@@ -4,6 +4,7 @@ The original experiment: the pipeline, the room -> table menu, and RViz2.
     ros2 launch eye_bci_ros2 experiment.launch.py
     ros2 launch eye_bci_ros2 experiment.launch.py profile:=pupil_capture \
         params_file:=/path/to/my_params.yaml
+    ros2 launch eye_bci_ros2 experiment.launch.py robot:=none   # a real (nav2) robot
 
 Starts ``pipeline.launch.py`` (same ``params_file``, ``profile`` and
 ``rviz_config``), ``choice_menu`` (which offers the rooms, then the tables,
@@ -12,7 +13,11 @@ config/eye_bci.rviz, whose view and panel size the pipeline reads too, so
 what RViz shows and what the projector computes agree).  ``rviz:=false``
 starts no RViz2 (one already running with the same file); a value that is
 not a boolean (``rviz:=maybe``) is refused with the accepted ones
-(:mod:`eye_bci_ros2.ros.launch_arguments`).
+(:mod:`eye_bci_ros2.ros.launch_arguments`).  ``robot:=sim``
+(the default) starts ``sim_robot``, the simulated robot on the scene's map
+(``map``, ``odom``, ``plan``; goals on ``goal_pose``); ``robot:=none`` starts no
+robot: a real one (nav2) gives ``map`` and ``odom`` and takes ``goal_pose``
+(README, "Robot").  Another value is refused, naming the accepted ones.
 
 Nothing starts when RViz2 is asked for but not installed, or ``params_file``
 does not exist (one line says which).  Every node is required: when one
@@ -31,6 +36,8 @@ from launch_ros.substitutions import FindPackageShare
 from eye_bci_ros2.ros.launch_arguments import boolean_arguments, is_true
 
 PACKAGE = 'eye_bci_ros2'
+#: Accepted values of the robot:= argument: the simulated robot, or none (a real one).
+ROBOTS = ('sim', 'none')
 
 
 def _check_rviz(context):
@@ -44,6 +51,24 @@ def _check_rviz(context):
                            '/opt/ros/jazzy/setup.bash), or start without it: rviz:=false; '
                            'nothing started') from None
     return []
+
+
+def _check_robot(context):
+    """Refuse to start anything when robot:= is not one of ROBOTS."""
+    robot = LaunchConfiguration('robot').perform(context)
+    if robot not in ROBOTS:
+        raise RuntimeError(f"robot:='{robot}' is not one of {', '.join(ROBOTS)} (sim: the "
+                           'simulated robot; none: a real robot of your own); nothing started')
+    return []
+
+
+def _robot(context):
+    """Start the simulated robot when robot:=sim, required like the other nodes."""
+    if LaunchConfiguration('robot').perform(context) != 'sim':
+        return []
+    return [Node(package=PACKAGE, executable='sim_robot', name='sim_robot',
+                 parameters=[LaunchConfiguration('params_file').perform(context)],
+                 output='screen', on_exit=Shutdown(reason='sim_robot ended'))]
 
 
 def _menu_and_rviz(context):
@@ -60,7 +85,7 @@ def _menu_and_rviz(context):
 
 
 def generate_launch_description():
-    """Declare the arguments, check RViz2, include the pipeline, add the menu and RViz2."""
+    """Declare the arguments, check them, include the pipeline, add robot, menu and RViz2."""
     params_file = LaunchConfiguration('params_file')
     rviz_config = LaunchConfiguration('rviz_config')
     return LaunchDescription([
@@ -79,8 +104,13 @@ def generate_launch_description():
             default_value=PathJoinSubstitution([FindPackageShare(PACKAGE), 'config',
                                                 'eye_bci.rviz']),
             description='.rviz file RViz2 opens and the pipeline reads (view, panel size)'),
+        DeclareLaunchArgument(
+            'robot', default_value=ROBOTS[0],
+            description='the robot: sim (sim_robot, the simulated robot on the scene map) or '
+                        'none (a real robot: its nav2 gives map and odom, takes goal_pose)'),
         # Checked before anything starts (actions run in this order).
         *boolean_arguments(('rviz', True, 'start RViz2')),
+        OpaqueFunction(function=_check_robot),
         OpaqueFunction(function=_check_rviz),
         IncludeLaunchDescription(
             PythonLaunchDescriptionSource(PathJoinSubstitution(
@@ -88,5 +118,6 @@ def generate_launch_description():
             launch_arguments={'params_file': params_file,
                               'profile': LaunchConfiguration('profile'),
                               'rviz_config': rviz_config}.items()),
+        OpaqueFunction(function=_robot),
         OpaqueFunction(function=_menu_and_rviz),
     ])

@@ -76,6 +76,7 @@ EXECUTABLES: Tuple[Executable, ...] = (
     Executable('view_animated_bridge', _NODES + 'view_animated_bridge', 'ViewAnimatedBridge',
                requires='rviz_plugin_view_animated_msgs'),
     Executable('sim_rviz_view', 'eye_bci_ros2.sim.rviz_view', 'SimRvizView', SIM),
+    Executable('sim_robot', 'eye_bci_ros2.sim.robot', 'SimRobot', SIM),
     Executable('eye_bci', _NODES + 'eye_bci', group=COMPOSITION),
     Executable('sim_gaze', 'eye_bci_ros2.sim.gaze_outlet', group=SIM),
     Executable('sim_eeg', 'eye_bci_ros2.sim.eeg_outlet', group=SIM),

@@ -29,10 +29,12 @@ CAMERA_POSE_TOPIC = 'camera/pose'
 CAMERA_GOAL_TOPIC = 'camera/goal'
 
 #: The original experiment's menu (std_msgs/String): outcomes (EVENT_QOS), what it waits
-#: for (LATCHED_QOS) and every choice it acted on (EVENT_QOS).
+#: for (LATCHED_QOS), every choice it acted on (EVENT_QOS) and what the robot it sent is
+#: doing (distance left, arrived, stopped; LATCHED_QOS).
 MENU_RESULT_TOPIC = 'choice_menu/result'
 MENU_STATE_TOPIC = 'choice_menu/state'
 MENU_ANSWER_TOPIC = 'choice_menu/answer'
+MENU_PROGRESS_TOPIC = 'choice_menu/progress'
 
 #: The arbiter's choice (std_msgs/String, the label) and a round that ended without one
 #: (std_msgs/String, the reason; input mode gaze), both EVENT_QOS; ``choice/request``
@@ -72,6 +74,18 @@ VALIDATION_RESULT_TOPIC = 'validation/result'
 SSVEP_STIMULI_TOPIC = 'ssvep/stimuli'
 SSVEP_SCORES_TOPIC = 'ssvep/scores'
 SSVEP_CHOICE_TOPIC = 'ssvep/choice'
+
+#: The robot (eye_bci_ros2.navigation, sim_robot; nav2's names): the goal
+#: (geometry_msgs/PoseStamped in the map frame, what nav2's bt_navigator and RViz's
+#: "2D Goal Pose" use; GOAL_QOS), the robot's odometry (nav_msgs/Odometry, pose in the map
+#: frame; ODOM_QOS), the map (nav_msgs/OccupancyGrid; MAP_QOS, as map_server), the planned
+#: path (nav_msgs/Path; PLAN_QOS) and the robot drawn for RViz (visualization_msgs/MarkerArray:
+#: its body and heading, and its footprint; ROBOT_MARKER_QOS).
+GOAL_POSE_TOPIC = 'goal_pose'
+ODOM_TOPIC = 'odom'
+MAP_TOPIC = 'map'
+PLAN_TOPIC = 'plan'
+ROBOT_MARKER_TOPIC = 'robot/marker'
 
 #: Gaze batches: reliable and deep; a message holds a whole chunk (up to max_chunk
 #: samples), so 1000 messages are seconds of gaze even at 2000 Hz.
@@ -124,3 +138,24 @@ RVIZ_POSE_QOS = QoSProfile(
 FEEDBACK_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=10,
     reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+#: ``odom``: a stream at >= 20 Hz, reliable (a menu that waits for arrival must not miss
+#: the last message) and a second deep; as a robot driver's odometry, volatile.
+ODOM_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=20,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+#: ``goal_pose``: what RViz's "2D Goal Pose" tool publishes with (as its view controllers) and
+#: nav2's bt_navigator takes.
+GOAL_QOS = RVIZ_POSE_QOS
+
+#: ``map``: as nav2's map_server publishes it: reliable, transient local, depth 1 (a
+#: subscriber must ask for transient local, as RViz's Map display does when told to).
+MAP_QOS = LATCHED_QOS
+
+#: ``plan``: one message per new goal; latched, so RViz started later shows the path.
+PLAN_QOS = LATCHED_QOS
+
+#: ``robot/marker``: reliable and volatile, like the feedback halos (what RViz's
+#: MarkerArray display asks for), a few messages deep.
+ROBOT_MARKER_QOS = FEEDBACK_QOS

@@ -15,6 +15,10 @@ holds::
         tables:
           - name: table_1
             marker: {...}
+    floor_plan:                   # optional: the walls the robot drives among
+      wall_thickness: 0.1         # m, > 0
+      walls: [[x0, y0, x1, y1], ...]                 # segments, m
+      doors: [{center: [x, y], width: w}, ...]       # gaps cut in the walls
 
 Units are metres in the world frame ``frame_id``; quaternions are ordered
 x, y, z, w and must be unit length (within 1e-3); ``orientation`` defaults
@@ -116,6 +120,34 @@ class Room:
 
 
 @dataclass(frozen=True, eq=False)
+class Door:
+    """
+    A gap in a wall.
+
+    :ivar center: centre of the gap on its wall's centre line, shape (2,), m.
+    :ivar width: width of the gap along the wall, m, > 0.
+    """
+
+    center: np.ndarray
+    width: float
+
+
+@dataclass(frozen=True, eq=False)
+class FloorPlan:
+    """
+    The walls of the rooms, as a robot's map is drawn from them (eye_bci_ros2.navigation).
+
+    :ivar wall_thickness: every wall's thickness, m, centred on its segment.
+    :ivar walls: wall segments before the doors are cut, shape (n, 4): x0, y0, x1, y1, m.
+    :ivar doors: gaps, each on one wall (checked when parsed).
+    """
+
+    wall_thickness: float
+    walls: np.ndarray
+    doors: Tuple[Door, ...]
+
+
+@dataclass(frozen=True, eq=False)
 class Scene:
     """
     The whole menu: an overview with rooms, each with its own view and tables.
@@ -128,6 +160,7 @@ class Scene:
     overview: View
     rooms: Tuple[Room, ...]
     source: str = '<string>'
+    floor_plan: Optional['FloorPlan'] = None
 
     @property
     def room_labels(self) -> Tuple[str, ...]:
@@ -271,7 +304,7 @@ class _Parser:
         if document is None:
             self.fail(0, 'scene', 'the file is empty')
         top = self.mapping(document, 1, 'scene')
-        self.unknown_keys(top, ('frame_id', 'overview', 'rooms'), 'scene')
+        self.unknown_keys(top, ('frame_id', 'overview', 'rooms', 'floor_plan'), 'scene')
         frame_id, line = self.field(top, 'frame_id', 'scene', default=geometry.WORLD_FRAME)
         if not isinstance(frame_id, str) or not frame_id.strip():
             self.fail(line, 'frame_id', f'expected a frame name, got {frame_id!r}')
@@ -282,7 +315,51 @@ class _Parser:
         rooms = tuple(self.room(item, rooms_value.lines[i], f'rooms[{i}]')
                       for i, item in enumerate(rooms_value))
         self.unique([room.name for room in rooms], rooms_value, 'rooms')
-        return Scene(frame_id=frame_id, overview=overview, rooms=rooms, source=self.source)
+        plan_value, line = self.field(top, 'floor_plan', 'scene', default=None)
+        floor_plan = None if plan_value is None else self.floor_plan(plan_value, line)
+        return Scene(frame_id=frame_id, overview=overview, rooms=rooms, source=self.source,
+                     floor_plan=floor_plan)
+
+    def floor_plan(self, value, line: int) -> FloorPlan:
+        key = 'floor_plan'
+        mapping = self.mapping(value, line, key)
+        self.unknown_keys(mapping, ('wall_thickness', 'walls', 'doors'), key)
+        thickness, line = self.field(mapping, 'wall_thickness', key)
+        if isinstance(thickness, bool) or not isinstance(thickness, (int, float)) or not (
+                0 < thickness < 10):
+            self.fail(line, f'{key}.wall_thickness',
+                      f'expected a thickness in (0, 10) m, got {thickness!r}')
+        walls_value, line = self.field(mapping, 'walls', key)
+        if not isinstance(walls_value, list) or not walls_value:
+            self.fail(line, f'{key}.walls', 'expected a non-empty list of [x0, y0, x1, y1]')
+        walls = np.array([self.vector(item, walls_value.lines[i], f'{key}.walls[{i}]', 4)
+                          for i, item in enumerate(walls_value)])
+        for i, wall in enumerate(walls):
+            if np.hypot(*(wall[2:] - wall[:2])) < thickness:
+                self.fail(walls_value.lines[i], f'{key}.walls[{i}]',
+                          f'a wall shorter than its thickness: {walls_value[i]!r}')
+        doors_value, line = self.field(mapping, 'doors', key, default=[])
+        if not isinstance(doors_value, list):
+            self.fail(line, f'{key}.doors', 'expected a list of {center: [x, y], width: w}')
+        doors = tuple(self.door(item, doors_value.lines[i], f'{key}.doors[{i}]', walls,
+                                float(thickness))
+                      for i, item in enumerate(doors_value))
+        return FloorPlan(wall_thickness=float(thickness), walls=walls, doors=doors)
+
+    def door(self, value, line: int, key: str, walls: np.ndarray, thickness: float) -> Door:
+        mapping = self.mapping(value, line, key)
+        self.unknown_keys(mapping, ('center', 'width'), key)
+        center = self.vector(*self.field(mapping, 'center', key), f'{key}.center', 2)
+        width, width_line = self.field(mapping, 'width', key)
+        if isinstance(width, bool) or not isinstance(width, (int, float)) or not width > 0:
+            self.fail(width_line, f'{key}.width', f'expected a width > 0 m, got {width!r}')
+        for wall in walls:
+            along, across, length = wall_coordinates(wall, center)
+            if (abs(across) <= thickness / 2 and along - width / 2 >= -1e-9
+                    and along + width / 2 <= length + 1e-9):
+                return Door(center=center, width=float(width))
+        self.fail(mapping.line, key, f'the door at {list(center)!r}, {width!r} m wide, does '
+                  'not lie within one wall (centre on its centre line, the gap inside it)')
 
     def unique(self, names, items: _LocatedList, key: str) -> None:
         seen = set()
@@ -362,3 +439,19 @@ def _kind(value) -> str:
     if isinstance(value, list):
         return 'a list'
     return f'{type(value).__name__} {value!r}'
+
+
+def wall_coordinates(wall: np.ndarray, point: np.ndarray) -> Tuple[float, float, float]:
+    """
+    Return where ``point`` lies relative to a wall segment.
+
+    :param wall: x0, y0, x1, y1, m, shape (4,).
+    :param point: x, y, m, shape (2,).
+    :return: (distance along the wall from its start, signed distance across it, its length).
+    """
+    start, end = wall[:2], wall[2:]
+    length = float(np.hypot(*(end - start)))
+    direction = (end - start) / length
+    offset = np.asarray(point, dtype=float) - start
+    return (float(offset @ direction), float(direction[0] * offset[1] - direction[1] * offset[0]),
+            length)

@@ -113,6 +113,7 @@ SPECIFIC = {
         'scene_file': [('/nonexistent/scene.yaml', 'missing file'),
                        (lambda _, tmp_path: _bad_scene(tmp_path), 'malformed YAML')],
         'world_frame': [('', 'empty frame'), ('odom', "inconsistent with the scene's frame")],
+        'robot_radius_m': [(1.0, 'inconsistent: no table where a robot this large fits')],
     },
     'gaze_validation': {
         'targets': [(7, 'neither 5 nor 9')],
@@ -142,6 +143,12 @@ SPECIFIC = {
                  'inconsistent: eye == focus')],
         'up': [([0.0, 0.0, 0.0], 'zero vector')],
     },
+    'sim_robot': {
+        'scene_file': [('/nonexistent/scene.yaml', 'missing file'),
+                       (lambda _, tmp_path: _bad_scene(tmp_path), 'malformed YAML')],
+        'start_pose': [([1.0, 2.0], '2 numbers'), ([5.0, NAN, 0.0], 'NaN'),
+                       ([10.0, 3.0, 0.0], 'inside a wall'), ([30.0, 5.0, 0.0], 'off the map')],
+    },
 }
 
 #: One good change per node, to show it still accepts one after all the bad ones (None: every
@@ -151,13 +158,14 @@ GOOD_CHANGE = {
     'marker_projector': ('screen_offset_x', 64),
     'choice_arbiter': ('window_s', 1.5),
     'lsl_gaze_bridge': ('screen_width', 2560),
-    'choice_menu': ('repeat', False),
+    'choice_menu': ('robot_radius_m', 0.25),
     'gaze_validation': ('target_s', 2.0),
     'ssvep_decoder': ('threshold', 0.9),
     'ssvep_stimulus_map': ('lead_s', 0.2),
     'ssvep_stimulus': None,
     'view_animated_bridge': ('transition_time_s', 3.0),
     'sim_rviz_view': ('transition_time_s', 2.0),
+    'sim_robot': ('max_speed', 0.8),
 }
 
 #: Parameters a node is started with here: the LSL readers look for streams nobody

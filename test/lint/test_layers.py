@@ -16,6 +16,7 @@ ALLOWED = {
     'task': {'projection', 'decision'},
     'ssvep': {'streams'},
     'recordings': {'projection', 'gaze'},
+    'navigation': {'task'},
 }
 OUTER = ('ros', 'nodes', 'sim', 'experiments', 'tools')
 

@@ -8,6 +8,7 @@ import yaml
 from eye_bci_ros2.nodes.camera_tracker import DEFAULT_EYE, DEFAULT_FOCUS, DEFAULT_UP
 from eye_bci_ros2.nodes.marker_projector import PARAMETERS as PROJECTOR_PARAMETERS
 from eye_bci_ros2.projection.rviz_config import read_rviz_config
+from eye_bci_ros2.ros import topics
 
 CONFIG = Path(__file__).resolve().parents[2] / 'config' / 'eye_bci.rviz'
 
@@ -33,7 +34,7 @@ def test_displays_show_what_the_person_must_see():
     displays = {d['Topic']['Value']: d for d in document['Visualization Manager']['Displays']
                 if d['Class'] == 'rviz_default_plugins/MarkerArray'}
     assert set(displays) == {'/choices', '/choices/feedback', '/choices/regions',
-                             '/validation/targets'}
+                             '/validation/targets', '/robot/marker'}
     assert displays['/choices']['Enabled'] is True
     # The choices are latched (transient local): RViz must ask for them the same way.
     assert displays['/choices']['Topic']['Durability Policy'] == 'Transient Local'
@@ -44,3 +45,21 @@ def test_displays_show_what_the_person_must_see():
     assert displays['/choices/regions']['Enabled'] is False   # a check display only
     classes = [d['Class'] for d in document['Visualization Manager']['Displays']]
     assert 'rviz_default_plugins/Grid' in classes
+
+
+def test_displays_show_the_robot_its_map_and_its_plan_with_the_publishers_qos():
+    document = yaml.safe_load(CONFIG.read_text())
+    displays = {d['Topic']['Value']: d for d in document['Visualization Manager']['Displays']
+                if 'Topic' in d}
+    expected = {topics.MAP_TOPIC: ('rviz_default_plugins/Map', topics.MAP_QOS),
+                topics.PLAN_TOPIC: ('rviz_default_plugins/Path', topics.PLAN_QOS),
+                topics.ROBOT_MARKER_TOPIC: ('rviz_default_plugins/MarkerArray',
+                                            topics.ROBOT_MARKER_QOS)}
+    for topic, (kind, qos) in expected.items():
+        display = displays['/' + topic]
+        assert display['Class'] == kind and display['Enabled'] is True, topic
+        # A latched publisher is seen by a display that asks for transient local (the map
+        # is published once); a volatile one by a volatile display.
+        durability = display['Topic']['Durability Policy'].replace(' ', '_').upper()
+        assert durability == qos.durability.name, topic
+        assert display['Topic']['Reliability Policy'].upper() == qos.reliability.name, topic

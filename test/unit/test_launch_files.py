@@ -238,7 +238,7 @@ def test_pipeline_starts_the_four_pipeline_nodes_and_the_experiment_adds_menu_an
                       for call in calls(module, 'Node'))
     assert executables('pipeline.launch.py') == [
         'camera_tracker', 'choice_arbiter', 'lsl_gaze_bridge', 'marker_projector']
-    assert executables('experiment.launch.py') == ['choice_menu', 'rviz2']
+    assert executables('experiment.launch.py') == ['choice_menu', 'rviz2', 'sim_robot']
 
 
 @pytest.mark.parametrize('path', LAUNCH_FILES, ids=lambda path: path.name)
@@ -261,7 +261,8 @@ def test_the_experiment_declares_rviz_as_a_checked_boolean_before_anything_start
               .args[0].elts]
     check = next(i for i, text in enumerate(listed) if 'boolean_arguments' in text)
     starts = [i for i, text in enumerate(listed)
-              if text.startswith(('IncludeLaunchDescription', 'OpaqueFunction(function=_menu'))]
+              if text.startswith(('IncludeLaunchDescription', 'OpaqueFunction(function=_menu',
+                                  'OpaqueFunction(function=_robot'))]
     assert starts and check < min(starts)
 
 
@@ -277,3 +278,33 @@ def test_anything_else_is_refused_with_the_accepted_values(text):
         parse_boolean('rviz', text)
     assert str(refused.value) == (f"rviz:='{text}' is not a boolean (accepted: true, 1, false, "
                                   '0; any case): nothing started')
+
+
+def launch_function(name, values):
+    """
+    Build one function of experiment.launch.py with its module constants, without ``launch``.
+
+    ``launch`` is not on PyPI: ``LaunchConfiguration`` is replaced by a stand-in
+    that returns the argument's value from ``values``, as launch's ``perform`` does.
+    """
+    module = tree(REPO / 'launch' / 'experiment.launch.py')
+    keep = [node for node in module.body
+            if isinstance(node, ast.Assign) or (isinstance(node, ast.FunctionDef)
+                                                and node.name == name)]
+    namespace = {'LaunchConfiguration': lambda argument: mock.Mock(
+        perform=lambda context: values[argument])}
+    exec(compile(ast.Module(body=keep, type_ignores=[]), 'experiment.launch.py', 'exec'),
+         namespace)
+    return namespace[name]
+
+
+def test_the_robot_argument_takes_sim_or_none_and_refuses_anything_else():
+    arguments = {literal(call.args[0], 'DeclareLaunchArgument'): keywords(call)
+                 for call in calls(tree(REPO / 'launch' / 'experiment.launch.py'),
+                                   'DeclareLaunchArgument')}
+    assert 'robot' in arguments
+    for value in ('sim', 'none'):
+        assert launch_function('_check_robot', {'robot': value})(None) == []
+    for value in ('gazebo', 'Sim', ''):
+        with pytest.raises(RuntimeError, match=f"robot:='{value}' is not one of sim, none"):
+            launch_function('_check_robot', {'robot': value})(None)

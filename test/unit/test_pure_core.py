@@ -27,7 +27,8 @@ def test_the_pure_core_is_found():
     names = pure_modules()
     for expected in ('eye_bci_ros2.projection.geometry', 'eye_bci_ros2.decision.rounds',
                      'eye_bci_ros2.gaze.stream',
-                     'eye_bci_ros2.projection.camera_model', 'eye_bci_ros2.task.scene'):
+                     'eye_bci_ros2.projection.camera_model', 'eye_bci_ros2.task.scene',
+                     'eye_bci_ros2.navigation.planner', 'eye_bci_ros2.navigation.drive'):
         assert expected in names
     assert not [name for name in names if '.nodes' in name or '.sim' in name]
 

@@ -169,6 +169,16 @@ def test_bad_quaternion_is_rejected_with_its_length():
      "unknown key 'tabels'"),
     ('frame_id: map', 'frame_id: map\nframe_id: odom', "duplicate key 'frame_id'"),
     ('frame_id: map', 'frame_id: 7', 'expected a frame name'),
+    ('{center: [3.5, 6.0], width: 0.9}', '{center: [3.5, 6.5], width: 0.9}',
+     'does not lie within one wall'),
+    ('{center: [3.5, 6.0], width: 0.9}', '{center: [0.2, 6.0], width: 0.9}',
+     'does not lie within one wall'),
+    ('{center: [3.5, 6.0], width: 0.9}', '{center: [3.5, 6.0], width: -1}',
+     'expected a width > 0 m'),
+    ('- [0.0, 0.0, 20.0, 0.0]  # outer walls', '- [0.0, 0.0, 0.0, 0.0]',
+     'a wall shorter than its thickness'),
+    ('  wall_thickness: 0.1', '  wall_thickness: 0', 'expected a thickness in (0, 10) m'),
+    ('  wall_thickness: 0.1', '  wall_thickness: 0.1\n  window: 1', "unknown key 'window'"),
 ])
 def test_invalid_values_are_explained(old, new, expected):
     assert expected in error_of(edited(old, new))
@@ -182,6 +192,20 @@ def test_invalid_values_are_explained(old, new, expected):
 ])
 def test_structural_errors(text, expected):
     assert expected in error_of(text)
+
+
+def test_floor_plan_errors_name_the_line_and_key():
+    text = edited('{center: [14.0, 6.0], width: 0.9}', '{center: [14.0, 6.0], width: x}')
+    message = error_of(text)
+    assert message.startswith(f"my_scene.yaml:{line_of(text, 'width: x')}: "
+                              'floor_plan.doors[1].width')
+
+
+def test_the_default_floor_plan_has_a_door_between_neighbouring_rooms():
+    plan = load_scene(CONFIG / 'scene.yaml').floor_plan
+    assert plan.wall_thickness == 0.1 and len(plan.walls) == 6
+    assert sorted(tuple(d.center) for d in plan.doors) == [
+        (3.5, 6.0), (10.0, 5.0), (10.0, 11.0), (14.0, 6.0)]
 
 
 def test_load_scene_reports_the_file(tmp_path):
