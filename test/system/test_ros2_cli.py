@@ -336,7 +336,7 @@ def assert_clean_stop(process: Process, status: int, expected_nodes: Optional[in
 
 
 @pytest.mark.parametrize('file, nodes', [('pipeline.launch.py', 4),
-                                         ('experiment.launch.py', 5)])
+                                         ('experiment.launch.py', 6)])
 def test_launch_then_ctrl_c_once_stops_every_node(ros2, env, tmp_path, file, nodes):
     arguments = [file] + (['rviz:=false'] if file.startswith('experiment') else [])
     with domain_id() as domain:
@@ -364,8 +364,8 @@ def test_launch_ctrl_c_twice_and_during_start_up(ros2, env, tmp_path):
         status = twice.finish()
         # Every node stops cleanly; launch's own process may end on the second SIGINT when
         # it lands after the nodes have gone (launch's behaviour, not the nodes').
-        assert stopped_cleanly(twice.output()) == 5, twice.output()
-        assert_clean_stop(twice, 0 if status == -signal.SIGINT else status, 5)
+        assert stopped_cleanly(twice.output()) == 6, twice.output()
+        assert_clean_stop(twice, 0 if status == -signal.SIGINT else status, 6)
         # While the nodes still import (rclpy is loaded, no node exists yet).  Earlier, in
         # Python's own start-up, only Python itself could keep quiet.
         early = launch(ros2, env, domain, tmp_path, 'pipeline.launch.py', name='early')
@@ -431,6 +431,7 @@ def test_launch_refuses_a_boolean_argument_that_is_not_one(ros2, env, tmp_path):
         assert not started_pids(output)
         # The accepted values are read as launch reads them: 'False' starts no RViz2.
         accepted = launch(ros2, env, domain, tmp_path, 'experiment.launch.py', 'rviz:=False',
+                          'robot:=none',
                           name='accepted')
         assert accepted.wait_for('waiting for camera/pose'), accepted.output()
         accepted.interrupt()
