@@ -1,5 +1,6 @@
 """bench/real_gaze.py: the node's rule on real recorded gaze, and the command a lab runs."""
 
+from lab_recording import write_lab_csv
 import numpy as np
 import pytest
 
@@ -51,11 +52,7 @@ def test_a_labs_own_csv_recording_runs_through_the_command(tmp_path, capsys):
     lag = np.minimum(((stamps - 0.25) / 1.5).astype(int).clip(0), 11)
     looked_at = np.where(stamps % 1.5 > 0.25, target, lag)
     points = places[looked_at] + rng.normal(0, 8, (len(stamps), 2))
-    rows = '\n'.join(f'{t:.4f},{x:.1f},{y:.1f}' for t, (x, y) in zip(stamps, points))
-    (tmp_path / 'lab.gaze.csv').write_text('time_s,x_px,y_px\n' + rows + '\n')
-    (tmp_path / 'lab.targets.csv').write_text(
-        'onset_s,x_px,y_px\n' + '\n'.join(f'{1.5 * k},{x},{y}' for k, (x, y) in
-                                          enumerate(places)) + '\n')
+    write_lab_csv(tmp_path, stamps, points, places, 1.5)
     assert real_gaze.main(['--data', str(tmp_path), '--sizes', '200', '--options', '3']) == 0
     out = capsys.readouterr().out
     assert '| default | 3 x 200 px |' in out and 'lab (csv' in out
