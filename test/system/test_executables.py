@@ -207,6 +207,77 @@ def test_a_clean_up_stuck_where_no_python_runs_still_ends(tmp_path):
     assert 'Timeout' in err and 'destroy_node' in err, err[-2000:]
 
 
+#: An executable's start-up (argv[0] is an executable's name) with a stand-in for numpy's
+#: import: a Ctrl-C inside it becomes an ImportError without the KeyboardInterrupt in its
+#: chain, as numpy's C-extensions report it ("...the C-extensions failed..."). The SIGINTs
+#: come from inside the imports, so they land there on any machine, loaded or not.
+CTRL_C_IN_IMPORTS = """
+import signal
+import sys
+import time
+
+import eye_bci_ros2    # first, as in every console script: the SIGINT handler, the quiet hook
+
+case = sys.argv.pop(1)
+
+
+def ctrl_c():
+    signal.raise_signal(signal.SIGINT)   # runs the handler before it returns
+
+
+def import_like_numpy():
+    interrupted = False
+    try:
+        ctrl_c()
+    except KeyboardInterrupt:
+        interrupted = True
+    if interrupted:
+        raise ImportError('Importing the numpy C-extensions failed.')
+
+
+if case == 'converted':
+    import_like_numpy()    # the terminal's Ctrl-C lands in the import
+else:   # 'swallowed': an import swallows the first; the second comes seconds later (load)
+    try:
+        ctrl_c()
+    except KeyboardInterrupt:
+        pass
+    time.sleep(1.5)
+    import_like_numpy()
+from rclpy.node import Node
+from eye_bci_ros2.ros.runner import spin_node
+
+
+class Started(Node):
+    def __init__(self, **kwargs):
+        super().__init__('started', **kwargs)
+        print('started', flush=True)
+
+
+spin_node(Started)
+"""
+
+
+@pytest.mark.parametrize('case', ['converted', 'swallowed'])
+def test_a_ctrl_c_that_an_import_turns_into_an_error_still_ends_quietly(tmp_path, case):
+    """
+    Ctrl-C during start-up, caught by an import that raises its own error (numpy's).
+
+    Seen under load: the second SIGINT of one Ctrl-C landed inside numpy's import,
+    and ``camera_tracker`` printed numpy's ImportError and exited 1.
+    """
+    script = tmp_path / 'camera_tracker'
+    script.write_text(CTRL_C_IN_IMPORTS)
+    with domain_id() as domain:
+        with killed_if_left(subprocess.Popen(
+                [sys.executable, str(script), case],
+                env=dict(os.environ, ROS_DOMAIN_ID=str(domain)),
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)) as process:
+            out, err = process.communicate(timeout=60)
+    assert process.returncode == 0 and err == '', err[-2000:]
+    assert 'started' not in out     # nothing starts after a Ctrl-C
+
+
 @pytest.mark.parametrize('gap_ms', [0.2, 1.0, 3.0, 10.0])
 def test_a_ctrl_c_while_importing_ends_quietly_even_when_it_comes_twice(gap_ms):
     """
