@@ -7,6 +7,7 @@ domain, the way ``ros2 run`` and ``ros2 launch`` start them.
 
 import contextlib
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -16,6 +17,7 @@ from domain_coordinator import domain_id
 from lsl_outlets import make_outlet, unique_id
 from paths import loaded
 import pytest
+from watched_process import Process
 
 from eye_bci_ros2.ros.runner import CLEANUP_LIMIT_S, HARD_LIMIT_S
 
@@ -115,35 +117,43 @@ def test_eye_bci_refuses_a_bad_override_with_one_line():
     assert err.strip().splitlines()[-1].startswith('cannot start: invalid parameter override')
 
 
+#: The line each node logs last before it spins (its handlers are in place by then).
+UP_LINE = {'marker_projector': r'\[marker_projector\]: projecting markers in',
+           'eye_bci': r'\[choice_arbiter\]: choice_arbiter: method'}
+
+
 @pytest.mark.parametrize('signals', [('INT',), ('TERM',), ('INT', 'INT'), ('TERM', 'INT')],
                          ids=lambda s: '+'.join(s))
 @pytest.mark.parametrize('module', ['marker_projector', 'eye_bci'])
-def test_stops_cleanly_on_sigint_and_sigterm_even_twice(module, signals):
+def test_stops_cleanly_on_sigint_and_sigterm_even_twice(module, signals, tmp_path):
     with domain_id() as domain:
-        with killed_if_left(start(module, domain=domain)) as process:
-            time.sleep(2.5)   # up and spinning
+        node = Process([sys.executable, '-m', f'eye_bci_ros2.nodes.{module}'], os.environ,
+                       domain, tmp_path / 'node.log')
+        with killed_if_left(node.process):
+            assert node.wait_for(UP_LINE[module]), node.output()[-2000:]
             for index, name in enumerate(signals):
-                process.send_signal(getattr(signal, f'SIG{name}'))
-                time.sleep(0.002 * index)
-            out, err = process.communicate(timeout=15)
-    assert process.returncode == 0, err[-2000:]
-    assert 'Traceback' not in err and 'Exception' not in err, err[-2000:]
+                node.process.send_signal(getattr(signal, f'SIG{name}'))
+                time.sleep(0.002 * index)   # launch's copy follows the terminal's (not a wait)
+            status = node.finish(timeout=30)
+    text = node.output()
+    assert status == 0, text[-2000:]
+    assert 'Traceback' not in text and 'Exception' not in text, text[-2000:]
 
 
-def test_the_bridge_names_the_streams_it_sees_when_none_matches():
+def test_the_bridge_names_the_streams_it_sees_when_none_matches(tmp_path):
     outlet, info = make_outlet('custom', stream_type=unique_id('other-type'))
     with domain_id() as domain:
-        process = start('lsl_gaze_bridge', '--ros-args', '-p', 'profile:=tobii_pro',
-                        '-p', 'resolve_period_s:=0.2', domain=domain)
-        try:
-            time.sleep(4.0)
-        finally:
-            process.send_signal(signal.SIGINT)
-            out, err = process.communicate(timeout=15)
-    text = out + err
-    assert process.returncode == 0
+        bridge = Process([sys.executable, '-m', 'eye_bci_ros2.nodes.lsl_gaze_bridge',
+                          '--ros-args', '-p', 'profile:=tobii_pro',
+                          '-p', 'resolve_period_s:=0.2'], os.environ, domain,
+                         tmp_path / 'bridge.log')
+        with killed_if_left(bridge.process):
+            named = bridge.wait_for(f"type '{re.escape(info.type())}'.*select with")
+            bridge.process.send_signal(signal.SIGINT)
+            status = bridge.finish(timeout=30)
+    text = bridge.output()
+    assert named and status == 0, text[-3000:]
     assert 'looking for an LSL gaze stream' in text
-    assert f"type '{info.type()}'" in text and 'select with' in text, text[-3000:]
     del outlet
 
 
