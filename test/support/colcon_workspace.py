@@ -15,7 +15,7 @@ import re
 import shutil
 import subprocess
 import sys
-from typing import Dict, Optional
+from typing import Dict
 
 from paths import REPO, shared_dir
 

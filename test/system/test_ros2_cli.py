@@ -28,8 +28,8 @@ from colcon_workspace import (build_workspace, PACKAGE, ros2_command, sourced_en
 from domain_coordinator import domain_id
 from lsl_outlets import bridge_parameters, make_outlet, sample_for
 from paths import loaded
-from watched_process import Process, WAIT_S
 import pytest
+from watched_process import Process, WAIT_S
 import yaml
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
