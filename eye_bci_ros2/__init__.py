@@ -5,7 +5,6 @@ import signal
 import sys
 import tempfile
 import threading
-import time
 
 
 def _interrupted(error: BaseException) -> bool:
@@ -32,10 +31,15 @@ def _quiet_interrupt(kind, value, traceback, _previous=sys.excepthook):
     importing rclpy and numpy (the first seconds): Python would print a
     KeyboardInterrupt traceback for each.  Nothing was started yet, so there
     is nothing to report: the process ends with status 0, as a node stopped
-    by Ctrl-C does (:mod:`eye_bci_ros2.ros.runner`).  Other errors, and an
-    interactive session, keep Python's report.
+    by Ctrl-C does (:mod:`eye_bci_ros2.ros.runner`).  Once a Ctrl-C has
+    interrupted start-up (:func:`ctrl_c_pending`), any error that ends the
+    process is what the Ctrl-C became: an import that catches the
+    KeyboardInterrupt and raises its own error without the chain (numpy's
+    C-extensions: an ImportError "...the C-extensions failed...", seen under
+    load) ends it quietly too.  Other errors, and an interactive session,
+    keep Python's report.
     """
-    if _interrupted(value) and not hasattr(sys, 'ps1'):
+    if (_interrupted(value) or _CTRL_C.is_set()) and not hasattr(sys, 'ps1'):
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()
@@ -45,28 +49,34 @@ def _quiet_interrupt(kind, value, traceback, _previous=sys.excepthook):
     _previous(kind, value, traceback)
 
 
-#: A SIGINT this soon after the one that interrupted an executable is the same Ctrl-C, s: the
-#: terminal sends it to the whole process group, and ``ros2 launch`` forwards its own to every
-#: node within milliseconds.
-SAME_CTRL_C_S = 1.0
+#: Set by the first Ctrl-C before the executable handles signals itself.
+_CTRL_C = threading.Event()
 
 
-def _once_per_ctrl_c(signum, frame, _last=[None]) -> None:
+def ctrl_c_pending() -> bool:
+    """Tell whether a Ctrl-C interrupted this executable before it handled signals itself."""
+    return _CTRL_C.is_set()
+
+
+def _once_per_ctrl_c(signum, frame) -> None:
     """
-    Raise KeyboardInterrupt for a Ctrl-C once: the same Ctrl-C arriving again is ignored.
+    Raise KeyboardInterrupt for the first Ctrl-C; ignore every later SIGINT.
 
-    Before an executable handles signals itself (it is still importing), the
-    second SIGINT of one Ctrl-C (launch's, after the terminal's) could land
-    while the first unwinds or inside :func:`_quiet_interrupt`: Python then
-    prints "Error in sys.excepthook" with both tracebacks, and the process
-    ends by the signal.  A Ctrl-C later than :data:`SAME_CTRL_C_S` interrupts
-    as usual.  The runner replaces this handler once the node handles signals
+    Before an executable handles signals itself (it is still importing), one
+    Ctrl-C under ``ros2 launch`` is two SIGINTs (the terminal's, then
+    launch's), and a loaded machine can hold the second back for seconds.
+    Raised again, it would land while the first unwinds, inside
+    :func:`_quiet_interrupt` ("Error in sys.excepthook", both tracebacks, the
+    process ended by the signal) or inside an import that turns it into an
+    error of its own.  The first is enough: the process is ending, and its
+    end is quiet (:func:`_quiet_interrupt`).  An import that swallows the
+    KeyboardInterrupt does not start the node either: the runner sees
+    :func:`ctrl_c_pending` and exits 0, and replaces this handler otherwise
     (:mod:`eye_bci_ros2.ros.runner`).
     """
-    now = time.monotonic()
-    if _last[0] is not None and now - _last[0] < SAME_CTRL_C_S:
+    if _CTRL_C.is_set():
         return
-    _last[0] = now
+    _CTRL_C.set()
     raise KeyboardInterrupt
 
 

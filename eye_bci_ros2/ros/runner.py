@@ -24,7 +24,9 @@ hangs (rclpy's ``destroy_node`` has been seen spinning) ends after
 code that holds the interpreter (where no Python thread runs, and the ignored
 signals would leave it to SIGKILL) ends :data:`HARD_LIMIT_S` later through
 ``faulthandler``'s own thread: status 1 and the stacks where it hung.  A
-normal stop exits 0.
+normal stop exits 0.  A Ctrl-C before these handlers (during the imports) ends
+the process quietly with status 0 (``eye_bci_ros2/__init__.py``), also when
+an import swallowed it: nothing is started then.
 A node that does one job and ends (``gaze_validation``) sets its attribute
 ``exit_status`` (an int, None while it runs): the loop stops and the process
 exits with it.  A window that must draw in the main thread
@@ -67,6 +69,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
+from eye_bci_ros2 import ctrl_c_pending
 from eye_bci_ros2.ros.parameters import quote_param_rules, warn_unknown_overrides
 
 #: rcl's error type (a bad params file, a malformed --ros-args rule).  rclpy raises it
@@ -302,6 +305,8 @@ def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] =
         print(f'cannot start: {problem}', file=sys.stderr)
         sys.exit(1)
     argv = [arg for arg in argv if arg not in [option for option, _ in options]]
+    if ctrl_c_pending():    # a Ctrl-C during the imports that one of them swallowed
+        sys.exit(0)
     stop = threading.Event()
     _stop_on_signals(stop)
     try:

@@ -31,6 +31,8 @@ pytestmark = pytest.mark.ros
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 RATE_HZ = 1200.0
+#: Longest wait for discovery and for the monitor to show what was sent, s.
+WAIT_S = 30.0
 #: Two options: 'kitchen' (text) at x 100..300 and 'rooms/1' (no text) at x 400..600.
 SQUARES = {('rooms', 0, 'kitchen'): (100.0, 300.0), ('rooms', 1, ''): (400.0, 600.0)}
 
@@ -154,34 +156,53 @@ def test_terminal_output_redraws_in_place_and_pipe_output_appends_lines(graph):
     assert pipe.getvalue().splitlines()[-1].endswith(' choice kitchen')
 
 
-def test_run_for_a_duration_prints_plain_lines_and_each_choice(graph):
+def test_run_prints_plain_lines_and_each_choice_until_stopped(graph):
     sender = Sender(graph)
     sender.regions.publish(regions_message())
     stop = threading.Event()
+    out = io.StringIO()
 
     def publish():
-        while not sender.gaze.get_subscription_count() and not stop.is_set():
+        end = time.monotonic() + WAIT_S
+        while not (sender.gaze.get_subscription_count() and sender.choice.get_subscription_count()
+                   ) and time.monotonic() < end:
             time.sleep(0.01)
         for _ in range(40):
-            if stop.is_set():
-                return
             sender.batches(1)
-            time.sleep(0.02)
+            time.sleep(0.02)   # a tracker's pace, not a wait
         sender.choice.publish(String(data='kitchen'))
+        # Stop once the monitor has shown all of it (its status comes every --period).
+        while not ('samples=480 ' in out.getvalue() and ' choice kitchen' in out.getvalue()) \
+                and time.monotonic() < end:
+            time.sleep(0.05)
+        stop.set()
 
     thread = threading.Thread(target=publish)
     thread.start()
-    out = io.StringIO()
-    args = monitor_tool.build_parser().parse_args(['--duration', '2.0', '--period', '0.5'])
+    args = monitor_tool.build_parser().parse_args(['--duration', str(2 * WAIT_S),
+                                                   '--period', '0.5'])
     try:
-        assert monitor_tool.run(args, context=graph.context, stream=out, terminal=False) == 0
+        assert monitor_tool.run(args, context=graph.context, stream=out, terminal=False,
+                                stop=stop) == 0
     finally:
         stop.set()
         thread.join()
     lines = out.getvalue().splitlines()
-    assert 4 <= len([line for line in lines if line.startswith('t=')]) <= 6
+    periodic = [line for line in lines if line.startswith('t=')]
+    assert len(periodic) >= 2 and all('\x1b' not in line for line in lines)
     assert any(line.endswith(' choice kitchen') for line in lines)
     assert 'samples=480 ' in lines[-1] and 'options=kitchen|rooms/1' in lines[-1]
+
+
+def test_run_ends_by_itself_after_its_duration(graph):
+    out = io.StringIO()
+    args = monitor_tool.build_parser().parse_args(['--duration', '0.6', '--period', '0.2'])
+    start = time.monotonic()
+    assert monitor_tool.run(args, context=graph.context, stream=out, terminal=False) == 0
+    assert time.monotonic() - start >= 0.6
+    lines = out.getvalue().splitlines()
+    assert lines and all(line.startswith('t=') for line in lines)
+    assert 'gaze_rate=' in lines[-1]
 
 
 def test_command_line_once_on_the_graph(graph):

@@ -5,15 +5,17 @@ Used by the system tests that need what ``colcon build`` installs (``ros2
 run``, ``ros2 launch``, the ament index).  The real ``ros2`` command line
 (ros2cli, launch, launch_ros) is not on PyPI: :func:`ros2_command` installs it
 from ``../shared/tools/ros2cli/install.sh`` into ``build/`` when that script
-is there, and returns None otherwise (the tests then skip with the reason).
+is there; without the script, or where it cannot download, it raises
+:class:`Unavailable` (the tests then skip with the reason).
 """
 
 import os
 from pathlib import Path
+import re
 import shutil
 import subprocess
 import sys
-from typing import Dict, Optional
+from typing import Dict
 
 from paths import REPO, shared_dir
 
@@ -73,13 +75,42 @@ def sourced_environment(workspace: Path) -> Dict[str, str]:
     return dict(pairs)
 
 
-def ros2_command() -> Optional[Path]:
-    """Install the real ros2 command line if its installer is at hand; return ``ros2``."""
+#: What pip says when it cannot download (no network, or no index holding the package): the
+#: installer's download step failed, which is the machine's, not this package's.
+NO_DOWNLOAD = re.compile(r'No matching distribution found|Could not find a version|'
+                         r'Failed to establish a new connection|Network is unreachable|'
+                         r'Temporary failure in name resolution|Name or service not known|'
+                         r'ProxyError|Read timed out|Connection refused', re.IGNORECASE)
+
+
+class Unavailable(Exception):
+    """The real ros2 command line cannot be had here; the message says why (for a skip)."""
+
+
+def ros2_command() -> Path:
+    """
+    Install the real ros2 command line if its installer is at hand; return ``ros2``.
+
+    :raises Unavailable: no installer beside the clone, or it could not download
+        what it installs (its last error line says what).  Any other failure of the
+        installer fails the test that asked.
+    """
     shared = shared_dir()
     installer = shared / 'tools' / 'ros2cli' / 'install.sh' if shared else None
     if installer is None or not installer.is_file():
-        return None
+        raise Unavailable('no ../shared/tools/ros2cli/install.sh beside the clone '
+                          '(or $EYE_BCI_SHARED)')
     result = subprocess.run(['bash', str(installer), sys.executable, str(ROS2CLI_DIR)],
                             capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
-    assert result.returncode == 0, f'{installer} failed:\n{result.stdout}\n{result.stderr}'
-    return Path(result.stdout.strip().splitlines()[-1])
+    if result.returncode == 0:
+        return Path(result.stdout.strip().splitlines()[-1])
+    # The installer sends pip's output to install.log in the folder it fills.
+    log = ROS2CLI_DIR / 'install.log'
+    text = '\n'.join([result.stdout, result.stderr,
+                      log.read_text(errors='replace') if log.is_file() else ''])
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    errors = [line for line in lines if line.startswith('ERROR')] or lines
+    if NO_DOWNLOAD.search(text):
+        raise Unavailable(f'{installer} could not download: '
+                          f'{errors[-1] if errors else "no message"}')
+    raise AssertionError(f'{installer} failed ({result.returncode}):\n' + '\n'.join(lines[-30:]))

@@ -8,6 +8,7 @@ domain, the way ``ros2 run`` and ``ros2 launch`` start them.
 import contextlib
 import math
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -19,6 +20,7 @@ from lsl_outlets import make_outlet, unique_id
 from paths import loaded
 import pytest
 from ros_harness import Collector
+from watched_process import Process
 
 from eye_bci_ros2.ros.runner import CLEANUP_LIMIT_S, HARD_LIMIT_S
 from eye_bci_ros2.ros.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
@@ -129,35 +131,43 @@ def test_eye_bci_refuses_a_bad_override_with_one_line():
     assert err.strip().splitlines()[-1].startswith('cannot start: invalid parameter override')
 
 
+#: The line each node logs last before it spins (its handlers are in place by then).
+UP_LINE = {'marker_projector': r'\[marker_projector\]: projecting markers in',
+           'eye_bci': r'\[choice_arbiter\]: choice_arbiter: method'}
+
+
 @pytest.mark.parametrize('signals', [('INT',), ('TERM',), ('INT', 'INT'), ('TERM', 'INT')],
                          ids=lambda s: '+'.join(s))
 @pytest.mark.parametrize('module', ['marker_projector', 'eye_bci'])
-def test_stops_cleanly_on_sigint_and_sigterm_even_twice(module, signals):
+def test_stops_cleanly_on_sigint_and_sigterm_even_twice(module, signals, tmp_path):
     with domain_id() as domain:
-        with killed_if_left(start(module, domain=domain)) as process:
-            time.sleep(2.5)   # up and spinning
+        node = Process([sys.executable, '-m', f'eye_bci_ros2.nodes.{module}'], os.environ,
+                       domain, tmp_path / 'node.log')
+        with killed_if_left(node.process):
+            assert node.wait_for(UP_LINE[module]), node.output()[-2000:]
             for index, name in enumerate(signals):
-                process.send_signal(getattr(signal, f'SIG{name}'))
-                time.sleep(0.002 * index)
-            out, err = process.communicate(timeout=15)
-    assert process.returncode == 0, err[-2000:]
-    assert 'Traceback' not in err and 'Exception' not in err, err[-2000:]
+                node.process.send_signal(getattr(signal, f'SIG{name}'))
+                time.sleep(0.002 * index)   # launch's copy follows the terminal's (not a wait)
+            status = node.finish(timeout=30)
+    text = node.output()
+    assert status == 0, text[-2000:]
+    assert 'Traceback' not in text and 'Exception' not in text, text[-2000:]
 
 
-def test_the_bridge_names_the_streams_it_sees_when_none_matches():
+def test_the_bridge_names_the_streams_it_sees_when_none_matches(tmp_path):
     outlet, info = make_outlet('custom', stream_type=unique_id('other-type'))
     with domain_id() as domain:
-        process = start('lsl_gaze_bridge', '--ros-args', '-p', 'profile:=tobii_pro',
-                        '-p', 'resolve_period_s:=0.2', domain=domain)
-        try:
-            time.sleep(4.0)
-        finally:
-            process.send_signal(signal.SIGINT)
-            out, err = process.communicate(timeout=15)
-    text = out + err
-    assert process.returncode == 0
+        bridge = Process([sys.executable, '-m', 'eye_bci_ros2.nodes.lsl_gaze_bridge',
+                          '--ros-args', '-p', 'profile:=tobii_pro',
+                          '-p', 'resolve_period_s:=0.2'], os.environ, domain,
+                         tmp_path / 'bridge.log')
+        with killed_if_left(bridge.process):
+            named = bridge.wait_for(f"type '{re.escape(info.type())}'.*select with")
+            bridge.process.send_signal(signal.SIGINT)
+            status = bridge.finish(timeout=30)
+    text = bridge.output()
+    assert named and status == 0, text[-3000:]
     assert 'looking for an LSL gaze stream' in text
-    assert f"type '{info.type()}'" in text and 'select with' in text, text[-3000:]
     del outlet
 
 
@@ -219,6 +229,77 @@ def test_a_clean_up_stuck_where_no_python_runs_still_ends(tmp_path):
     # faulthandler's thread ends it: status 1 and where it hung, not a SIGKILL's -9.
     assert process.returncode == 1, err[-2000:]
     assert 'Timeout' in err and 'destroy_node' in err, err[-2000:]
+
+
+#: An executable's start-up (argv[0] is an executable's name) with a stand-in for numpy's
+#: import: a Ctrl-C inside it becomes an ImportError without the KeyboardInterrupt in its
+#: chain, as numpy's C-extensions report it ("...the C-extensions failed..."). The SIGINTs
+#: come from inside the imports, so they land there on any machine, loaded or not.
+CTRL_C_IN_IMPORTS = """
+import signal
+import sys
+import time
+
+import eye_bci_ros2    # first, as in every console script: the SIGINT handler, the quiet hook
+
+case = sys.argv.pop(1)
+
+
+def ctrl_c():
+    signal.raise_signal(signal.SIGINT)   # runs the handler before it returns
+
+
+def import_like_numpy():
+    interrupted = False
+    try:
+        ctrl_c()
+    except KeyboardInterrupt:
+        interrupted = True
+    if interrupted:
+        raise ImportError('Importing the numpy C-extensions failed.')
+
+
+if case == 'converted':
+    import_like_numpy()    # the terminal's Ctrl-C lands in the import
+else:   # 'swallowed': an import swallows the first; the second comes seconds later (load)
+    try:
+        ctrl_c()
+    except KeyboardInterrupt:
+        pass
+    time.sleep(1.5)
+    import_like_numpy()
+from rclpy.node import Node
+from eye_bci_ros2.ros.runner import spin_node
+
+
+class Started(Node):
+    def __init__(self, **kwargs):
+        super().__init__('started', **kwargs)
+        print('started', flush=True)
+
+
+spin_node(Started)
+"""
+
+
+@pytest.mark.parametrize('case', ['converted', 'swallowed'])
+def test_a_ctrl_c_that_an_import_turns_into_an_error_still_ends_quietly(tmp_path, case):
+    """
+    Ctrl-C during start-up, caught by an import that raises its own error (numpy's).
+
+    Seen under load: the second SIGINT of one Ctrl-C landed inside numpy's import,
+    and ``camera_tracker`` printed numpy's ImportError and exited 1.
+    """
+    script = tmp_path / 'camera_tracker'
+    script.write_text(CTRL_C_IN_IMPORTS)
+    with domain_id() as domain:
+        with killed_if_left(subprocess.Popen(
+                [sys.executable, str(script), case],
+                env=dict(os.environ, ROS_DOMAIN_ID=str(domain)),
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)) as process:
+            out, err = process.communicate(timeout=60)
+    assert process.returncode == 0 and err == '', err[-2000:]
+    assert 'started' not in out     # nothing starts after a Ctrl-C
 
 
 @pytest.mark.parametrize('gap_ms', [0.2, 1.0, 3.0, 10.0])

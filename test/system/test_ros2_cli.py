@@ -9,13 +9,13 @@ during start-up): exit status, no traceback, no process left behind.
 
 The command line (ros2cli, launch, launch_ros; not on PyPI) is installed
 from ``../shared/tools/ros2cli/install.sh`` into ``build/ros2cli``; without
-that script these tests skip.  Ctrl-C is a SIGINT to the launch's whole
-process group, as a terminal sends it.  The slowest are marked ``slow``;
+that script, or where it cannot download (no network), these tests skip and
+say why.  Ctrl-C is a SIGINT to the launch's whole process group, as a
+terminal sends it.  The slowest are marked ``slow``;
 the whole module takes about 2 minutes on 2 cores.
 """
 
 import importlib
-import os
 from pathlib import Path
 import re
 import signal
@@ -23,17 +23,17 @@ import subprocess
 import time
 from typing import List, Optional
 
-from colcon_workspace import build_workspace, PACKAGE, ros2_command, sourced_environment
+from colcon_workspace import (build_workspace, PACKAGE, ros2_command, sourced_environment,
+                              Unavailable)
 from domain_coordinator import domain_id
 from lsl_outlets import bridge_parameters, make_outlet, sample_for
 from paths import loaded
 import pytest
+from watched_process import Process, WAIT_S
 import yaml
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
-#: Longest wait for a process to start, answer or stop, s.
-WAIT_S = 60.0
 #: Without the daemon, a ros2 command discovers the graph itself: give it time (a user's
 #: daemon has been listening all along).
 DISCOVERY = ('--spin-time', '2', '--timeout', '10')
@@ -44,11 +44,10 @@ TRACEBACK = re.compile(r'Traceback \(most recent call last\)|KeyboardInterrupt')
 @pytest.fixture(scope='module')
 def ros2():
     """Return the path of the real ``ros2`` wrapper (skip when it cannot be installed)."""
-    command = ros2_command()
-    if command is None:
-        pytest.skip('the real ros2 command line is not at hand (../shared/tools/ros2cli/'
-                    'install.sh beside the clone, or $EYE_BCI_SHARED)')
-    return command
+    try:
+        return ros2_command()
+    except Unavailable as reason:
+        pytest.skip(f'the real ros2 command line is not at hand: {reason}')
 
 
 @pytest.fixture(scope='module')
@@ -61,54 +60,6 @@ def env(tmp_path_factory, ros2):
     # ros2 param/topic start a daemon by default: keep none running after the tests.
     environment.pop('ROS_DOMAIN_ID', None)
     return environment
-
-
-class Process:
-    """A command started as a user starts it, in its own process group, output collected."""
-
-    def __init__(self, command: List[str], env: dict, domain: int, log: Path):
-        self.log = log
-        self._file = open(log, 'w')
-        self.process = subprocess.Popen(
-            command, env=dict(env, ROS_DOMAIN_ID=str(domain)), stdout=self._file,
-            stderr=subprocess.STDOUT, text=True, start_new_session=True,
-            # A shell's background job ignores SIGINT; a terminal's foreground job does not.
-            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-
-    def output(self) -> str:
-        """Return everything the process printed so far."""
-        return self.log.read_text()
-
-    def wait_for(self, pattern: str, timeout: float = WAIT_S, count: int = 1) -> bool:
-        """Wait until ``pattern`` (regex) appeared ``count`` times; False if it ended first."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if len(re.findall(pattern, self.output())) >= count:
-                return True
-            if self.process.poll() is not None:
-                return len(re.findall(pattern, self.output())) >= count
-            time.sleep(0.1)
-        return False
-
-    def interrupt(self, times: int = 1, gap_s: float = 0.3) -> None:
-        """Press Ctrl-C ``times``: SIGINT to the whole process group."""
-        for _ in range(times):
-            try:
-                os.killpg(self.process.pid, signal.SIGINT)
-            except ProcessLookupError:
-                return
-            time.sleep(gap_s)
-
-    def finish(self, timeout: float = WAIT_S) -> int:
-        """Wait for the end; return the exit status (kill the group if it hangs)."""
-        try:
-            return self.process.wait(timeout)
-        except subprocess.TimeoutExpired:
-            os.killpg(self.process.pid, signal.SIGKILL)
-            self.process.wait()
-            raise AssertionError(f'did not end within {timeout:g} s:\n{self.output()[-3000:]}')
-        finally:
-            self._file.close()
 
 
 def run(command: List[str], env: dict, domain: int, timeout: float = WAIT_S):

@@ -13,6 +13,7 @@ import time
 
 from lsl_outlets import bridge_parameters, make_outlet, sample_for
 import numpy as np
+import pylsl
 import pytest
 from rclpy.parameter import Parameter
 from ros_harness import Collector
@@ -74,6 +75,7 @@ class Pipeline:
     def __init__(self, graph):
         self.graph = graph
         self.outlet, info = make_outlet('xy_pixels', rate=GAZE_RATE_HZ)
+        self.pushed = 0     # samples pushed so far
         self.bridge = graph.add(LslGazeBridge, parameter_overrides=[
             Parameter(name, value=value)
             for name, value in bridge_parameters('xy_pixels', info).items()])
@@ -113,16 +115,26 @@ class Pipeline:
         (the default rule weighs a reaction, not a gaze resting there before).
         """
         before = len(self.chosen.messages)
-        start = time.monotonic()
-        end = start + WAIT_S
+        # Every sample due at GAZE_RATE_HZ, stamped with its due time, however slowly this
+        # loop runs on a loaded machine (it catches up in bursts, as a tracker's buffer does).
+        start = pylsl.local_clock()
+        end = time.monotonic() + WAIT_S
+        pushed = 0
         while len(self.chosen.messages) == before and time.monotonic() < end:
-            looking = time.monotonic() - start > LOOK_AWAY_S
-            point = self.rng.normal(screen_xy if looking else AWAY_PX, 4.0)
-            self.outlet.push_sample(sample_for('xy_pixels', point).tolist())
+            due = int((pylsl.local_clock() - start) * GAZE_RATE_HZ) + 1
+            for index in range(pushed, due):
+                looking = index / GAZE_RATE_HZ > LOOK_AWAY_S
+                point = self.rng.normal(screen_xy if looking else AWAY_PX, 4.0)
+                self.outlet.push_sample(sample_for('xy_pixels', point).tolist(),
+                                        start + index / GAZE_RATE_HZ)
+            pushed = max(pushed, due)
             self.graph.spin_for(1.0 / GAZE_RATE_HZ)
         assert len(self.chosen.messages) > before, 'no choice from the gaze'
-        # Let the samples still in flight arrive while no round is open.
-        self.graph.spin_for(0.3)
+        # The samples still in flight arrive while no round is open.
+        self.pushed += pushed
+        assert self.graph.spin_until(
+            lambda: self.bridge.counters['received'] >= self.pushed, WAIT_S), \
+            f"{self.bridge.counters['received']} of {self.pushed} samples pulled"
 
 
 def test_gaze_on_a_marker_chooses_it_and_another_marker_another(graph):

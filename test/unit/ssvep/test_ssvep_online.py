@@ -202,7 +202,11 @@ def test_a_live_decoder_never_waits_for_the_fbcca_null(monkeypatch):
         return measure(*key)
 
     monkeypatch.setattr(decoders, '_measure_null', held)
-    # Settings no other test uses, so nothing is cached yet.
+    # Empty caches of this process's rest models for this test alone: a fresh process, as a
+    # node starts, whichever test measured these settings before; restored afterwards, so
+    # the held measurement is not left to the next test either.
+    monkeypatch.setattr(decoders, '_NULLS', {})
+    monkeypatch.setattr(decoders, '_MEASURING', {})
     settings = OnlineSettings(window_s=1.9, min_window_s=0.9)
     simulator = EegSimulator(SUBJECTS[5], seed=3)
     simulator.start(0.0, STIMULI)
