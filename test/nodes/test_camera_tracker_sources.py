@@ -154,10 +154,17 @@ def test_unusable_rviz_config_stops_the_node_with_a_reason(graph, tmp_path, cont
             Parameter('rviz_config', value=str(config))])
 
 
-def test_rviz_config_is_read_only(graph):
-    start(graph)
+def test_rviz_config_is_read_only(graph, tmp_path):
+    config = tmp_path / 'fps.rviz'
+    config.write_text('Visualization Manager:\n  Global Options:\n    Fixed Frame: map\n'
+                      '  Views:\n    Current:\n      Class: rviz_default_plugins/FPS\n'
+                      '      Position: {X: 1, Y: 2, Z: 3}\n      Pitch: 0.2\n      Yaw: 0\n')
+    _, poses = start(graph, rviz_config=str(config))
     result = graph.set_parameters('/camera_tracker', {'rviz_config': str(CONFIG)})[0]
-    assert not result.successful
+    # Refused with the reason, and the file read at start-up still holds.
+    assert not result.successful and 'read-only' in result.reason, result.reason
+    assert graph.get_parameters('/camera_tracker', ['rviz_config']) == [str(config)]
+    np.testing.assert_allclose(pose_to_arrays(poses.last.pose)[0], [1, 2, 3])
 
 
 def test_view_parameters_at_their_defaults_do_not_hide_rviz_config(graph, tmp_path):
