@@ -197,8 +197,11 @@ def test_newest_of_two_outlets_of_one_source_is_used(graph):
     old.push_sample([0.0, 0.0])
     new.push_sample([1366.0, 768.0])
     np.testing.assert_allclose(wait_for(graph, gaze, 1), [[1920, 1080]])
-    graph.spin_for(0.2)
-    assert gaze.count == 1
+    # A sentinel on the new stream: the bridge forwards in order, so had it read the old
+    # stream's sample, that would arrive before this one.
+    new.push_sample([683.0, 384.0])
+    assert graph.spin_until(lambda: np.allclose(gaze.samples()[1][-1], [960, 540]), WAIT_S)
+    np.testing.assert_allclose(gaze.samples()[1], [[1920, 1080], [960, 540]])
     assert not old.have_consumers()
     assert node.stream_uid == new_info.uid()
 
