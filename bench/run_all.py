@@ -64,6 +64,7 @@ REGISTRY: Dict[str, str] = {
     'calibration': 'bench.calibration_protocol',
     'ssvep': 'bench.ssvep',
     'ssvep_real': 'bench.ssvep_real',
+    'real_hybrid': 'bench.real_hybrid',
     'robot': 'bench.robot',
 }
 
@@ -92,6 +93,9 @@ DEFAULT_RUN: Dict[str, tuple] = {
 #: Sections that need real recordings: name -> kind (``find_data`` folder name).
 NEEDS_DATA: Dict[str, str] = {'real_gaze': 'real_gaze', 'correction_fit': 'real_gaze',
                               'ssvep_real': 'real_eeg'}
+#: Sections that need both kinds: ``--gaze-data`` and ``--eeg-data`` are passed on as
+#: ``gaze_data`` and ``eeg_data`` (their ``unavailable()`` says when one is missing).
+NEEDS_BOTH = ('real_hybrid',)
 
 #: The runs: ``quick`` (smoke sizes), ``default`` (:data:`DEFAULT_RUN`), ``full``.
 MODES = ('quick', 'default', 'full')
@@ -162,6 +166,12 @@ def data_folder(name: str, folders: Dict[str, Optional[str]]) -> tuple:
         return None, (f'no real gaze recordings (../shared/data/real_gaze, $EYE_BCI_DATA, '
                       f'or {option} DIR)')
     return None, None   # found, or the module's unavailable() says why not
+
+
+def _both(folders: Optional[Dict[str, str]]) -> Dict[str, Optional[str]]:
+    """Return the folders named on the command line as ``gaze_data``, ``eeg_data`` (None: find)."""
+    folders = folders or {}
+    return {'gaze_data': folders.get('real_gaze'), 'eeg_data': folders.get('real_eeg')}
 
 
 def cpu_seconds() -> float:
@@ -236,7 +246,9 @@ def run_benchmarks(names: Sequence[str], quick: bool = False, log: Optional[Text
         try:
             module = load(name)
             folder, reason = data_folder(name, data or {})
-            if reason is None and folder is None:
+            if name in NEEDS_BOTH:
+                reason = module.unavailable(**_both(data))
+            elif reason is None and folder is None:
                 reason = getattr(module, 'unavailable', lambda: None)()
         except NotAvailable as missing:
             reason = str(missing)
@@ -253,6 +265,8 @@ def run_benchmarks(names: Sequence[str], quick: bool = False, log: Optional[Text
         kwargs, shortened = run_arguments(name, mode, module)
         if folder is not None:
             kwargs['data'] = folder
+        if name in NEEDS_BOTH:
+            kwargs.update(_both(data))
         outcome['shortened'][name] = shortened
         print(f'{where}: running ({shortened or f"{mode} run, complete"}) ...', file=log,
               flush=True)
@@ -376,10 +390,12 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     parser.add_argument('--gaze-data', metavar='DIR',
                         help='folder of real gaze recordings (default: ../shared/data/'
                              'real_gaze or $EYE_BCI_DATA/real_gaze; sections '
-                             f'{", ".join(n for n, k in NEEDS_DATA.items() if k == "real_gaze")})')
+                             f'{", ".join(n for n, k in NEEDS_DATA.items() if k == "real_gaze")}, '
+                             f'{", ".join(NEEDS_BOTH)})')
     parser.add_argument('--eeg-data', metavar='DIR',
                         help='folder of real EEG recordings (default: $EYE_BCI_REAL_EEG or '
-                             '../shared/data/real_eeg; section ssvep_real)')
+                             f'../shared/data/real_eeg; sections ssvep_real, '
+                             f'{", ".join(NEEDS_BOTH)})')
     args = parser.parse_args(argv)
     only = [name.strip() for item in args.only for name in item.split(',') if name.strip()]
     unknown = [name for name in only if name not in REGISTRY]

@@ -79,13 +79,18 @@ def _running_an_executable() -> bool:
 
 #: liblsl's own configuration files, in the order it looks for them (when $LSLAPICFG is unset).
 LSL_CONFIG_FILES = ('lsl_api.cfg', '~/lsl_api/lsl_api.cfg', '/etc/lsl_api/lsl_api.cfg')
-#: Our liblsl configuration: warnings and errors only (its INFO lines are build details).
-LSL_QUIET_CONFIG = '[log]\nlevel = -1\n'
+#: Our liblsl configuration: fatal errors only.  Its INFO lines are build details, and its
+#: errors are about connections the nodes report themselves, in their own words and once
+#: (a tracker that stops: "lost gaze stream ...", not liblsl's "ERR| Stream transmission
+#: broke off" from its receiver thread).  A ``[log] file`` would keep them in a file, but
+#: liblsl then says "Logging to ..." on the terminal at each start.  A user's own
+#: configuration (below) brings them back.
+LSL_QUIET_CONFIG = '[log]\nlevel = -3\n'
 
 
 def _quiet_liblsl() -> None:
     """
-    Keep liblsl's two INFO lines (config loaded, build id) out of every process's output.
+    Keep liblsl's own lines (INFO at start, its receiver threads' errors) out of every output.
 
     Only when the user has no liblsl configuration of their own ($LSLAPICFG or
     one of :data:`LSL_CONFIG_FILES`): theirs may hold a lab's network settings
@@ -96,9 +101,17 @@ def _quiet_liblsl() -> None:
         return
     path = os.path.join(tempfile.gettempdir(), f'eye_bci_ros2_lsl_api_{os.getuid()}.cfg')
     try:
-        if not os.path.exists(path):
-            with open(path, 'w') as stream:
+        with open(path) as stream:
+            current = stream.read()
+    except OSError:
+        current = None
+    try:
+        if current != LSL_QUIET_CONFIG:
+            # Whole or not at all: other executables may read it at this moment.
+            partial = f'{path}.{os.getpid()}'
+            with open(partial, 'w') as stream:
                 stream.write(LSL_QUIET_CONFIG)
+            os.replace(partial, path)
     except OSError:
         return      # liblsl then prints its lines: harmless
     os.environ['LSLAPICFG'] = path

@@ -11,7 +11,9 @@ Starts ``pipeline.launch.py`` (same ``params_file``, ``profile`` and
 and moves the camera) and ``rviz2 -d rviz_config`` (default: the installed
 config/eye_bci.rviz, whose view and panel size the pipeline reads too, so
 what RViz shows and what the projector computes agree).  ``rviz:=false``
-starts no RViz2 (one already running with the same file).  ``robot:=sim``
+starts no RViz2 (one already running with the same file); a value that is
+not a boolean (``rviz:=maybe``) is refused with the accepted ones
+(:mod:`eye_bci_ros2.ros.launch_arguments`).  ``robot:=sim``
 (the default) starts ``sim_robot``, the simulated robot on the scene's map
 (``map``, ``odom``, ``plan``; goals on ``goal_pose``); ``robot:=none`` starts no
 robot: a real one (nav2) gives ``map`` and ``odom`` and takes ``goal_pose``
@@ -31,6 +33,8 @@ from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
+from eye_bci_ros2.ros.launch_arguments import boolean_arguments, is_true
+
 PACKAGE = 'eye_bci_ros2'
 #: Accepted values of the robot:= argument: the simulated robot, or none (a real one).
 ROBOTS = ('sim', 'none')
@@ -38,7 +42,7 @@ ROBOTS = ('sim', 'none')
 
 def _check_rviz(context):
     """Refuse to start anything when RViz2 is asked for but not installed."""
-    if LaunchConfiguration('rviz').perform(context).lower() not in ('true', '1', 'yes'):
+    if not is_true(context, 'rviz'):
         return []
     try:
         get_package_prefix('rviz2')
@@ -73,7 +77,7 @@ def _menu_and_rviz(context):
     actions = [Node(package=PACKAGE, executable='choice_menu', name='choice_menu',
                     parameters=[params_file], output='screen',
                     on_exit=Shutdown(reason='choice_menu ended'))]
-    if LaunchConfiguration('rviz').perform(context).lower() in ('true', '1', 'yes'):
+    if is_true(context, 'rviz'):
         actions.append(Node(package='rviz2', executable='rviz2', name='rviz2',
                             arguments=['-d', LaunchConfiguration('rviz_config')],
                             output='screen', on_exit=Shutdown(reason='RViz2 closed')))
@@ -101,12 +105,11 @@ def generate_launch_description():
                                                 'eye_bci.rviz']),
             description='.rviz file RViz2 opens and the pipeline reads (view, panel size)'),
         DeclareLaunchArgument(
-            'rviz', default_value='true', description='start RViz2 (true/false)'),
-        DeclareLaunchArgument(
             'robot', default_value=ROBOTS[0],
             description='the robot: sim (sim_robot, the simulated robot on the scene map) or '
                         'none (a real robot: its nav2 gives map and odom, takes goal_pose)'),
         # Checked before anything starts (actions run in this order).
+        *boolean_arguments(('rviz', True, 'start RViz2')),
         OpaqueFunction(function=_check_robot),
         OpaqueFunction(function=_check_rviz),
         IncludeLaunchDescription(

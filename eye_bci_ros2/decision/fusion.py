@@ -6,18 +6,25 @@ Input modes of an experiment: gaze, SSVEP, or both (hybrid), and how they make a
   it names an offered option; gaze is ignored.
 - ``hybrid``: gaze alone never chooses.  The gaze decision only nominates a
   *candidate*; it becomes the choice when SSVEP confirms it: the decoder
-  chose the same option, or its posterior for that option (``ssvep/scores``)
-  stayed at or above ``confirm_threshold`` in every scoring step over
+  chose the same option, or its evidence that the candidate is attended
+  rather than nothing (:func:`confirmation`) stayed at or above
+  ``confirm_threshold`` in every scoring step (``ssvep/scores``) over
   ``hold_s`` (as the decoder holds its own choices,
   :class:`eye_bci_ros2.ssvep.decision.HeldDecision`: one step's excursion is
   noise), within ``max_lag_s`` of the gaze candidate (either may come
-  first).  A gaze decision is a candidate only when the gaze stayed on it:
-  its margin (leader's share of the in-region gaze minus the runner-up's) is
-  at least ``min_gaze_margin``.  Gaze narrows the options and SSVEP, which
-  needs sustained attention to a flickering option, supplies the intent: looking
-  over the options (the "Midas touch") nominates candidates but never
-  confirms one.  (Sequential gaze-then-SSVEP confirmation as in Stawicki et
-  al. 2017 and the sequential mode of Guo et al. 2023.)
+  first).  The gaze has already said which option the person looks at, so
+  the EEG answers "is this one attended, or nothing?" (a detection of one
+  stimulus against rest), not "which of the K?": the posterior is
+  conditioned on the two hypotheses left, ``p_c / (p_c + p_rest)``, and the
+  candidate must lead the posterior (strong evidence for another option
+  means the gaze, not the EEG, is wrong).  A gaze decision is a candidate
+  only when the gaze stayed on it: its margin (leader's share of the
+  in-region gaze minus the runner-up's) is at least ``min_gaze_margin``.
+  Gaze narrows the options and SSVEP, which needs sustained attention to a
+  flickering option, supplies the intent: looking over the options (the
+  "Midas touch") nominates candidates but never confirms one.  (Sequential
+  gaze-then-SSVEP confirmation as in Stawicki et al. 2017 and the sequential
+  mode of Guo et al. 2023.)
 
 At most one choice per round; a round starts with :meth:`ChoiceFusion.new_round`
 (new options or a request).  Times are seconds on one clock (the node clock).
@@ -26,6 +33,8 @@ At most one choice per round; a round starts with :meth:`ChoiceFusion.new_round`
 from dataclasses import dataclass
 from typing import Dict, NamedTuple, Optional, Sequence, Tuple
 
+import numpy as np
+
 from eye_bci_ros2.base.settings import check_settings, Setting
 from eye_bci_ros2.base.validators import Interval
 from eye_bci_ros2.ssvep.decision import DEFAULT_HOLD_S
@@ -33,6 +42,38 @@ from eye_bci_ros2.ssvep.decision import DEFAULT_HOLD_S
 #: The input modes, the one place they are named (the ``input_mode`` parameter's choices).
 INPUT_MODES = ('gaze', 'ssvep', 'hybrid')
 GAZE, SSVEP, HYBRID = INPUT_MODES
+
+
+#: A posterior whose options leave less than this to "nothing attended" carries no rest
+#: share (a decoder without that hypothesis, or one option overwhelmingly attended).
+NO_REST_SHARE = 1e-9
+
+
+def confirmation(posterior: Sequence[float]) -> np.ndarray:
+    """
+    Return each option's evidence that it, looked at, is attended rather than nothing.
+
+    With the gaze on option ``c`` the hypotheses left are "c is attended" and
+    "nothing is attended"; their posterior is ``p_c / (p_c + p_rest)`` with
+    ``p_rest = 1 - sum(p)`` (the decoder's "nothing attended" share,
+    :func:`eye_bci_ros2.ssvep.decision.posterior`), which is the decoder's
+    one-stimulus detection against rest: ``exp(gain z_c) / (exp(gain z_c) +
+    exp(gain rest_z))``.  An option that another one leads gets 0 (the EEG
+    says the person attends something else).  Without a rest share (a decoder
+    that has no "nothing attended" hypothesis) the posterior itself.  Values
+    that are not finite count as 0.
+
+    :param posterior: the ``ssvep/scores`` posterior of the options, (K,).
+    :returns: (K,), in [0, 1].
+    """
+    p = np.asarray(posterior, dtype=float).reshape(-1)
+    p = np.clip(np.where(np.isfinite(p), p, 0.0), 0.0, 1.0)
+    if not p.size:
+        return p
+    rest = 1.0 - float(p.sum())
+    value = p / np.maximum(p + rest, 1e-300) if rest > NO_REST_SHARE else p.copy()
+    value[p < p.max()] = 0.0
+    return value
 
 
 class Timed(NamedTuple):
@@ -70,7 +111,8 @@ class FusionSettings:
         'ssvep_decoder) or hybrid (a gaze decision is only a candidate; it is chosen '
         'when SSVEP confirms it, see eye_bci_ros2.decision.fusion)', choices=INPUT_MODES).field()
     confirm_threshold: float = Setting(
-        0.9, 'hybrid: SSVEP posterior (ssvep/scores) of the gaze candidate that confirms it',
+        0.9, 'hybrid: SSVEP posterior (ssvep/scores) that the gaze candidate is attended '
+        'rather than nothing (it must also lead the options) that confirms it',
         interval=Interval(0.01, 1.0)).field()
     max_lag_s: float = Setting(
         5.0, 'hybrid: longest time between the gaze candidate and the SSVEP evidence that '
@@ -181,7 +223,7 @@ class ChoiceFusion:
         """Take one SSVEP scoring step (posterior per label) at time ``t``."""
         if self.settings.input_mode != HYBRID or self._chosen:
             return None
-        for label, probability in zip(labels, posterior):
+        for label, probability in zip(labels, confirmation(posterior)):
             if label not in self._options:
                 continue
             if probability < self.settings.confirm_threshold:

@@ -91,7 +91,7 @@ RULE_EVIDENCE: Dict[str, Callable[['ArbiterSettings', float, Optional[float]], o
 #: The names of the decision rules (the ``method`` parameter's choices).
 METHODS = tuple(RULE_EVIDENCE)
 
-#: The settings that make the original rule (docs/DESIGN.md, "Decision"): samples count
+#: The settings that make the original rule (docs/DESIGN.md, "The mathematics"): samples count
 #: only inside an option, no share test; with ``method`` 'mean' (and no early decision)
 #: every decision is the original report's.
 ORIGINAL_RULE = {'classification': 'inside', 'min_share': 0.0}

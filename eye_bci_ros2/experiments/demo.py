@@ -15,7 +15,13 @@ What runs (all real, nothing mocked but RViz and the person):
   different rooms).  For each pair the menu offers the rooms, the person looks
   at the scripted room, the arbiter decides, the menu zooms into the chosen
   room and offers its tables, the person looks at the scripted table, the
-  arbiter decides again.
+  arbiter decides again; the menu asks to confirm the table ('go' / 'back':
+  the person looks at 'go' when the table chosen is the scripted one, else
+  at 'back'), sends the robot (``sim_robot``, the simulated nav2 robot on the
+  scene's map, driving ``robot_time_scale`` times faster than real time so
+  the demo stays quick) and offers 'stop' while it drives: the person looks
+  away (at a corner of the screen, off the panel: that neither stops nor
+  sends it), and the menu offers the rooms again when it has arrived.
 
 The person looks at the script's target, never at the system's decisions:
 the target's screen point is computed from what the simulated screen shows
@@ -59,7 +65,8 @@ from typing import Callable, Dict, Iterator, List, Optional, Sequence, Tuple
 import uuid
 
 from domain_coordinator import domain_id
-from geometry_msgs.msg import Pose
+from geometry_msgs.msg import Pose, PoseStamped
+from nav_msgs.msg import OccupancyGrid, Odometry, Path
 import numpy as np
 import pylsl
 import rclpy
@@ -76,6 +83,7 @@ from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings, METHODS
 from eye_bci_ros2.experiments import render as demo_render
 from eye_bci_ros2.experiments.metrics import wolpaw_bits
+from eye_bci_ros2.navigation.occupancy import yaw_of
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
 from eye_bci_ros2.nodes.ssvep_decoder import SsvepDecoder
 from eye_bci_ros2.nodes.ssvep_stimulus_map import SsvepStimulusMap
@@ -90,15 +98,18 @@ from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.ros.runner import make_executor, spin_until as _spin_until
 from eye_bci_ros2.ros.ssvep_messages import msg_to_stimulus_map
 from eye_bci_ros2.ros.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC,
-                                     GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
-                                     MENU_ANSWER_TOPIC, MENU_RESULT_TOPIC, REGIONS_TOPIC,
+                                     GAZE_QOS, GAZE_SAMPLES_TOPIC, GOAL_POSE_TOPIC, GOAL_QOS,
+                                     LATCHED_QOS, MAP_QOS, MAP_TOPIC, MENU_ANSWER_TOPIC,
+                                     MENU_PROGRESS_TOPIC, MENU_RESULT_TOPIC, ODOM_QOS,
+                                     ODOM_TOPIC, PLAN_QOS, PLAN_TOPIC, REGIONS_TOPIC,
                                      REQUEST_TOPIC, RVIZ_CAMERA_POSE_TOPIC, SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
 from eye_bci_ros2.sim.eeg_outlet import EegStreamer
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
 from eye_bci_ros2.sim.person import GazeParams, ORIGINAL_TOBII_4C, PRESETS
+from eye_bci_ros2.sim.robot import SimRobot
 from eye_bci_ros2.sim.rviz_view import SimRvizView
-from eye_bci_ros2.task.menu import BACK_LABEL
+from eye_bci_ros2.task.menu import BACK_LABEL, GO_LABEL, STOP_LABEL
 from eye_bci_ros2.task.scene import load_scene, Scene
 
 #: The person's screen, px (the Linux machine of the original report).
@@ -119,6 +130,8 @@ QUICK_PERSON = ORIGINAL_TOBII_4C.with_changes(
 ASK_MODES = ('on-arrival', 'on-change')
 #: Answers per step the time limit of the whole run allows for.
 MAX_ATTEMPTS = 3
+#: Steps of a round: the room, the table, its confirmation, the drive.
+STEPS_PER_ROUND = 4
 #: What may choose (the arbiter's input_mode): fusion's modes.
 INPUTS = INPUT_MODES
 #: Gaze samples that must reach the pipeline before the experiment starts.
@@ -156,6 +169,8 @@ class DemoOptions:
     :ivar input_mode: what chooses: 'gaze', 'ssvep' (the SSVEP decoder on simulated EEG) or
         'hybrid' (a gaze candidate confirmed by SSVEP), the arbiter's ``input_mode``.
     :ivar subject: simulated EEG subject (eye_bci_ros2.sim.eeg.SUBJECTS name).
+    :ivar robot_time_scale: the simulated robot drives this many times faster than real
+        time (sim_robot ``time_scale``); ``drive_s`` is the robot's own time.
     """
 
     rounds: int = 4
@@ -173,6 +188,7 @@ class DemoOptions:
     verbose: bool = False
     input_mode: str = GAZE
     subject: str = 's4'
+    robot_time_scale: float = 10.0
 
 
 @dataclass
@@ -211,8 +227,12 @@ class Selection:
     picture_samples: int = 0
     picture_counted: int = 0
     picture: str = ''
+    #: A confirmed table's drive: goal [x, y, yaw], arrived, drive_s (the robot's time),
+    #: path_m (driven, from odometry), picture; None for other selections.
+    robot: Optional[dict] = None
     # Drawing data, not written to the summary.
     screen: Optional[demo_render.ScreenPicture] = field(default=None, repr=False)
+    drive: Optional[demo_render.DrivePicture] = field(default=None, repr=False)
 
     @property
     def correct(self) -> bool:
@@ -221,7 +241,8 @@ class Selection:
 
     def as_row(self) -> dict:
         """Return the record as plain data (JSON/CSV)."""
-        row = {key: value for key, value in asdict(self).items() if key != 'screen'}
+        row = {key: value for key, value in asdict(self).items()
+               if key not in ('screen', 'drive')}
         row['correct'] = self.correct
         return row
 
@@ -398,6 +419,22 @@ class ExperimentDriver(Node):
         self.eeg = eeg
         # Answers the menu acted on, not yet recorded (label, ROS time s).
         self._answers: List[Tuple[str, float]] = []
+        # The robot: goals sent (ROS time s, [x, y, yaw]), odometry (t, x, y, yaw), the
+        # newest plan (M, 2) and map, the menu's progress lines; the table waiting for
+        # 'go' and the drive under way (its table selection and when 'go' was answered).
+        self.robot_goals: List[Tuple[float, np.ndarray]] = []
+        self.odometry: List[Tuple[float, float, float, float]] = []
+        self.plan = np.zeros((0, 2))
+        self.map: Optional[OccupancyGrid] = None
+        self.progress: List[str] = []
+        self._pending: Optional[str] = None
+        self._drive: Optional[Tuple[Selection, float]] = None
+        self._withdrawn_at = math.nan
+        self.create_subscription(PoseStamped, GOAL_POSE_TOPIC, self._on_robot_goal, GOAL_QOS)
+        self.create_subscription(Odometry, ODOM_TOPIC, self._on_odometry, ODOM_QOS)
+        self.create_subscription(Path, PLAN_TOPIC, self._on_plan, PLAN_QOS)
+        self.create_subscription(OccupancyGrid, MAP_TOPIC, self._on_map, MAP_QOS)
+        self.create_subscription(String, MENU_PROGRESS_TOPIC, self._on_progress, LATCHED_QOS)
         if eeg is not None:
             self.create_subscription(JointState, SSVEP_STIMULI_TOPIC, self._on_stimuli,
                                      LATCHED_QOS)
@@ -426,6 +463,9 @@ class ExperimentDriver(Node):
             colour = (marker.color.r, marker.color.g, marker.color.b, marker.color.a)
             self.markers[option_label(marker)] = (position, quaternion, scale, colour)
         labels = tuple(self.markers)
+        if not labels and self.offered:
+            # Withdrawn while the camera moves: the step began here (the move is part of it).
+            self._withdrawn_at = self.now_s()
         if set(labels) != set(self.offered):
             self.offered = labels
             if self.running and labels:
@@ -472,6 +512,71 @@ class ExperimentDriver(Node):
     def _on_result(self, message: String) -> None:
         self.outcomes.append(message.data)
 
+    def _on_robot_goal(self, message: PoseStamped) -> None:
+        position, quaternion = pose_to_arrays(message.pose)
+        self.robot_goals.append((self.now_s(), np.array([position[0], position[1],
+                                                         yaw_of(quaternion)])))
+
+    def _on_odometry(self, message: Odometry) -> None:
+        position, quaternion = pose_to_arrays(message.pose.pose)
+        self.odometry.append((self.now_s(), float(position[0]), float(position[1]),
+                              yaw_of(quaternion)))
+
+    def _on_plan(self, message: Path) -> None:
+        self.plan = np.array([[p.pose.position.x, p.pose.position.y] for p in message.poses]
+                             ).reshape(-1, 2)
+
+    def _on_map(self, message: OccupancyGrid) -> None:
+        self.map = message
+
+    def _on_progress(self, message: String) -> None:
+        """Take the menu's word on the robot: when the drive ended (arrived, stopped, stuck)."""
+        self.progress.append(message.data)
+        if self._drive is None or message.data.startswith('driving'):
+            return
+        selection, sent_at = self._drive
+        self._drive = None
+        now = self.now_s()
+        goals = [pose for t, pose in self.robot_goals if t >= sent_at - 0.5]
+        driven = np.array([o[1:] for o in self.odometry if sent_at <= o[0] <= now]
+                          ).reshape(-1, 3)
+        steps = np.diff(driven[:, :2], axis=0)
+        path_m = float(np.sum(np.hypot(steps[:, 0], steps[:, 1]))) if len(steps) else 0.0
+        arrived = message.data.startswith('arrived')
+        selection.robot = {
+            'goal': [round(float(v), 4) for v in goals[0]] if goals else None,
+            'arrived': arrived, 'drive_s': (now - sent_at) * self.options.robot_time_scale,
+            'path_m': path_m, 'picture': '', 'progress': message.data}
+        selection.drive = self._drive_picture(selection, driven, goals)
+        if arrived:
+            self.round_index += 1
+            if self.round_index >= len(self.script):
+                self.finish()
+
+    def _drive_picture(self, selection: Selection, driven: np.ndarray,
+                       goals: List[np.ndarray]) -> demo_render.DrivePicture:
+        robot = selection.robot
+        occupancy, origin, resolution = None, (0.0, 0.0), 0.05
+        if self.map is not None:
+            info = self.map.info
+            occupancy = np.array(self.map.data, dtype=np.int16).reshape(
+                info.height, info.width)
+            origin = (info.origin.position.x, info.origin.position.y)
+            resolution = info.resolution
+        tables = [(t.marker.text, (float(t.marker.position[0]), float(t.marker.position[1])))
+                  for room in self.scene.rooms for t in room.tables]
+        verdict = 'ARRIVED' if robot['arrived'] else 'NOT ARRIVED'
+        return demo_render.DrivePicture(
+            title=f"Round {selection.round_index}: the robot to '{selection.chosen}' -> "
+                  f'{verdict}',
+            details=[f"confirmed with 'go'; {robot['path_m']:.1f} m driven in "
+                     f"{robot['drive_s']:.1f} s (robot time; the simulation ran "
+                     f'{self.options.robot_time_scale:g}x real time); menu: '
+                     f"{robot['progress']}"],
+            occupancy=occupancy, origin=origin, resolution=resolution, tables=tables,
+            path=driven[:, :2], plan=self.plan.copy(), goal=goals[0] if goals else None,
+            robot=driven[-1] if len(driven) else None)
+
     # -- the person -----------------------------------------------------------------------
 
     def target_xy(self) -> Optional[np.ndarray]:
@@ -499,12 +604,25 @@ class ExperimentDriver(Node):
     def _new_question(self) -> None:
         """Work out what the person wants from the options now shown."""
         room, table = self.script[self.round_index]
-        if set(self.offered) == set(self.scene.room_labels):
+        labels = set(self.offered)
+        if labels == set(self.scene.room_labels):
             self.step, self.intended = 'rooms', room
+        elif labels == {GO_LABEL, BACK_LABEL}:
+            # Seen which table was chosen: 'go' if it is the one meant, else 'back'.
+            self.step = 'confirm'
+            self.intended = GO_LABEL if self._pending == f'{room}/{table}' else BACK_LABEL
+        elif labels == {STOP_LABEL}:
+            # The robot drives: the person looks away from 'stop' (off the panel).
+            self.step, self.intended = 'drive', None
+            self.streamer.set_target(REST_XY, pylsl.local_clock())
+            if self.eeg is not None:
+                self.eeg.attend(None)
         else:
             shown_room = next(label for label in self.offered if '/' in label).split('/')[0]
             self.step, self.intended = 'tables', f'{shown_room}/{table}'
-        self.shown_at = self.now_s()
+        now = self.now_s()
+        self.shown_at = self._withdrawn_at if math.isfinite(self._withdrawn_at) else now
+        self._withdrawn_at = math.nan
         self._no_choice = 0
         self._target_path = []
 
@@ -539,6 +657,8 @@ class ExperimentDriver(Node):
             self._seen_decision = decision
             if decision is not None and decision.label is None and self.asked_at is not None:
                 self._no_choice += 1
+        if not self._answers and self.step == 'drive':
+            return None     # the menu's drive_timeout_s bounds a drive that gets nowhere
         if not self._answers:
             elapsed = self.now_s() - self.shown_at
             # SSVEP waits for the response to build up (the decoder's onset_s) and a
@@ -561,9 +681,11 @@ class ExperimentDriver(Node):
         selection = self._record(gaze, answered_at)
         self.selections.append(selection)
         if self.step == 'tables' and label != BACK_LABEL:
-            self.round_index += 1
-            if self.round_index >= len(self.script):
-                self.finish()
+            self._pending = label
+        elif self.step == 'confirm' and label == GO_LABEL:
+            table = next(s for s in reversed(self.selections) if s.step == 'tables')
+            self._drive = (table, answered_at)
+        # The round ends when the robot has arrived (_on_progress).
         return selection
 
     def menu_state(self) -> str:
@@ -717,6 +839,9 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
         raise ValueError(f'camera move time must be in [0, 60] s, got {options.transition_s}')
     if not (options.timeout_s > 0 and options.stream_timeout_s > 0):
         raise ValueError('timeouts must be > 0 s')
+    if not 0.1 <= options.robot_time_scale <= 100:
+        raise ValueError(f'robot time scale must be in [0.1, 100], got '
+                         f'{options.robot_time_scale}')
     person = person_params(options.preset)
     scene_path = default_scene_path()
     scene = load_scene(scene_path)
@@ -727,7 +852,9 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
     asking = {'on-arrival': "the menu's protocol: asked (choice/request) once the camera has "
                             'arrived and the gaze has left the last choice',
               'on-change': 'every valid choice counts at once (menu ask_on_arrival false)'}
-    log(f'questions: {asking[options.ask]}; camera moves take {options.transition_s:g} s')
+    log(f'questions: {asking[options.ask]}; camera moves take {options.transition_s:g} s; '
+        "each table is confirmed ('go') before the simulated robot drives there, "
+        f'{options.robot_time_scale:g}x faster than real time')
     log('script: ' + ', '.join(f'{room}/{table}' for room, table in script))
     # Lost samples are left out, as the original C# sender (Tobii's gaze point
     # stream) delivers only valid gaze.
@@ -737,7 +864,7 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
 
     # Logger levels are process-wide: quiet the nodes for the run, then put them back.
     quiet = () if options.verbose else NODE_NAMES + ('choice_menu', 'sim_rviz_view',
-                                                     'demo_experiment')
+                                                     'sim_robot', 'demo_experiment')
     levels = {name: rclpy.logging.get_logger_level(name) for name in quiet}
     for name in quiet:
         rclpy.logging.set_logger_level(name, rclpy.logging.LoggingSeverity.WARN)
@@ -765,6 +892,9 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
             view = SimRvizView(context=context, parameter_overrides=[
                 Parameter('transition_time_s', value=float(options.transition_s))])
             nodes.append(view)
+            nodes.append(SimRobot(context=context, parameter_overrides=[
+                Parameter('scene_file', value=scene_path),
+                Parameter('time_scale', value=float(options.robot_time_scale))]))
             if options.input_mode != GAZE:
                 eeg_id = f'eye_bci_demo_eeg-{uuid.uuid4()}'
                 subject = next(s for s in SUBJECTS if s.name == options.subject)
@@ -821,6 +951,7 @@ def _experiment(executor, driver: ExperimentDriver, streamer: GazeStreamer, brid
     log(f'gaze flowing after {time.monotonic() - start:.1f} s; starting the experiment')
     driver.begin()
     printed = 0
+    drives_printed = set()
 
     def poll():
         nonlocal printed
@@ -828,11 +959,15 @@ def _experiment(executor, driver: ExperimentDriver, streamer: GazeStreamer, brid
         while printed < len(driver.selections):
             _print_selection(driver.selections[printed], log)
             printed += 1
+        for selection in driver.selections:
+            if selection.robot is not None and id(selection) not in drives_printed:
+                drives_printed.add(id(selection))
+                _print_drive(selection, log)
         if streamer.error is not None:
             raise DemoError(f'the simulated eye tracker failed: {streamer.error}')
 
     # The driver raises DemoError on a per-question timeout; this bounds the whole run.
-    limit = options.timeout_s * (2 * len(driver.script) * MAX_ATTEMPTS + 1)
+    limit = options.timeout_s * (STEPS_PER_ROUND * len(driver.script) * MAX_ATTEMPTS + 1)
     if not _spin_until(executor, lambda: driver.finished, limit, poll):
         raise DemoError(f'the experiment did not finish within {limit:g} s')
 
@@ -855,6 +990,17 @@ def _print_selection(selection: Selection, log) -> None:
         + (f'; {selection.no_choice_rounds} round(s) without a choice before'
            if selection.no_choice_rounds else '')
         + (f'; {selection.reason}' if selection.reason else ''))
+
+
+def _print_drive(selection: Selection, log) -> None:
+    """Print a drive once it has ended."""
+    robot = selection.robot
+    goal = robot['goal']
+    where = ('no goal seen' if goal is None else
+             f'goal ({goal[0]:.2f}, {goal[1]:.2f}) m, {math.degrees(goal[2]):.0f} deg')
+    log(f"  robot to '{selection.chosen}': {where}; "
+        f"{'arrived' if robot['arrived'] else 'NOT arrived'} after {robot['drive_s']:.1f} s "
+        f"(robot time), {robot['path_m']:.1f} m driven")
 
 
 def _summarise(options: DemoOptions, person: GazeParams, source_id: str,
@@ -900,6 +1046,13 @@ def _write_outputs(result: DemoResult, person: GazeParams) -> List[str]:
             selection.picture = demo_render.render_screen(
                 selection.screen, os.path.join(directory, name + '.png'))
             files.append(selection.picture)
+    if result.options.pictures:
+        for selection in result.selections:
+            if selection.drive is not None:
+                selection.robot['picture'] = demo_render.render_drive(
+                    selection.drive, os.path.join(
+                        directory, f'round{selection.round_index}_drive.png'))
+                files.append(selection.robot['picture'])
     rows = [s.as_row() for s in result.selections]
     summary = {
         'options': asdict(result.options), 'person': asdict(person),
@@ -909,6 +1062,7 @@ def _write_outputs(result: DemoResult, person: GazeParams) -> List[str]:
         'accuracy': result.accuracy, 'mean_decision_time_s': result.mean_decision_s,
         'mean_time_per_selection_s': result.mean_time_s,
         'itr_bits_per_min': result.itr_bits_per_min,
+        'robot_time_scale': result.options.robot_time_scale,
         'itr_formula': 'Wolpaw: B = log2 N + P log2 P + (1-P) log2((1-P)/(N-1)), averaged '
                        'over selections (N = choices offered), ITR = B * 60 / T',
     }
@@ -920,13 +1074,19 @@ def _write_outputs(result: DemoResult, person: GazeParams) -> List[str]:
     columns = ['round_index', 'step', 'attempt', 'intended', 'chosen', 'correct', 'method',
                'samples_used', 'in_region_samples', 'time_to_decision_s', 'decision_time_s',
                'selection_time_s',
-               'offered', 'reason', 'picture']
+               'offered', 'reason', 'picture', 'robot_goal', 'robot_arrived', 'robot_drive_s',
+               'robot_path_m']
     with open(path, 'w', newline='', encoding='utf-8') as stream:
         writer = csv.DictWriter(stream, fieldnames=columns, extrasaction='ignore')
         writer.writeheader()
         for row in rows:
+            robot = row['robot'] or {}
             writer.writerow({**row, 'offered': ' '.join(row['offered']),
-                             'picture': os.path.basename(row['picture'])})
+                             'picture': os.path.basename(row['picture']),
+                             'robot_goal': ' '.join(f'{v:.4f}' for v in robot.get('goal') or ()),
+                             'robot_arrived': robot.get('arrived', ''),
+                             'robot_drive_s': robot.get('drive_s', ''),
+                             'robot_path_m': robot.get('path_m', '')})
     files.append(path)
     return files
 
@@ -966,6 +1126,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--transition-s', type=float, default=d.transition_s,
                         help=f'duration of the simulated RViz camera moves, s '
                              f'(default {d.transition_s:g})')
+    parser.add_argument('--robot-time-scale', type=float, default=d.robot_time_scale,
+                        help='the simulated robot drives this many times faster than real '
+                             f'time (default {d.robot_time_scale:g})')
     parser.add_argument('--window-s', type=float, default=d.window_s,
                         help=f'gaze collection window per question, s (default {d.window_s:g})')
     parser.add_argument('--preset', default=None,
@@ -992,6 +1155,7 @@ def options_from_args(args: argparse.Namespace) -> DemoOptions:
     options = DemoOptions(seed=args.seed, method=args.method, early=args.early, ask=args.ask,
                           input_mode=args.input, subject=args.subject,
                           transition_s=args.transition_s,
+                          robot_time_scale=args.robot_time_scale,
                           window_s=args.window_s, output_dir=args.output_dir,
                           timeout_s=args.timeout_s, stream_timeout_s=args.stream_timeout_s,
                           pictures=not args.no_pictures, verbose=args.verbose)

@@ -15,7 +15,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from matplotlib.patches import Polygon, Rectangle
+from matplotlib.patches import Circle, Polygon, Rectangle
 import numpy as np
 
 #: Colours of the drawings (matplotlib colour specs).
@@ -198,6 +198,85 @@ def render_screen(picture: ScreenPicture, path: str) -> str:
         if picture.rule:
             legend.get_title().set_fontsize(12)
     return _save(figure, path)
+
+
+@dataclass
+class DrivePicture:
+    """
+    A drive of the robot, seen from above (map frame, m; x right, y up).
+
+    :ivar title: first line of the caption.
+    :ivar details: further caption lines.
+    :ivar occupancy: the map's cells (H, W), 0 free, 100 occupied, -1 unknown, row 0 at
+        ``origin``'s y (nav_msgs/OccupancyGrid order), or None.
+    :ivar origin: the map's lower-left corner (x, y), m.
+    :ivar resolution: the map's cell size, m.
+    :ivar tables: (label, (x, y)) of the tables, for orientation.
+    :ivar path: the robot's positions from odometry (N, 2), m.
+    :ivar plan: the planned path (M, 2), m.
+    :ivar goal: the goal x, y (m), yaw (rad), or None.
+    :ivar robot: the robot's last pose x, y, yaw, or None.
+    :ivar radius: the robot's radius, m.
+    """
+
+    title: str
+    details: Sequence[str] = ()
+    occupancy: Optional[np.ndarray] = None
+    origin: Tuple[float, float] = (0.0, 0.0)
+    resolution: float = 0.05
+    tables: Sequence[Tuple[str, Tuple[float, float]]] = ()
+    path: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    plan: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    goal: Optional[np.ndarray] = None
+    robot: Optional[np.ndarray] = None
+    radius: float = 0.3
+
+
+def render_drive(picture: DrivePicture, path: str, size: Tuple[int, int] = (1400, 960)) -> str:
+    """Draw a drive from above: the map, the plan, the path driven, the goal and the robot."""
+    figure = Figure(figsize=(size[0] / 100.0, size[1] / 100.0), dpi=100.0)
+    FigureCanvasAgg(figure)
+    axes = figure.add_axes((0.05, 0.06, 0.9, 0.8))
+    if picture.occupancy is not None:
+        rows, columns = picture.occupancy.shape
+        shade = np.where(picture.occupancy >= 50, 0.25,
+                         np.where(picture.occupancy < 0, 0.6, 0.95))
+        x0, y0 = picture.origin
+        axes.imshow(shade, cmap='gray', vmin=0.0, vmax=1.0, origin='lower',
+                    extent=(x0, x0 + columns * picture.resolution, y0,
+                            y0 + rows * picture.resolution))
+    for label, (x, y) in picture.tables:
+        axes.annotate(label.split('/')[-1], (x, y), ha='center', va='center', fontsize=9,
+                      color='#a05000')
+    if len(picture.plan):
+        axes.plot(picture.plan[:, 0], picture.plan[:, 1], '--', color='#4060ff', lw=1.5,
+                  label='plan')
+    if len(picture.path):
+        axes.plot(picture.path[:, 0], picture.path[:, 1], '-', color=CORRECT_COLOUR, lw=3,
+                  label='driven (odom)')
+        axes.plot(*picture.path[0], 'o', color='#606060', ms=8, label='start')
+    for pose, colour, name in ((picture.goal, TARGET_COLOUR, 'goal'),
+                               (picture.robot, MEAN_COLOUR, 'robot')):
+        if pose is None:
+            continue
+        x, y, yaw = (float(v) for v in pose)
+        if name == 'robot':
+            axes.add_patch(_circle((x, y), picture.radius, colour))
+        axes.arrow(x, y, 0.6 * math.cos(yaw), 0.6 * math.sin(yaw), width=0.06,
+                   color=colour if name == 'goal' else '#004060', label=name,
+                   length_includes_head=True)
+    axes.set_aspect('equal')
+    axes.set_xlabel('x, m (map frame)')
+    axes.set_ylabel('y, m')
+    axes.legend(loc='upper right', fontsize=10, framealpha=0.9)
+    figure.text(0.05, 0.95, picture.title, fontsize=14, weight='bold')
+    for row, line in enumerate(picture.details):
+        figure.text(0.05, 0.92 - 0.025 * row, line, fontsize=11)
+    return _save(figure, path)
+
+
+def _circle(centre, radius: float, colour) -> Circle:
+    return Circle(centre, radius, color=colour, alpha=0.8)
 
 
 def _save(figure: Figure, path: str) -> str:

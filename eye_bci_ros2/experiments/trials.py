@@ -71,7 +71,7 @@ class Outcome:
 
 def decide_trial(points, stamps, regions: Union[RegionSet, Sequence[RegionSet]],
                  settings: ArbiterSettings, start: float = 0.0,
-                 chunk: Optional[int] = None) -> Outcome:
+                 chunk: Optional[int] = None, shown_since: Optional[float] = None) -> Outcome:
     """
     Decide one round of valid gaze samples as the choice_arbiter does (module doc).
 
@@ -86,6 +86,9 @@ def decide_trial(points, stamps, regions: Union[RegionSet, Sequence[RegionSet]],
     :param chunk: feed the samples in batches of this many (as the bridge's
         chunks arrive); None = all at once, which decides the same because
         the early decision stops at the first sample that passes.
+    :param shown_since: since when the options have been on the screen unmoved,
+        s (None: ``start``): a question asked again about options already shown,
+        as the menu asks after a round without a choice.
     """
     stamps = np.asarray(stamps, dtype=float).reshape(-1)
     points = np.asarray(points, dtype=float).reshape(-1, 2)
@@ -94,7 +97,7 @@ def decide_trial(points, stamps, regions: Union[RegionSet, Sequence[RegionSet]],
     history = [regions] if isinstance(regions, RegionSet) else list(regions)
     shown = np.maximum(np.searchsorted([r.stamp for r in history], stamps, side='right') - 1,
                        0)
-    evidence = settings.evidence(start)
+    evidence = settings.evidence(start, shown_since)
     confidence = settings.confidence if settings.early_decision else None
     step = max(len(stamps) if chunk is None else int(chunk), 1)
     for segment in np.split(np.arange(len(stamps)), np.flatnonzero(np.diff(shown)) + 1):

@@ -263,6 +263,23 @@ def parse_channels(name: str, text: str) -> Tuple[ChannelSpec, ...]:
     return tuple(int(token) if token.isdigit() else token for token in tokens)
 
 
+def _check_distinct(x_channels: Sequence[Any], y_channels: Sequence[Any],
+                    kind: str = 'channel') -> None:
+    """
+    Refuse x and y channels that name the same channel (every point would lie on x == y).
+
+    :param x_channels: the x channel of each eye (specs, or resolved column indices).
+    :param y_channels: the y channel of each eye, likewise.
+    :param kind: what they are, for the reason: 'channel' (as given) or 'column' (resolved).
+    :raises ValueError: with the shared channel(s).
+    """
+    shared = [spec for spec in dict.fromkeys(x_channels) if spec in set(y_channels)]
+    if shared:
+        named = ', '.join(f"'{spec}'" if kind == 'channel' else str(spec) for spec in shared)
+        raise ValueError(f'x_channel and y_channel both name {kind} {named}: x and y must be '
+                         'two different channels of the stream')
+
+
 def build_config(values: Mapping[str, Any]) -> GazeConfig:
     """
     Combine a profile's defaults with explicit parameter values.
@@ -296,6 +313,7 @@ def build_config(values: Mapping[str, Any]) -> GazeConfig:
     if len(x_channels) != len(y_channels):
         raise ValueError(f'x_channel lists {len(x_channels)} channel(s) but y_channel lists '
                          f'{len(y_channels)}: give one x and one y per eye')
+    _check_distinct(x_channels, y_channels)
     units = pick('units', profile.units)
     if units not in UNITS:
         raise ValueError(f"units '{units}' is not one of {', '.join(UNITS)}")
@@ -397,6 +415,8 @@ def resolve_mapping(config: GazeConfig, labels: Sequence[str],
                         for spec in config.x_channels], dtype=np.intp)
     y_index = np.array([_channel_index('y_channel', spec, labels, channel_count, fallback)
                         for spec in config.y_channels], dtype=np.intp)
+    # A label and an index (or two labels) can still name one column.
+    _check_distinct(x_index.tolist(), y_index.tolist(), 'column')
     confidence_index = None
     if config.confidence_channel is not None:
         confidence_index = _channel_index('confidence_channel', config.confidence_channel,

@@ -19,6 +19,18 @@ from eye_bci_ros2.streams.lsl_connection import StreamDescription
 
 #: The profile that assumes nothing about the layout.
 CUSTOM = 'custom'
+#: LSL content types (the XDF meta-data specification's, lower case) that are never an eye
+#: tracker's gaze: a bridge told to read one would read EEG volts or markers as pixels.
+NOT_GAZE_TYPES = frozenset(('eeg', 'emg', 'ecg', 'nirs', 'mocap', 'audio', 'markers',
+                            'videoraw', 'videocompressed'))
+
+
+def not_gaze(stream: StreamDescription) -> Optional[str]:
+    """Say why a stream is no eye tracker's whatever the parameters (None: it may be one)."""
+    if stream.stream_type.lower() not in NOT_GAZE_TYPES:
+        return None
+    return (f'it is an {stream.stream_type} stream, not gaze (a gaze bridge cannot use it): '
+            "start the eye tracker's LSL sender (sim_gaze to try without one)")
 
 
 def _layout_fits(profile_name: str, labels: Sequence[str], channel_count: int) -> bool:
@@ -129,8 +141,12 @@ class GazeStreamProfile:
         return stream_matches(self.config, stream.stream_type, stream.name, stream.source_id)
 
     def misfit(self, stream: StreamDescription) -> Optional[str]:
-        """Say why the stream's channels do not fit (:func:`misfit`)."""
-        return misfit(self.config, stream.labels or (), stream.channel_count)
+        """Say why the stream is not gaze (:func:`not_gaze`) or its channels do not fit."""
+        return not_gaze(stream) or misfit(self.config, stream.labels or (), stream.channel_count)
+
+    def unusable(self, stream: StreamDescription) -> Optional[str]:
+        """Say why no parameters would make the stream a gaze stream (:func:`not_gaze`)."""
+        return not_gaze(stream)
 
     def describe(self) -> str:
         """Say which streams are selected."""

@@ -673,7 +673,9 @@ class ValidationOutcome:
         before = (f'accuracy {self.accuracy_deg:.2f} deg, precision {self.precision_deg:.2f} '
                   f'deg RMS over {self.targets} targets')
         if not self.accepted:
-            return f'validation refused ({before}): {self.reason}'
+            # Refused before a target was shown (no gaze): nothing was measured.
+            measured = f' ({before})' if self.targets else ''
+            return f'validation refused{measured}: {self.reason}'
         saved = f', saved to {self.output}' if self.output else ''
         residual = (f'; residual accuracy {self.residual_deg:.2f} deg ({self.residual_px:.1f} '
                     'px)' if math.isfinite(self.residual_deg) else '')

@@ -6,7 +6,14 @@ as cube markers with the overview camera view; when a room is chosen, moves
 the camera to that room's view and offers its tables and a ``back`` option
 (``back_option``); when a table is chosen, reports the outcome
 ('kitchen/table_2') and starts over at the rooms (``repeat``) or finishes
-(offers nothing).  When to ask and which choices count is the pure
+(offers nothing).  With a robot (``robot_goals``, the default) a chosen
+table is confirmed first: the menu offers ``go`` and ``back`` (in the
+same view; 'go' away from where the person was looking); only ``go``
+publishes the table's approach pose on ``goal_pose`` and reports the
+outcome; while the robot drives it offers ``stop`` and says the distance
+left on ``choice_menu/progress``; on arrival (``odom`` within
+``goal_tolerance_m`` and ``goal_tolerance_deg``) it offers the rooms again.
+When to ask and which choices count is the pure
 :class:`eye_bci_ros2.task.menu.MenuProtocol` (its module doc has the rules): the
 question (``choice/request``) is asked once the camera has arrived at the
 step's goal (or settled), the gaze has left the option just chosen (or
@@ -28,7 +35,19 @@ Topics:
   or after a pause);
 * publishes ``choice_menu/state`` std_msgs/String (latched): what the menu
   waits for: ``waiting_for_camera``, ``waiting_for_look_away``, ``paused``,
-  ``asking``, ``finished``;
+  ``asking``, ``driving`` (the robot is on its way; ``stop`` offered), ``finished``;
+* publishes ``goal_pose`` geometry_msgs/PoseStamped (frame ``world_frame``,
+  the scene's map frame): a confirmed table's approach pose
+  (:func:`eye_bci_ros2.navigation.approach.scene_goals` for a robot of
+  ``robot_radius_m``), or a stop: a goal at the robot's pose from ``odom``.
+  nav2's bt_navigator takes it as a new goal that replaces the current one;
+  with nav2's action interface a stop would be a cancel: this node uses
+  topics only;
+* publishes ``choice_menu/progress`` std_msgs/String (latched): what the
+  robot is doing ("driving to 'kitchen/table_2': 3.1 m left", "arrived at
+  ...", "stopped ...", "the robot did not move toward ...");
+* subscribes ``odom`` nav_msgs/Odometry: the robot's pose in ``world_frame``
+  (other frames are ignored with a warning: there is no tf2 here);
 * subscribes ``choice`` std_msgs/String: the label chosen; a choice that is
   not an answer (not asked, paused, made before the question) or not one of
   the current options is logged and ignored;
@@ -52,20 +71,32 @@ Topics:
 ``ask_on_arrival`` false restores the previous menu: every valid choice
 counts at once and it asks only after an unusable choice or an unchanged offer.
 
+A drive that comes no nearer for ``drive_timeout_s`` (a refused goal, no
+odometry) is reported in one line, the robot held at its pose (when known)
+and the room's tables offered again.  ``robot_goals`` false: a chosen
+table is the outcome at once and nothing is published on ``goal_pose``.
+
 Setting ``scene_file`` (even to its current value) reloads the scene and
 starts over at the rooms; a bad file is rejected with the reason and the
 current scene kept.
 """
 
 from dataclasses import fields, replace
+import math
 from typing import Any, Dict, List, Optional, Sequence
 
+
 from geometry_msgs.msg import PointStamped, PoseStamped
+from nav_msgs.msg import Odometry
+import numpy as np
 from rclpy.node import Node
 from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.gaze.validation import ValidationOutcome
+from eye_bci_ros2.navigation.approach import scene_goals
+from eye_bci_ros2.navigation.occupancy import yaw_of
+from eye_bci_ros2.navigation.robot_settings import RobotSettings
 from eye_bci_ros2.projection.camera_model import look_at_pose
 from eye_bci_ros2.projection.geometry import WORLD_FRAME
 from eye_bci_ros2.ros.conversions import (arrays_to_pose, cube_marker, marker_array_to_regions,
@@ -76,12 +107,14 @@ from eye_bci_ros2.ros.parameters import check_frame_id, declare_parameters, Para
 from eye_bci_ros2.ros.runner import spin_node
 from eye_bci_ros2.ros.topics import (CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC, CHOICE_TOPIC,
                                      CHOICES_TOPIC, EVENT_QOS, GAZE_ON_SCREEN_TOPIC,
-                                     GAZE_POINT_TOPIC, LATCHED_QOS, MENU_ANSWER_TOPIC,
-                                     MENU_RESULT_TOPIC, MENU_STATE_TOPIC, NO_CHOICE_TOPIC,
+                                     GAZE_POINT_TOPIC, GOAL_POSE_TOPIC, GOAL_QOS, LATCHED_QOS,
+                                     MENU_ANSWER_TOPIC, MENU_PROGRESS_TOPIC, MENU_RESULT_TOPIC,
+                                     MENU_STATE_TOPIC, NO_CHOICE_TOPIC, ODOM_QOS, ODOM_TOPIC,
                                      REGIONS_TOPIC, REQUEST_TOPIC, VALIDATION_RESULT_TOPIC,
                                      VALIDATION_START_TOPIC, VIEW_QOS)
-from eye_bci_ros2.task.menu import (Action, Answer, Log, MenuProtocol, Offer, ProtocolSettings,
-                                    Request, Result, ROOMS_NS, TABLES_NS, Validate)
+from eye_bci_ros2.task.menu import (Action, Answer, Log, MenuProtocol, Offer, Progress,
+                                    ProtocolSettings, Request, Result, ROOMS_NS, SendGoal,
+                                    TABLES_NS, Validate)
 from eye_bci_ros2.task.scene import CubeMarker, load_scene, Scene, View
 
 __all__ = ['ChoiceMenu', 'main', 'resolve_scene_path', 'ROOMS_NS', 'TABLES_NS']
@@ -116,7 +149,19 @@ _PROTOCOL_PARAMETERS = {
                        None),
     'validation_retries': ('A refused validation is run again this many times, then the menu '
                            'goes on with the correction as it was', None),
+    'robot_goals': ("A chosen table is confirmed ('go' / 'back') and its approach pose sent on "
+                    "goal_pose; 'stop' while the robot drives (false: the table is the "
+                    'outcome at once, nothing moves)', None),
+    'goal_tolerance_m': ('The robot (odom) within this distance of its goal has arrived, m',
+                         (0.01, 2.0)),
+    'goal_tolerance_deg': ("... and within this angle of the goal's heading, degrees",
+                           (0.5, 180.0)),
+    'drive_timeout_s': ('A robot that comes no nearer to its goal for this long (refused, no '
+                        'odometry) is reported and the tables offered again, s', (1.0, 600.0)),
 }
+
+#: The robot's radius the approach poses are made for: sim_robot's default.
+_ROBOT = RobotSettings()
 
 
 def resolve_scene_path(value: str) -> str:
@@ -134,6 +179,9 @@ class ChoiceMenu(Node):
         self._quiet = QuietRepeats(self.get_logger())
         # A scene_file is loaded once while it is validated and used on apply.
         self._candidate: Optional[tuple] = None
+        self._goals_candidate: Optional[Dict[str, np.ndarray]] = None
+        # The approach poses of the last (scene, radius): made once, not on every parameter.
+        self._goals_made: tuple = (None, None, {})
         defaults = ProtocolSettings()
         parameters = [
             ParamSpec('scene_file', '',
@@ -142,8 +190,12 @@ class ChoiceMenu(Node):
                       check=self._check_scene_file),
             ParamSpec('repeat', defaults.repeat, _PROTOCOL_PARAMETERS['repeat'][0]),
             ParamSpec('world_frame', WORLD_FRAME,
-                      "Frame of the markers and camera goals; must match the scene's "
-                      'frame_id', check=check_frame_id),
+                      'Frame of the markers, camera goals, goal_pose and odom; must match the '
+                      "scene's frame_id", check=check_frame_id),
+            ParamSpec('robot_radius_m', _ROBOT.radius_m,
+                      "Radius of the robot's footprint, m: each table's goal is where a robot "
+                      'this large stands in front of it (as sim_robot radius_m)',
+                      value_range=(0.05, 2.0)),
         ]
         for name, (description, value_range) in _PROTOCOL_PARAMETERS.items():
             if name == 'repeat':
@@ -154,14 +206,13 @@ class ChoiceMenu(Node):
         try:
             values = declare_parameters(self, parameters, self._on_parameters,
                                         check_all=self._check_all)
-        except ValueError as error:
-            self.get_logger().fatal(f'cannot start: {error}')
-            self.destroy_node()
+        except ValueError:
+            self.destroy_node()     # the runner says why, in one line
             raise
-        scene = self._candidate[1]
-        self._candidate = None
+        scene, goals = self._candidate[1], self._goals_candidate
+        self._candidate = self._goals_candidate = None
         self._world_frame = values['world_frame']
-        self._protocol = MenuProtocol(scene, self._settings(values))
+        self._protocol = MenuProtocol(scene, self._settings(values), goals or {})
         self._state = ''
 
         self._choices_pub = self.create_publisher(MarkerArray, CHOICES_TOPIC, LATCHED_QOS)
@@ -170,6 +221,9 @@ class ChoiceMenu(Node):
         self._answer_pub = self.create_publisher(String, MENU_ANSWER_TOPIC, EVENT_QOS)
         self._request_pub = self.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
         self._state_pub = self.create_publisher(String, MENU_STATE_TOPIC, LATCHED_QOS)
+        self._robot_goal_pub = self.create_publisher(PoseStamped, GOAL_POSE_TOPIC, GOAL_QOS)
+        self._progress_pub = self.create_publisher(String, MENU_PROGRESS_TOPIC, LATCHED_QOS)
+        self.create_subscription(Odometry, ODOM_TOPIC, self._on_odometry, ODOM_QOS)
         self.create_subscription(String, CHOICE_TOPIC, self._on_choice, EVENT_QOS)
         self.create_subscription(String, NO_CHOICE_TOPIC, self._on_no_choice, EVENT_QOS)
         self.create_subscription(PoseStamped, CAMERA_POSE_TOPIC, self._on_pose, LATCHED_QOS)
@@ -235,6 +289,17 @@ class ChoiceMenu(Node):
         self._guard('camera/pose', lambda: self._protocol.on_camera_pose(
             *pose_to_arrays(message.pose), self._now()))
 
+    def _on_odometry(self, message: Odometry) -> None:
+        frame = message.header.frame_id
+        if frame and frame != self._world_frame:
+            self.get_logger().warning(
+                f"odom in frame '{frame}', not '{self._world_frame}': ignored (the robot's pose "
+                'must be in the map frame)', throttle_duration_sec=WARN_PERIOD_S)
+            return
+        position, quaternion = pose_to_arrays(message.pose.pose)
+        self._guard('odom', lambda: self._protocol.on_odometry(
+            position[0], position[1], yaw_of(quaternion), self._now()))
+
     def _on_regions(self, message: MarkerArray) -> None:
         def take():
             self._protocol.on_regions(*marker_array_to_regions(message))
@@ -284,6 +349,10 @@ class ChoiceMenu(Node):
                 self._validation_due = True
             elif isinstance(action, Result):
                 self._result_pub.publish(String(data=action.label))
+            elif isinstance(action, SendGoal):
+                self._publish_robot_goal(action.pose)
+            elif isinstance(action, Progress):
+                self._progress_pub.publish(String(data=action.text))
             elif isinstance(action, Answer):
                 self._quiet.reset()     # a choice: what follows is news again
                 self._answer_pub.publish(String(data=action.label))
@@ -303,6 +372,16 @@ class ChoiceMenu(Node):
         goal.header.stamp = self.get_clock().now().to_msg()
         goal.pose = arrays_to_pose(*look_at_pose(*view.as_tuple()))
         self._goal_pub.publish(goal)
+
+    def _publish_robot_goal(self, pose: np.ndarray) -> None:
+        """Publish ``goal_pose``: x, y (m), yaw (rad) in the map frame, on the floor."""
+        goal = PoseStamped()
+        goal.header.frame_id = self._world_frame
+        goal.header.stamp = self.get_clock().now().to_msg()
+        half = float(pose[2]) / 2.0
+        goal.pose = arrays_to_pose([pose[0], pose[1], 0.0],
+                                   [0.0, 0.0, math.sin(half), math.cos(half)])
+        self._robot_goal_pub.publish(goal)
 
     def _publish_choices(self, markers: Sequence[CubeMarker], ns: str) -> None:
         stamp = self.get_clock().now().to_msg()
@@ -333,11 +412,24 @@ class ChoiceMenu(Node):
         if scene is not None and scene.frame_id != values['world_frame']:
             return (f"scene {scene.source} is in frame '{scene.frame_id}' but world_frame "
                     f"is '{values['world_frame']}': set frame_id in the scene file to match")
+        self._goals_candidate = None
+        if scene is not None and values['robot_goals']:
+            try:
+                self._goals_candidate = self._scene_goals(scene, values['robot_radius_m'])
+            except ValueError as error:
+                return f'{error} (robot_radius_m, or robot_goals false: no robot)'
         try:
             self._settings(values)
         except ValueError as error:
             return str(error)
         return None
+
+    def _scene_goals(self, scene: Scene, radius_m: float) -> Dict[str, np.ndarray]:
+        made_scene, made_radius, goals = self._goals_made
+        if made_scene is not scene or made_radius != radius_m:
+            goals = scene_goals(scene, radius_m)
+            self._goals_made = (scene, radius_m, goals)
+        return goals
 
     def _on_parameters(self, changed: Dict[str, Any]) -> None:
         protocol = self._protocol
@@ -348,6 +440,11 @@ class ChoiceMenu(Node):
         if 'world_frame' in changed:
             self._world_frame = changed['world_frame']
         now = self._now()
+        if self._goals_candidate is not None:
+            protocol.goals = self._goals_candidate
+            self._goals_candidate = None
+        if not protocol.settings.robot_goals:
+            self._perform(protocol.cancel_drive('robot_goals set false', now))
         if 'scene_file' in changed and self._candidate is not None:
             protocol.scene = self._candidate[1]
             self.get_logger().info(

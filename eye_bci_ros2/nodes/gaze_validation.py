@@ -3,8 +3,11 @@ Node ``gaze_validation``: validate the tracker through the running nodes, fit an
 
 The procedure (:mod:`eye_bci_ros2.gaze.validation` holds the arithmetic):
 
-1. waits for ``camera/pose`` (at most ``camera_wait_s``) and reads the
-   bridge's ``gaze_correction`` over its parameter service (``bridge_node``);
+1. waits for gaze on ``gaze/samples`` (at most ``gaze_wait_s``) and refuses
+   at once, before any target is shown, when none arrives (no bridge, or no
+   tracker streaming); waits for ``camera/pose`` (at most ``camera_wait_s``)
+   and reads the bridge's ``gaze_correction`` over its parameter service
+   (``bridge_node``);
 2. shows ``targets`` (5 or 9) targets one after the other, ``target_s`` each,
    laid out over the RViz render panel (``margin`` of its size from the
    edges): each as a white disc with a black centre on
@@ -82,6 +85,8 @@ TICK_S = 0.02
 TAIL_WAIT_S = 1.0
 #: After publishing the result, stay this long before exiting (so it is delivered), s.
 LINGER_S = 0.5
+#: What a refusal for want of gaze says (before any target is shown).
+NO_GAZE = f'no gaze on {GAZE_SAMPLES_TOPIC}'
 #: Marker namespace of the targets on ``validation/targets``.
 MARKER_NS = 'validation'
 
@@ -137,6 +142,10 @@ PARAMETERS: List[ParamSpec] = [
               'the residual'),
     ParamSpec('on_request', False, 'false: run once at start and exit (0 applied, 1 refused); '
               'true: run on each validation/start and keep running'),
+    ParamSpec('gaze_wait_s', 5.0, 'Longest wait for gaze on gaze/samples before the first '
+              'target: without it the validation is refused at once (is lsl_gaze_bridge '
+              'running and the tracker streaming?); 0 = show the targets without waiting, s',
+              value_range=(0.0, 600.0)),
     ParamSpec('camera_wait_s', 5.0, 'Longest wait for camera/pose before the targets are shown '
               '(without it they are only on validation/target, not in RViz), s',
               value_range=(0.0, 600.0)),
@@ -202,6 +211,7 @@ class GazeValidation(Node):
         # The gaze received while a pass collects: lists of (stamps (N,), xy (N, 2)).
         self._gaze: Optional[List[tuple]] = None
         self._newest_stamp = -math.inf
+        self._gaze_arrived = -math.inf              # monotonic s of the last gaze batch
         self._target: Optional[np.ndarray] = None    # screen px shown now
         self._run: Optional[Iterator[None]] = None
         self._timer = self.create_timer(TICK_S, self._step)
@@ -254,6 +264,7 @@ class GazeValidation(Node):
         self._run = self._procedure()
 
     def _on_gaze(self, message: PointCloud2) -> None:
+        self._gaze_arrived = time.monotonic()
         if self._gaze is None:
             return
         try:
@@ -310,6 +321,14 @@ class GazeValidation(Node):
         screen = screen_geometry(params)
         self.get_logger().info(f"validation: {params['targets']} targets, "
                                f"{params['target_s']:g} s each")
+        if params['gaze_wait_s'] > 0:
+            asked = time.monotonic()
+            yield from self._wait(lambda: self._gaze_arrived >= asked, params['gaze_wait_s'])
+            if self._gaze_arrived < asked:
+                self._finish(ValidationOutcome(False, f'{NO_GAZE} in {params["gaze_wait_s"]:g} '
+                                               's: is lsl_gaze_bridge running and the tracker '
+                                               'streaming?'))
+                return
         yield from self._wait(lambda: self._camera is not None, params['camera_wait_s'])
         if self._camera is None:
             self.get_logger().warning('no camera/pose: the targets are not shown in RViz, only '

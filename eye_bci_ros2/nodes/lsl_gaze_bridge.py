@@ -21,6 +21,14 @@ publishes
   a stream starts sending, never per sample; false when the stream goes
   stale (nothing for ``stale_timeout_s``) or is lost.
 
+Invalid samples (not finite: a blink, a tracker that lost the eyes; low
+confidence; off the screen: the person looks away) are dropped and counted
+per reason in the statistics line (INFO, every ``stats_period_s``); they are
+normal, so a warning comes only when the user must act
+(:mod:`eye_bci_ros2.gaze.invalid_watch`): no valid sample since the stream
+started (a layout that does not describe the stream), or none for
+``invalid_warn_s``; once per such stretch.
+
 ``gaze_correction`` (6 doubles, row-major 2 x 3 affine on screen px, or
 12: those, then second-order terms; :func:`eye_bci_ros2.gaze.validation.as_matrix`;
 :data:`eye_bci_ros2.gaze.validation.IDENTITY` = none) is applied to every sample
@@ -84,6 +92,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Bool
 
+from eye_bci_ros2.gaze.invalid_watch import InvalidGazeWatch
 from eye_bci_ros2.gaze.profiles import (ANY, build_config, convert, DEFAULT_PROFILE, DROP_REASONS,
                                         GazeConfig, GazeMapping, NO_CONFIDENCE, ORIGINS,
                                         PROFILE_NAMES, resolve_mapping, UNITS)
@@ -188,7 +197,7 @@ PARAMETERS = (
               value_range=(0.05, 3600.0)),
     ParamSpec('poll_period_s', 0.002,
               'period of pulling samples from LSL, s; a sample waits up to this long in the '
-              'inlet, so it bounds the added latency (see the README, Performance)',
+              'inlet, so it bounds the added latency (docs/performance.md, "Performance")',
               value_range=(0.001, 1.0)),
     ParamSpec('idle_poll_period_s', 0.04,
               'period of pulling samples while no decision is due, s: once a '
@@ -217,6 +226,11 @@ PARAMETERS = (
               f'scaling; {list(IDENTITY)} = none; settable at run time; one that is '
               'implausible anywhere on the screen is refused',
               check=_correction_shape, array_type='double_array'),
+    ParamSpec('invalid_warn_s', 10.0,
+              'warn when the stream has sent no valid sample (finite, confident, on the '
+              'screen) for this long, s, or none since it started: a wrong layout or a '
+              'tracker that lost the eyes; shorter stretches (blinks, looking away) are only '
+              'counted in the statistics line', value_range=(0.5, 3600.0)),
     ParamSpec('stats_period_s', 10.0,
               'period of logging sample counters when they change, s (0 = never)',
               value_range=(0.0, 3600.0)),
@@ -267,9 +281,11 @@ class LslGazeBridge(Node):
         self._point_at = -math.inf
         self._counters = dict.fromkeys(COUNTERS, 0)
         self._logged_counters = dict(self._counters)
+        self._counted_from = None       # the stream of the samples counted since the last stats
         # The channel mapping of the stream in use; None with the reason while it has none.
         self._mapping: Optional[GazeMapping] = None
         self._mapping_error = ''
+        self._invalid = InvalidGazeWatch(self._params['invalid_warn_s'])
         self._poll_timer = None
         # Batches (module doc): the announced due time, ns on the ROS clock (None: no
         # arbiter announces: every tick pulls); the short period's span for it and the
@@ -349,6 +365,7 @@ class LslGazeBridge(Node):
     def _on_parameters(self, changed: Dict[str, Any]) -> None:
         """Apply accepted parameter changes at once."""
         self._params.update(changed)
+        self._invalid.limit_s = self._params['invalid_warn_s']
         if CORRECTION_PARAMETER in changed:
             self._correction = _correction(self._params)
             self.get_logger().info(
@@ -415,6 +432,7 @@ class LslGazeBridge(Node):
 
     def _bind(self, stream: StreamDescription) -> None:
         """Map the configuration onto the stream's channels, or say why it cannot."""
+        self._invalid.reset()
         try:
             self._mapping = resolve_mapping(self._config, stream.labels or (),
                                             stream.channel_count)
@@ -507,11 +525,10 @@ class LslGazeBridge(Node):
         """Convert and publish one stamped chunk; count what is dropped."""
         count = len(chunk.stamps_ns)
         self._counters['received'] += count
+        self._counted_from = self._connection.stream
         if self._mapping is None:
+            # Said once by _bind (with what to set); counted in the statistics line.
             self._counters['layout'] += count
-            self.get_logger().warning(
-                f'dropping gaze samples: {self._mapping_error}',
-                throttle_duration_sec=WARN_PERIOD_S)
             return
         samples, stamps_ns = chunk.samples, chunk.stamps_ns
         if not chunk.good.all():
@@ -524,15 +541,15 @@ class LslGazeBridge(Node):
         batch = convert(samples, self._mapping, self._correction)
         if len(batch.keep):
             self._publish_on_screen(bool(batch.keep[-1]))
-        dropped = sum(batch.dropped.values())
-        if dropped:
-            for reason, number in batch.dropped.items():
-                self._counters[reason] += number
-            reasons = ', '.join(f'{number} {reason}'
-                                for reason, number in batch.dropped.items() if number)
-            self.get_logger().warning(
-                f'dropped invalid gaze samples ({reasons} in the last chunk; totals: '
-                f'{self._drop_totals()})', throttle_duration_sec=WARN_PERIOD_S)
+        # Blinks and glances away are normal: counted for the statistics line; a warning only
+        # when the user must act (gaze.invalid_watch).
+        for reason, number in batch.dropped.items():
+            self._counters[reason] += number
+        report = self._invalid.update(stamps_ns, batch.keep, batch.dropped)
+        if report is not None:
+            log = self.get_logger()
+            (log.warning if report.warning else log.info)(
+                f'{report.text} (from {self.stream})')
         if not len(batch.xy):
             return
         stamps_ns = stamps_ns[batch.keep]
@@ -566,7 +583,9 @@ class LslGazeBridge(Node):
         received = self._counters['received'] - self._logged_counters['received']
         published = self._counters['published'] - self._logged_counters['published']
         self._logged_counters = dict(self._counters)
-        source = self.stream or 'no stream'
+        # The stream the samples came from: it may be lost by now.
+        counted, self._counted_from = self._counted_from, None
+        source = counted.describe() if counted else self.stream
         self.get_logger().info(
             f'gaze: {received} received, {published} published in the last '
             f"{self._params['stats_period_s']:g} s from {source}; dropped since start: "

@@ -16,8 +16,8 @@ keeps "Pose Publish Enabled" and mouse control on, so camera_tracker keeps
 following the camera while it moves.
 
 The message package is not part of ROS 2 Jazzy's binaries: build
-``rviz_plugin_view_animated_msgs`` with colcon in a workspace (README, "A moving
-camera") and source it first; without it the node refuses to start with that
+``rviz_plugin_view_animated_msgs`` with colcon in a workspace (docs/hardware.md,
+"The camera in Jazzy") and source it first; without it the node refuses to start with that
 reason.
 """
 
@@ -75,8 +75,8 @@ def load_messages():
     except ImportError as error:
         raise ValueError(
             f'rviz_plugin_view_animated_msgs is not available ({error}): build it with '
-            'colcon in a workspace and source its install/setup.bash (README, "A moving '
-            'camera")') from None
+            'colcon in a workspace and source its install/setup.bash (docs/hardware.md, '
+            '"The camera in Jazzy")') from None
     return module.ViewTrajectory, module.ViewMovement
 
 

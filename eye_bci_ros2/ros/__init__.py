@@ -17,5 +17,6 @@ Each module is one piece of the adapters' common ground, not a node:
 * ``node_clock``: a node's clock read as numbers;
 * ``log_throttle``: warnings a node may repeat, at most once per period;
 * ``graph_watch``: a second pipeline on the same graph, noticed;
-* ``package_files``: the installed files (ament index, else the source tree).
+* ``package_files``: the installed files (ament index, else the source tree);
+* ``launch_arguments``: the launch files' boolean arguments, checked.
 """

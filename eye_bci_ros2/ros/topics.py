@@ -29,10 +29,12 @@ CAMERA_POSE_TOPIC = 'camera/pose'
 CAMERA_GOAL_TOPIC = 'camera/goal'
 
 #: The original experiment's menu (std_msgs/String): outcomes (EVENT_QOS), what it waits
-#: for (LATCHED_QOS) and every choice it acted on (EVENT_QOS).
+#: for (LATCHED_QOS), every choice it acted on (EVENT_QOS) and what the robot it sent is
+#: doing (distance left, arrived, stopped; LATCHED_QOS).
 MENU_RESULT_TOPIC = 'choice_menu/result'
 MENU_STATE_TOPIC = 'choice_menu/state'
 MENU_ANSWER_TOPIC = 'choice_menu/answer'
+MENU_PROGRESS_TOPIC = 'choice_menu/progress'
 
 #: The arbiter's choice (std_msgs/String, the label) and a round that ended without one
 #: (std_msgs/String, the reason; input mode gaze), both EVENT_QOS; ``choice/request``

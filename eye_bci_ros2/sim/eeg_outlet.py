@@ -16,6 +16,7 @@ Pure pylsl + numpy, runs without ROS::
 
 import argparse
 import logging
+import math
 import sys
 import time
 from typing import Callable, List, Optional, Sequence, Tuple
@@ -26,7 +27,8 @@ import pylsl
 from eye_bci_ros2.sim.eeg import EegSimulator, REALISTIC_SUBJECTS, SUBJECTS
 from eye_bci_ros2.sim.lsl_outlet import OutletThread, stream_info
 from eye_bci_ros2.ssvep.layouts import ANY, LAYOUT_NAMES
-from eye_bci_ros2.ssvep.stimuli import assign_stimuli, StimulusMap
+from eye_bci_ros2.ssvep.stimuli import (assign_stimuli, DEFAULT_FREQUENCIES, DEFAULT_PHASE_STEP,
+                                        StimulusMap)
 
 _LOG = logging.getLogger(__name__)
 
@@ -155,7 +157,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--rate', type=float, default=0.0, help='Hz (0 = the layout rate)')
     parser.add_argument('--options', default='option 1,option 2,option 3,option 4',
                         help='option labels, comma separated; stimuli are assigned in '
-                        'order (8, 9, 10 ... Hz, phase steps 0.35 pi), epoch at start')
+                        f"order ({', '.join(f'{f:g}' for f in DEFAULT_FREQUENCIES[:3])} ... "
+                        f'Hz, phase steps {DEFAULT_PHASE_STEP / math.pi:g} pi), epoch at '
+                        'start')
     parser.add_argument('--attend', default='0:option 1',
                         help="schedule 't:label,...' in s from the start ('t:' = none)")
     parser.add_argument('--line-hz', type=float, default=50.0)

@@ -56,6 +56,10 @@ class EegStreamProfile:
         """Any numeric stream that matches is taken (the decoder then picks channels)."""
         return None
 
+    def unusable(self, stream: StreamDescription) -> Optional[str]:
+        """Any numeric stream may be EEG: selecting it is the user's call."""
+        return None
+
     def describe(self) -> str:
         """Say which streams are selected."""
         parts = [f"layout '{self.layout.name}'"]

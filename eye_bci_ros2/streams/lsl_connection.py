@@ -179,6 +179,9 @@ class StreamProfile(Protocol):
     def how_to_select(self, stream: StreamDescription) -> str:
         """Say which parameters would select a stream that does not match now."""
 
+    def unusable(self, stream: StreamDescription) -> Optional[str]:
+        """Say why no parameters would make ``stream`` one of this kind (None: they may)."""
+
 
 class Reporter(Protocol):
     """Where the connection's log lines go (the node's logger and warning throttle)."""
@@ -590,6 +593,10 @@ class StreamConnection:
             if self._gone.uid == chosen.uid:
                 self._report.info(f'{self._gone.describe()} is back (its connection broke); '
                                   'reconnecting')
+            elif self._gone.describe() == chosen.describe():
+                # Its sender restarted (a new uid): the same stream to the user, no switch.
+                self._report.info(f'{chosen.describe()} is back (its sender restarted); '
+                                  'reconnecting')
             else:
                 self._report.warning(f'{self._gone.describe()} is gone: switching to the '
                                      f'matching stream {chosen.describe()}')
@@ -641,8 +648,9 @@ class StreamConnection:
             return 'no LSL stream at all is visible (is the sender running, on this network?)'
         lines = []
         for stream in streams[:limit]:
-            if stream.uid in self._refused:
-                lines.append(f'{stream.describe()}: not taken, {self._refused[stream.uid]}')
+            reason = self._refused.get(stream.uid) or self.profile.unusable(stream)
+            if reason:
+                lines.append(f'{stream.describe()}: not taken, {reason}')
             else:
                 lines.append(f'{stream.describe()}: select with '
                              f'{self.profile.how_to_select(stream)}')

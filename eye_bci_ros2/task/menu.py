@@ -47,6 +47,35 @@ arbiter decides between questions.
 counts at once, nothing is asked except after an unusable choice or an
 unchanged offer.
 
+**Options appear once the view has settled.**  When a step moves the camera
+(a room chosen, back to the rooms), the old options are withdrawn at once
+(an empty :class:`Offer` with the camera goal) and the new ones are shown
+(a second :class:`Offer`, no goal) only when the camera has arrived or
+settled (rule 2): while the camera moves, some options are outside the render
+panel, and options shown then were offered in part (3 of the 4 rooms), the
+SSVEP stimulus map reassigned twice.  With no camera pose yet, or when the
+camera is already there, they are shown at once.
+
+**The robot** (``robot_goals``, :data:`GO_LABEL`, :data:`STOP_LABEL`): a chosen
+table is a destination; it is *not* acted on yet: the menu offers a
+confirmation step, ``go`` and ``back`` (:func:`confirm_markers`, in the same
+view).  Only ``go`` sends the table's approach pose (:class:`SendGoal`,
+``goals``: label -> x, y, yaw in the scene's frame) and is the outcome
+(:class:`Result`); ``back`` offers the tables again.  Rooms and ``back`` are
+not destinations: no goal.  While the robot drives, the menu offers
+``stop`` (:func:`stop_marker`) and asks at once and again after each round
+without a choice; ``stop`` sends a goal at the robot's pose from odometry
+(:meth:`MenuProtocol.on_odometry`).  Looking away chooses nothing: the robot
+goes on, and it never starts without ``go``.  :class:`Progress` says the
+distance left; the robot has arrived when its pose is within
+``goal_tolerance_m`` and ``goal_tolerance_deg`` of the goal, and the menu then
+offers the next task (the rooms, or finishes).  A robot that comes no nearer
+(by :data:`PROGRESS_M` or :data:`PROGRESS_DEG`) for ``drive_timeout_s`` (a
+refused goal, no odometry) is reported in one line, held where it is (a goal
+at its pose, when known) and the room's tables are offered again: the menu
+never waits for ever.  A new scene (``start``) while driving stops the robot
+first.
+
 ``validate_first``: the experiment starts with a gaze validation
 (:class:`Validate`; the node sends ``validation/start`` to
 ``gaze_validation``) and offers the rooms only once it has ended
@@ -56,9 +85,9 @@ refused one is logged with its reason and run again up to
 bridge's correction as it was (a warning says so).
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import math
-from typing import List, Optional, Sequence, Tuple, Union
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -67,11 +96,23 @@ from eye_bci_ros2.projection import geometry
 from eye_bci_ros2.projection.camera_model import look_at_pose
 from eye_bci_ros2.task.scene import CubeMarker, Room, Scene, View
 
-#: Label of the option that goes back from the tables to the rooms.
+#: Label of the option that goes back from the tables to the rooms (and, in the
+#: confirmation step, from the chosen table to the tables).
 BACK_LABEL = 'back'
-#: Marker namespaces of the two levels of the menu.
+#: Labels of the confirmation (send the robot) and of the stop while it drives.
+GO_LABEL = 'go'
+STOP_LABEL = 'stop'
+#: Marker namespaces of the steps of the menu.
 ROOMS_NS = 'rooms'
 TABLES_NS = 'tables'
+CONFIRM_NS = 'confirm'
+DRIVE_NS = 'drive'
+#: A drive makes progress when the distance left shrinks by this much, m, or the
+#: heading error by :data:`PROGRESS_DEG`, degrees (odometry noise is far smaller).
+PROGRESS_M = 0.05
+PROGRESS_DEG = 5.0
+#: The progress line is renewed when the distance left changes by this much, m.
+PROGRESS_STEP_M = 0.1
 #: What the protocol waits for (:attr:`MenuProtocol.state`).
 WAITING_FOR_CAMERA = 'waiting_for_camera'
 LOOK_AWAY = 'waiting_for_look_away'
@@ -79,6 +120,7 @@ PAUSED = 'paused'
 VALIDATING = 'validating'
 READY = 'ready'
 ASKING = 'asking'
+DRIVING = 'driving'
 FINISHED = 'finished'
 IDLE = 'idle'
 
@@ -102,6 +144,11 @@ class ProtocolSettings:
     :param min_answer_s: a choice sooner than this after the request is not its answer, s.
     :param validate_first: start with a gaze validation (module doc).
     :param validation_retries: a refused validation is run again this many times.
+    :param robot_goals: a chosen table is confirmed ('go'/'back') and sent to the robot
+        (module doc); False: the table is the outcome at once and nothing moves.
+    :param goal_tolerance_m: the robot within this of its goal has arrived, m.
+    :param goal_tolerance_deg: ... and its heading within this, degrees.
+    :param drive_timeout_s: a robot that comes no nearer for this long is reported, s.
     """
 
     ask_on_arrival: bool = True
@@ -116,6 +163,12 @@ class ProtocolSettings:
     min_answer_s: float = 0.1
     validate_first: bool = False
     validation_retries: int = 1
+    robot_goals: bool = True
+    # Arrived as sim_robot counts it (navigation.robot_settings.GOAL_TOLERANCE_M, _DEG; the
+    # layers keep task from importing navigation: a unit test holds them equal).
+    goal_tolerance_m: float = 0.2
+    goal_tolerance_deg: float = 15.0
+    drive_timeout_s: float = 10.0
 
     def __post_init__(self):
         """Reject values the protocol cannot run with."""
@@ -124,7 +177,8 @@ class ProtocolSettings:
             raise ValueError(f'validation_retries must be an integer >= 0, got '
                              f'{self.validation_retries!r}')
         for name in ('arrive_tolerance_m', 'arrive_tolerance_deg', 'settle_s', 'look_away_s',
-                     'look_away_margin_px', 'pause_after_s', 'min_answer_s'):
+                     'look_away_margin_px', 'pause_after_s', 'min_answer_s',
+                     'goal_tolerance_m', 'goal_tolerance_deg', 'drive_timeout_s'):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f'{name} must be a finite number >= 0, got {value!r}')
@@ -163,6 +217,27 @@ class Answer:
     label: str
 
 
+@dataclass(frozen=True, eq=False)
+class SendGoal:
+    """
+    Send the robot a goal (``goal_pose``): a confirmed destination, or a stop.
+
+    :ivar label: the destination's label, or :data:`STOP_LABEL` (a goal at the
+        robot's own pose: it stops there).
+    :ivar pose: x, y (m) and yaw (rad) in the scene's frame, shape (3,).
+    """
+
+    label: str
+    pose: np.ndarray
+
+
+@dataclass(frozen=True)
+class Progress:
+    """What the robot is doing, for the person (``choice_menu/progress``)."""
+
+    text: str
+
+
 @dataclass(frozen=True)
 class Log:
     """A line for the node's log: level 'info' or 'warning'."""
@@ -171,7 +246,7 @@ class Log:
     text: str
 
 
-Action = Union[Offer, Request, Result, Answer, Log, Validate]
+Action = Union[Offer, Request, Result, Answer, Log, Validate, SendGoal, Progress]
 
 
 def _quaternion_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
@@ -189,37 +264,121 @@ def poses_close(position_a, quaternion_a, position_b, quaternion_b, tolerance_m:
         <= tolerance_deg
 
 
+#: Colours of the step options (r, g, b, a).
+BACK_COLOUR = (0.55, 0.6, 0.7, 1.0)
+GO_COLOUR = (0.2, 0.75, 0.3, 1.0)
+STOP_COLOUR = (0.85, 0.15, 0.15, 1.0)
+#: Side of the go / back / stop squares, in half-heights of the view (0.3: 108 px of a
+#: 720 px panel, about 2.8 deg at the default screen: options of 100 px and more are
+#: chosen right in 88 % and wrong in 0.7 % of real-gaze rounds, docs/selection.md).
+STEP_SIDE = 0.3
+#: Horizontal place of 'go', in half-widths from the view's centre, on the side away
+#: from the chosen table (see :func:`confirm_markers`).
+GO_RIGHT = 0.6
+
+
+def _view_axes(view: View, fov_y_deg: float, aspect: float):
+    """Return the view's camera rows (right, down, forward), half-width and half-height, m."""
+    rotation = geometry.look_at(view.eye, view.focus, view.up)[:3, :3]
+    distance = float(np.linalg.norm(np.subtract(view.focus, view.eye)))
+    half_height = distance * math.tan(math.radians(fov_y_deg) / 2.0)
+    return rotation, half_height * aspect, half_height
+
+
+def view_square(view: View, label: str, right: float, down: float, side: float, colour,
+                fov_y_deg: float = 45.0, aspect: float = 16.0 / 9.0) -> CubeMarker:
+    """
+    Return a thin square option facing the camera at a place of the view's image.
+
+    Sizes are in half-heights of the image (at the focus distance: the square
+    appears as large as a square of that side at the focus would).
+
+    :param right: from the image centre to the right, in half-widths (-1 .. 1).
+    :param down: from the image centre downwards, in half-heights (-1 .. 1).
+    :param side: side in half-heights.
+    :param fov_y_deg: vertical field of view of the render panel, degrees.
+    :param aspect: render panel width / height.
+    """
+    rotation, half_width, half_height = _view_axes(view, fov_y_deg, aspect)
+    # Halfway between the eye and the focus: above the floor (and a map drawn on it) and
+    # the tables, so nothing in the scene hides it; the image place and size are the same.
+    near = 0.5
+    eye = np.asarray(view.eye, dtype=float)
+    position = eye + near * (np.asarray(view.focus, dtype=float) - eye
+                             + right * half_width * rotation[0]
+                             + down * half_height * rotation[1])
+    edge = near * side * half_height
+    _, quaternion = look_at_pose(view.eye, view.focus, view.up)
+    return CubeMarker(text=label, position=position, orientation=quaternion,
+                      scale=np.array([edge, edge, 0.02 * edge]),
+                      color=np.asarray(colour, dtype=float))
+
+
+def image_place(view: View, point, fov_y_deg: float = 45.0,
+                aspect: float = 16.0 / 9.0) -> Tuple[float, float]:
+    """Return where a world point (3,) appears in the view: (right, down) in half-sizes."""
+    rotation, half_width, half_height = _view_axes(view, fov_y_deg, aspect)
+    camera = rotation @ (np.asarray(point, dtype=float) - np.asarray(view.eye, dtype=float))
+    depth = float(np.linalg.norm(np.subtract(view.focus, view.eye)))
+    if not camera[2] > 0:
+        return 0.0, 0.0
+    scale = depth / camera[2]
+    return (float(camera[0] * scale / half_width), float(camera[1] * scale / half_height))
+
+
 def back_marker(view: View, fov_y_deg: float = 45.0, aspect: float = 16.0 / 9.0,
-                colour=(0.55, 0.6, 0.7, 1.0)) -> CubeMarker:
+                colour=BACK_COLOUR) -> CubeMarker:
     """
     Return the back option's marker: a thin square facing the camera at the view's lower left.
 
-    It sits at the focus distance, 80 % of the half-width left and 75 % of the
-    half-height down from the image centre (in the corner, away from the
-    tables around the focus), its side 12 % of the half-height.
+    It sits 80 % of the half-width left and 75 % of the half-height down from
+    the image centre (in the corner, away from the tables around the focus),
+    its side 12 % of the half-height (:func:`view_square`).
 
     :param view: the room's view.
     :param fov_y_deg: vertical field of view of the render panel, degrees.
     :param aspect: render panel width / height.
     """
-    external = geometry.look_at(view.eye, view.focus, view.up)
-    rotation = external[:3, :3]          # rows: camera x (right), y (down), z (forward)
-    distance = float(np.linalg.norm(np.subtract(view.focus, view.eye)))
-    half_height = distance * math.tan(math.radians(fov_y_deg) / 2.0)
-    half_width = half_height * aspect
-    position = (np.asarray(view.focus, dtype=float) - 0.8 * half_width * rotation[0]
-                + 0.75 * half_height * rotation[1])
-    side = 0.12 * half_height
-    _, quaternion = look_at_pose(view.eye, view.focus, view.up)
-    return CubeMarker(text=BACK_LABEL, position=position, orientation=quaternion,
-                      scale=np.array([side, side, 0.02 * side]),
-                      color=np.asarray(colour, dtype=float))
+    return view_square(view, BACK_LABEL, -0.8, 0.75, 0.12, colour, fov_y_deg, aspect)
+
+
+def confirm_markers(view: View, chosen: CubeMarker, fov_y_deg: float = 45.0,
+                    aspect: float = 16.0 / 9.0) -> Tuple[CubeMarker, CubeMarker]:
+    """
+    Return the confirmation step's options, (go, back), in the room's view.
+
+    The Midas touch: when the table is chosen the person is looking at it, and
+    a gaze that stays there (or comes back to it) must not send the robot.
+    So 'back', the harmless answer, takes the chosen table's place, and 'go'
+    appears :data:`GO_RIGHT` half-widths from the centre on the other side of
+    the view, at the table's height (a third of the panel's width or more from
+    where the person looked: a deliberate saccade, never a dwell carried
+    over).  Whatever the gaze does without meaning to, it can only undo.
+    """
+    right, down = image_place(view, chosen.position, fov_y_deg, aspect)
+    down = float(np.clip(down, -0.6, 0.6))
+    go_right = -GO_RIGHT if right >= 0 else GO_RIGHT
+    back_right = float(np.clip(right, -0.8, 0.8))   # same side as the table: >= GO_RIGHT apart
+    return (view_square(view, GO_LABEL, go_right, down, STEP_SIDE, GO_COLOUR, fov_y_deg, aspect),
+            view_square(view, BACK_LABEL, back_right, down, STEP_SIDE, BACK_COLOUR, fov_y_deg,
+                        aspect))
+
+
+def stop_marker(go: CubeMarker, back: CubeMarker) -> CubeMarker:
+    """
+    Return the stop option shown while the robot drives: where 'back' was.
+
+    Not where 'go' was: the gaze that chose 'go' rests there, and the stop is
+    asked at once (no look-away gate), so it must take a new saccade.
+    """
+    return replace(back, text=STOP_LABEL, color=np.asarray(STOP_COLOUR, dtype=float))
 
 
 @dataclass
 class _Goal:
     """The camera goal of the current step and what is known of the camera since."""
 
+    view: View
     position: np.ndarray
     quaternion: np.ndarray
     published_at: float
@@ -237,22 +396,51 @@ class _LookAway:
 
 
 @dataclass
+class _Drive:
+    """A confirmed goal the robot is driving to."""
+
+    label: str
+    goal: np.ndarray                        # x, y m, yaw rad
+    sent_at: float
+    best_m: float = math.inf                # the nearest the robot came, m
+    best_deg: float = math.inf              # its smallest heading error there, degrees
+    progress_at: float = math.nan           # when it last came nearer (sent_at at first)
+    shown_m: float = math.nan               # the distance in the last progress line
+
+    def __post_init__(self):
+        """Count the wait for progress from the moment the goal was sent."""
+        self.progress_at = self.sent_at
+
+
+def pose_error(pose: np.ndarray, goal: np.ndarray) -> Tuple[float, float]:
+    """Return the distance (m) and heading error (degrees) of a pose (x, y, yaw) to a goal."""
+    distance = float(math.hypot(goal[0] - pose[0], goal[1] - pose[1]))
+    turn = (float(goal[2]) - float(pose[2]) + math.pi) % (2 * math.pi) - math.pi
+    return distance, abs(math.degrees(turn))
+
+
+@dataclass
 class MenuProtocol:
     """
     The room -> table menu's protocol (module doc); the node feeds it and performs its actions.
 
     :param scene: rooms, tables, views.
     :param settings: the protocol's parameters.
+    :param goals: each destination's robot goal, label -> x, y (m), yaw (rad) in the
+        scene's frame, shape (3,); a table without one is an outcome only (nothing moves).
     """
 
     scene: Scene
     settings: ProtocolSettings = field(default_factory=ProtocolSettings)
+    goals: Dict[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self):
         """Start with nothing offered (call :meth:`start`)."""
         self.room: Optional[Room] = None
         self.finished = False
         self.offered: Tuple[str, ...] = ()
+        self._markers: Tuple[Tuple[CubeMarker, ...], str] = ((), ROOMS_NS)
+        self._shown = False
         self._goal: Optional[_Goal] = None
         self._pose: Optional[Tuple[np.ndarray, np.ndarray]] = None
         self._look_away: Optional[_LookAway] = None
@@ -263,12 +451,22 @@ class MenuProtocol:
         self._validating = False
         self._validated = False
         self._validation_runs = 0
+        self.pending: Optional[str] = None          # a chosen table waiting for 'go'
+        self.drive: Optional[_Drive] = None
+        self._robot: Optional[np.ndarray] = None    # the robot's pose from odometry (3,)
 
     # -- state ------------------------------------------------------------------------------
 
     @property
     def state(self) -> str:
         """Return what the menu waits for (one of the module's state names)."""
+        state = self._step_state()
+        if self.drive is not None and state in (READY, ASKING, WAITING_FOR_CAMERA, LOOK_AWAY):
+            return DRIVING
+        return state
+
+    def _step_state(self) -> str:
+        """Return what the current step waits for (the question's conditions)."""
         if self.finished:
             return FINISHED
         if self._validating:
@@ -299,11 +497,13 @@ class MenuProtocol:
 
     def start(self, now: float) -> List[Action]:
         """Offer the rooms (also: start over after a scene reload); first validate if asked."""
+        actions = self.cancel_drive('the menu starts over', now)
         self._look_away = None
+        self.pending = None
         if self.settings.validate_first and not self._validated:
             self._validating, self._validation_runs = True, 1
-            return [Log('info', 'starting with a gaze validation'), Validate()]
-        return self._offer_rooms(now)
+            return actions + [Log('info', 'starting with a gaze validation'), Validate()]
+        return actions + self._offer_rooms(now)
 
     def on_validation(self, accepted: bool, summary: str, now: float) -> List[Action]:
         """Take the outcome of the validation asked for (module doc); others are ignored."""
@@ -325,6 +525,10 @@ class MenuProtocol:
             return []
         if self.room is None:
             return self._offer_rooms(now)
+        if self.drive is not None:
+            return self._offer_stop(now)
+        if self.pending is not None:
+            return self._offer_confirm(now)
         return self._offer_tables(self.room, now)
 
     def on_camera_pose(self, position, quaternion, now: float) -> List[Action]:
@@ -348,6 +552,28 @@ class MenuProtocol:
                                                tol.arrive_tolerance_deg):
             goal.last_move = now
         return self.tick(now)
+
+    def on_odometry(self, x: float, y: float, yaw: float, now: float) -> List[Action]:
+        """Take the robot's pose (``odom``: x, y m, yaw rad in the scene's frame)."""
+        pose = np.array([x, y, yaw], dtype=float)
+        if not np.all(np.isfinite(pose)):
+            return [Log('warning', 'odometry with NaN or infinity ignored')]
+        self._robot = pose
+        drive = self.drive
+        if drive is None:
+            return []
+        distance, heading = pose_error(pose, drive.goal)
+        tol = self.settings
+        if distance <= tol.goal_tolerance_m and heading <= tol.goal_tolerance_deg:
+            return self._arrived(distance, heading, now)
+        if distance <= drive.best_m - PROGRESS_M or heading <= drive.best_deg - PROGRESS_DEG:
+            drive.progress_at = now
+        drive.best_m = min(drive.best_m, distance)
+        drive.best_deg = min(drive.best_deg, heading)
+        if not abs(distance - drive.shown_m) < PROGRESS_STEP_M:
+            drive.shown_m = distance
+            return [Progress(f"driving to '{drive.label}': {distance:.1f} m left")]
+        return []
 
     def on_regions(self, labels: Sequence[str], polygons) -> None:
         """Take the current ``choices/regions`` (labels, polygons (R, K, 2) screen px)."""
@@ -409,13 +635,21 @@ class MenuProtocol:
             room = self.scene.room(label)
             return [Answer(label), Log('info', f"room chosen: '{label}'"),
                     *self._offer_tables(room, now)]
+        if self.drive is not None:
+            return [Answer(label), *self._stop(now)]
+        if self.pending is not None:
+            return [Answer(label), *self._confirmed(label == GO_LABEL, now)]
         if label == BACK_LABEL:
             return [Answer(label), Log('info', 'back to the rooms'), *self._offer_rooms(now)]
-        actions: List[Action] = [Answer(label), Result(label),
-                                 Log('info', f"outcome: '{label}'")]
-        if self.settings.repeat:
-            return actions + self._offer_rooms(now)
-        return actions + self._finish()
+        if self.settings.robot_goals and label in self.goals:
+            self.pending = label
+            return [Answer(label), Log('info', f"'{label}' chosen: 'go' sends the robot, "
+                                               "'back' returns to the tables"),
+                    *self._offer_confirm(now)]
+        actions: List[Action] = [Answer(label), Result(label), Log('info', f"outcome: '{label}'")]
+        if self.settings.robot_goals:
+            actions.append(Log('warning', f"no robot goal for '{label}': nothing sent"))
+        return actions + self._next_task(now)
 
     def on_no_choice(self, reason: str, now: float) -> List[Action]:
         """Take an arbiter round that ended without a choice: ask the open question again."""
@@ -427,14 +661,23 @@ class MenuProtocol:
         return [Log('info', f'no choice ({reason}): asking again'), Request()]
 
     def tick(self, now: float) -> List[Action]:
-        """Apply the timed rules (settle, look-away time, pause); call it periodically."""
+        """Apply the timed rules (settle, look-away time, pause, drive); call it periodically."""
         actions: List[Action] = []
+        drive = self.drive
+        if drive is not None and now - drive.progress_at >= self.settings.drive_timeout_s:
+            return self._not_moving(now)
         goal = self._goal
         if goal is not None and not goal.arrived and now - goal.last_move >= \
                 self.settings.settle_s:
             goal.arrived = True
+            # Without any camera/pose (a static view, no camera_tracker) nothing settled.
             actions.append(Log('info', f'camera settled ({self.settings.settle_s:g} s '
-                                       'without moving): taken as arrived'))
+                                       'without moving): taken as arrived')
+                           if self._pose is not None else
+                           Log('info', f'no camera/pose in {self.settings.settle_s:g} s: '
+                                       'asking without waiting for the camera'))
+        if goal is not None and goal.arrived and not self._shown:
+            actions += self._show()
         gate = self._look_away
         if gate is not None and not gate.done and now - gate.chosen_at >= \
                 self.settings.look_away_s:
@@ -447,6 +690,72 @@ class MenuProtocol:
             actions.append(Log('info', f'gaze off screen for {self.settings.pause_after_s:g} '
                                        's: paused'))
         return actions + self._maybe_ask(now)
+
+    def cancel_drive(self, why: str, now: float) -> List[Action]:
+        """Stop a drive the menu no longer follows (a new scene, robot_goals off); [] if none."""
+        if self.drive is None:
+            return []
+        label, self.drive = self.drive.label, None
+        return [Log('warning', f"{why}: stopping the robot on its way to '{label}'"),
+                *self._hold(f"stopped on the way to '{label}' ({why})")]
+
+    # -- the robot --------------------------------------------------------------------------
+
+    def _confirmed(self, go: bool, now: float) -> List[Action]:
+        """Act on the confirmation step's answer: 'go' sends the goal, 'back' offers the tables."""
+        label, self.pending = self.pending, None
+        if not go:
+            return [Log('info', f"'{label}' not confirmed: back to the tables"),
+                    *self._offer_tables(self.room, now)]
+        goal = np.asarray(self.goals[label], dtype=float).reshape(3)
+        self.drive = _Drive(label, goal, now)
+        # The stop is asked at once: no look-away gate (stop_marker is not where 'go' was).
+        self._look_away = None
+        where = ''
+        if self._robot is not None:
+            self.drive.shown_m = pose_error(self._robot, goal)[0]
+            where = f': {self.drive.shown_m:.1f} m left'
+        return [Result(label), SendGoal(label, goal.copy()),
+                Log('info', f"'{label}' confirmed: robot goal x {goal[0]:.2f} m, y "
+                            f'{goal[1]:.2f} m, yaw {math.degrees(goal[2]):.0f} deg'),
+                Progress(f"driving to '{label}'{where}"), *self._offer_stop(now)]
+
+    def _stop(self, now: float) -> List[Action]:
+        """'stop' chosen while driving: a goal at the robot's pose, then the next task."""
+        label, self.drive = self.drive.label, None
+        return [Log('info', f"stop chosen on the way to '{label}'"),
+                *self._hold(f"stopped on the way to '{label}'"), *self._next_task(now)]
+
+    def _hold(self, progress: str) -> List[Action]:
+        """Hold the robot where it is: a goal at its pose (topics only: no nav2 cancel)."""
+        if self._robot is None:
+            return [Log('warning', "no odometry: cannot send a goal at the robot's pose"),
+                    Progress(progress + ' (no odometry: pose unknown)')]
+        return [SendGoal(STOP_LABEL, self._robot.copy()), Progress(progress)]
+
+    def _arrived(self, distance: float, heading: float, now: float) -> List[Action]:
+        label, self.drive = self.drive.label, None
+        return [Log('info', f"arrived at '{label}' ({distance:.2f} m, {heading:.0f} deg from "
+                            'the goal)'),
+                Progress(f"arrived at '{label}'"), *self._next_task(now)]
+
+    def _not_moving(self, now: float) -> List[Action]:
+        """Say the robot came no nearer for drive_timeout_s, hold it, offer the tables."""
+        drive, self.drive = self.drive, None
+        why = ('no odometry on odom' if self._robot is None or drive.best_m == math.inf
+               else f'{drive.best_m:.1f} m left, no nearer')
+        text = (f"the robot did not move toward '{drive.label}' within "
+                f'{self.settings.drive_timeout_s:g} s ({why}): choose again')
+        actions: List[Action] = [Log('warning', text)]
+        if self._robot is not None:
+            actions.append(SendGoal(STOP_LABEL, self._robot.copy()))
+        return actions + [Progress(text), *self._offer_tables(self.room, now)]
+
+    def _next_task(self, now: float) -> List[Action]:
+        """After an outcome: the rooms again (repeat) or finish."""
+        if self.settings.repeat:
+            return self._offer_rooms(now)
+        return self._finish()
 
     # -- steps ------------------------------------------------------------------------------
 
@@ -462,21 +771,38 @@ class MenuProtocol:
         labels = tuple(marker.text for marker in markers)
         same = bool(labels) and set(labels) == set(self.offered)
         self.offered = labels
+        self._markers = (tuple(markers), ns)
         self._asked_at = None
+        previous = self._goal
         position, quaternion = look_at_pose(*view.as_tuple())
-        self._goal = _Goal(position, quaternion, now, now)
-        if self._pose is not None and poses_close(
-                *self._pose, position, quaternion, self.settings.arrive_tolerance_m,
-                self.settings.arrive_tolerance_deg):
+        self._goal = _Goal(view, position, quaternion, now, now)
+        if (previous is not None and previous.arrived and previous.view is view) or (
+                self._pose is not None and poses_close(
+                    *self._pose, position, quaternion, self.settings.arrive_tolerance_m,
+                    self.settings.arrive_tolerance_deg)):
             self._goal.arrived = True
-        actions: List[Action] = [Offer(tuple(markers), ns, view)]
+        if not self.settings.ask_on_arrival or self._goal.arrived or self._pose is None:
+            # Shown at once: the previous menu, the camera already there, or no camera
+            # pose known (nothing known to be moving; the projector waits for a pose).
+            self._shown = True
+            actions: List[Action] = [Offer(tuple(markers), ns, view)]
+        else:
+            self._shown = False
+            actions = [Offer((), ns, view)]     # withdraw the old options; the camera moves
         if not self.settings.ask_on_arrival:
             # Same labels again: the arbiter would not see a change.
             return actions + ([Request()] if same else [])
         return actions + self.tick(now)
 
+    def _show(self) -> List[Action]:
+        """Show the step's options: the camera has arrived (or settled)."""
+        self._shown = True
+        markers, ns = self._markers
+        return [Offer(markers, ns, None)]
+
     def _offer_rooms(self, now: float) -> List[Action]:
         self.room = None
+        self.pending = None
         return self._offer([room.marker for room in self.scene.rooms], ROOMS_NS,
                            self.scene.overview, now)
 
@@ -487,9 +813,18 @@ class MenuProtocol:
             markers.append(back_marker(room.view))
         return self._offer(markers, TABLES_NS, room.view, now)
 
+    def _offer_confirm(self, now: float) -> List[Action]:
+        go, back = confirm_markers(self.room.view, self.room.table(self.pending).marker)
+        return self._offer([go, back], CONFIRM_NS, self.room.view, now)
+
+    def _offer_stop(self, now: float) -> List[Action]:
+        go, back = confirm_markers(self.room.view, self.room.table(self.drive.label).marker)
+        return self._offer([stop_marker(go, back)], DRIVE_NS, self.room.view, now)
+
     def _finish(self) -> List[Action]:
         self.finished = True
         self.room = None
+        self.pending = None
         self.offered = ()
         self._goal = None
         self._asked_at = None
@@ -497,7 +832,7 @@ class MenuProtocol:
 
     def _maybe_ask(self, now: float) -> List[Action]:
         """Ask when every condition holds and the question is not asked yet."""
-        if not self.settings.ask_on_arrival or self.state != READY:
+        if not self.settings.ask_on_arrival or self._step_state() != READY:
             return []
         self._asked_at = now
         return [Request()]

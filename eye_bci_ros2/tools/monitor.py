@@ -12,11 +12,22 @@ For the PyPI set-up, where there is no ``ros2`` command (``ros2 topic echo``,
 * ``choices/regions`` (visualization_msgs/MarkerArray): the options on offer,
   by label (the marker's text, else ``ns/id``), and which one the newest gaze
   point is in;
-* ``choice`` (std_msgs/String): the decisions.
+* ``choice`` (std_msgs/String): the decisions;
+* the pipeline's nodes on the graph (``eye_bci``'s and its menu's, in the
+  monitor's namespace) and what each is waiting for, read from the graph
+  and the latched state the nodes publish anyway (no status protocol of its
+  own): the bridge for a gaze stream (nothing on ``gaze/samples`` and
+  ``gaze/on_screen``), camera_tracker for RViz's camera (it subscribes to
+  the pose topic once a publisher exists: until then the static view),
+  marker_projector for options (``choices``) and a camera pose
+  (``camera/pose``), the arbiter for options on screen (``choices/regions``)
+  and gaze, the menu as its ``choice_menu/state`` says.
 
 On a terminal it redraws a few status lines in place; when stdout is not a
 terminal (a pipe, a log file) it prints one plain ``key=value`` line per
-period and one line per decision.  ``--once`` listens for one period and
+period and one line per decision.  ``--once`` listens for at least one
+period, until the pipeline's nodes are discovered and their latched state
+has arrived (at most ``--wait`` s: discovery takes a few seconds), and
 prints once; ``--duration S`` stops after S seconds.  Topic names are
 relative: remap or push a namespace with ``--ros-args`` as for any node.
 
@@ -35,8 +46,9 @@ import signal
 import sys
 import threading
 import time
-from typing import Deque, List, Optional, Sequence, Tuple
+from typing import Any, Deque, Dict, List, Optional, Sequence, Tuple
 
+from geometry_msgs.msg import PoseStamped
 import numpy as np
 import rclpy
 from rclpy.executors import ExternalShutdownException
@@ -44,14 +56,16 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import PointCloud2
-from std_msgs.msg import String
-from visualization_msgs.msg import MarkerArray
+from std_msgs.msg import Bool, String
+from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.projection.geometry import points_in_convex_polygons
 from eye_bci_ros2.ros.conversions import gaze_batch_arrays, marker_array_to_regions
+from eye_bci_ros2.ros.registry import menu, pipeline
 from eye_bci_ros2.ros.runner import make_executor
-from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
-                                     LISTENER_QOS, REGIONS_TOPIC)
+from eye_bci_ros2.ros.topics import (CAMERA_POSE_TOPIC, CHOICE_TOPIC, CHOICES_QOS, CHOICES_TOPIC,
+                                     EVENT_QOS, GAZE_ON_SCREEN_TOPIC, GAZE_SAMPLES_TOPIC,
+                                     LATCHED_QOS, LISTENER_QOS, MENU_STATE_TOPIC, REGIONS_TOPIC)
 
 #: Rates are counted over the last this many seconds of arrivals.
 RATE_WINDOW_S = 2.0
@@ -65,6 +79,17 @@ STALE_S = 1.0
 DECISIONS_SHOWN = 3
 #: Options named in the status (the rest are counted).
 OPTIONS_SHOWN = 8
+#: The pipeline's nodes the status names: ``eye_bci``'s, then its menu's (the registry's).
+PIPELINE_NODES = tuple(name for name, _, _ in pipeline()) + (menu()[0],)
+#: ``--once``: default longest wait for the pipeline's nodes and their latched state, s.
+DEFAULT_WAIT_S = 5.0
+#: ``--once``: the status is complete when nothing new (a node, a latched message) came for
+#: this long after the first pipeline node was seen, s.
+SETTLED_S = 1.0
+#: How often the graph is looked at for the pipeline's nodes, s.
+GRAPH_PERIOD_S = 0.25
+#: Topics every node has, which say nothing of what it waits for.
+_INFRASTRUCTURE = ('/parameter_events', '/rosout', '/clock')
 
 
 @dataclass
@@ -156,6 +181,82 @@ class Monitor(Node):
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, LISTENER_QOS)
         self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self.create_subscription(String, CHOICE_TOPIC, self._on_decision, EVENT_QOS)
+        # The latched state the pipeline's nodes publish anyway: {topic: the last message}.
+        self.latched: Dict[str, Any] = {}
+        for message_type, topic, qos in ((PoseStamped, CAMERA_POSE_TOPIC, LATCHED_QOS),
+                                         (MarkerArray, CHOICES_TOPIC, CHOICES_QOS),
+                                         (Bool, GAZE_ON_SCREEN_TOPIC, LATCHED_QOS),
+                                         (String, MENU_STATE_TOPIC, LATCHED_QOS)):
+            self.create_subscription(message_type, topic, self._latch(topic), qos)
+        #: The pipeline's nodes seen on the graph, and when what the status shows last changed
+        #: (a node seen or gone, a latched message; monotonic s).
+        self.nodes: Tuple[str, ...] = ()
+        self.changed_at = time.monotonic()
+        self._options_offered = False
+
+    def _latch(self, topic: str):
+        def keep(message) -> None:
+            if topic == CHOICES_TOPIC:
+                # Incremental: options are offered once any array added a marker.
+                self._options_offered |= any(m.action == Marker.ADD for m in message.markers)
+            self.latched[topic] = message
+            self.changed_at = time.monotonic()
+        return keep
+
+    def look_at_graph(self) -> Tuple[str, ...]:
+        """Find the pipeline's nodes in this node's namespace; return them in pipeline order."""
+        namespace = self.get_namespace()
+        present = {name for name, ns in self.get_node_names_and_namespaces()
+                   if ns == namespace}
+        nodes = tuple(name for name in PIPELINE_NODES if name in present)
+        if nodes != self.nodes:
+            self.nodes, self.changed_at = nodes, time.monotonic()
+        return nodes
+
+    def settled(self, now: float) -> bool:
+        """Tell whether pipeline nodes were seen and nothing new came for SETTLED_S."""
+        return bool(self.nodes) and now - self.changed_at >= SETTLED_S
+
+    def _reads_a_published_topic(self, name: str) -> bool:
+        """Tell whether node ``name`` subscribes to a topic that has a publisher (graph)."""
+        try:
+            topics = self.get_subscriber_names_and_types_by_node(name, self.get_namespace())
+        except Exception:  # noqa: B902 - the node left the graph meanwhile
+            return False
+        return any(self.count_publishers(topic) for topic, _ in topics
+                   if not topic.startswith(_INFRASTRUCTURE))
+
+    def waiting(self, now: float) -> Dict[str, List[Tuple[str, str]]]:
+        """
+        Say what each pipeline node seen waits for: {node: [(key, text)]}, [] = nothing.
+
+        From the graph and the latched state (module doc); the key is a short word for the
+        plain line, the text is for people.
+        """
+        gaze_on = self.gaze.last_arrival is not None and now - self.gaze.last_arrival < STALE_S
+        on_screen = self.latched.get(GAZE_ON_SCREEN_TOPIC)
+        if gaze_on:
+            gaze = []
+        elif on_screen is None and self.gaze.last_arrival is None:
+            gaze = [('gaze_stream', 'a gaze stream (no tracker on LSL yet?)')]
+        else:
+            gaze = [('gaze', 'gaze (its stream quiet or lost)')]
+        needs: Dict[str, List[Tuple[str, str]]] = {
+            'lsl_gaze_bridge': gaze,
+            'camera_tracker': [] if self._reads_a_published_topic('camera_tracker') else [
+                ('rviz_camera', "RViz's camera pose (its static view meanwhile)")],
+            'marker_projector': ([] if self._options_offered else [
+                ('options', f'options (nothing on {CHOICES_TOPIC})')]) + (
+                [] if CAMERA_POSE_TOPIC in self.latched else [
+                    ('camera_pose', f'a camera pose (nothing on {CAMERA_POSE_TOPIC})')]),
+            'choice_arbiter': ([] if self.labels else [
+                ('regions', f'options on screen (none on {REGIONS_TOPIC})')]) + [
+                ('gaze', 'gaze') for _ in gaze],
+        }
+        state = self.latched.get(MENU_STATE_TOPIC)
+        needs['choice_menu'] = [] if state is None or not state.data.startswith('waiting') \
+            else [(state.data, state.data.replace('_', ' ').replace('waiting for ', ''))]
+        return {name: needs.get(name, []) for name in self.nodes}
 
     def _on_gaze(self, message: PointCloud2) -> None:
         try:
@@ -198,6 +299,7 @@ class Monitor(Node):
             'gaze_xy': None if self.gaze.newest_xy is None else self.gaze.newest_xy.tolist(),
             'gaze_region': self.gaze_region(), 'options': list(self.labels),
             'decisions': [text for _, text in self.decisions], 'problem': self.problem,
+            'nodes': self.waiting(now),
         }
 
 
@@ -234,10 +336,21 @@ def status_lines(status: dict, decisions: Sequence[Tuple[float, str]] = ()) -> L
     offered = f'options  {len(options)}: {shown}' if options else 'options  none offered'
     recent = [f"'{text}' {_clock(at)}" for at, text in list(decisions)[-DECISIONS_SHOWN:]]
     chosen = 'choice   ' + ('; '.join(reversed(recent)) if recent else '-')
-    lines = [gaze, where, offered, chosen]
+    lines = [gaze, where, offered, chosen] + node_lines(status['nodes'])
     if status['problem']:
         lines.append(f"problem  {status['problem']} ({status['bad_messages']} so far)")
     return lines
+
+
+def node_lines(nodes: Dict[str, List[Tuple[str, str]]]) -> List[str]:
+    """Render the pipeline's nodes seen and what each waits for, one line each."""
+    if not nodes:
+        return ["nodes    none of the pipeline's seen (is eye_bci running, with this "
+                'ROS_DOMAIN_ID and namespace?)']
+    width = max(len(name) for name in nodes)
+    return [('nodes    ' if index == 0 else ' ' * 9) + f'{name:<{width}}  ' +
+            ('waiting for ' + ', '.join(text for _, text in waits) if waits else 'ok')
+            for index, (name, waits) in enumerate(nodes.items())]
 
 
 def status_line(status: dict, elapsed_s: float) -> str:
@@ -254,6 +367,9 @@ def status_line(status: dict, elapsed_s: float) -> str:
         'region=' + (status['gaze_region'] or '-'),
         'options=' + ('|'.join(status['options']) or '-'),
         'last_choice=' + (status['decisions'][-1] if status['decisions'] else '-'),
+        # Each node seen, with what it waits for: lsl_gaze_bridge(gaze_stream),choice_arbiter
+        'nodes=' + (','.join(name + (f"({'+'.join(key for key, _ in waits)})" if waits else '')
+                             for name, waits in status['nodes'].items()) or '-'),
     ]
     if status['bad_messages']:
         fields.append(f"bad_messages={status['bad_messages']}")
@@ -309,11 +425,15 @@ def build_parser() -> argparse.ArgumentParser:
                'choice (String). ROS arguments go after --ros-args.')
     when = parser.add_mutually_exclusive_group()
     when.add_argument('--once', action='store_true',
-                      help='listen for one --period, print the status once and exit')
+                      help="listen for at least one --period, until the pipeline's nodes are "
+                      'discovered (at most --wait s), print the status once and exit')
     when.add_argument('--duration', type=_positive, metavar='S',
                       help='exit after S seconds (default: until Ctrl-C)')
     parser.add_argument('--period', type=_positive, default=DEFAULT_PERIOD_S, metavar='S',
                         help='refresh period, s; default %(default)s')
+    parser.add_argument('--wait', type=_positive, default=DEFAULT_WAIT_S, metavar='S',
+                        help="--once: wait at most S s for the pipeline's nodes to be "
+                        'discovered; default %(default)s')
     parser.add_argument('--gap', type=_positive, default=DEFAULT_GAP_S, metavar='S',
                         help='count a gap when consecutive gaze samples are more than S s '
                         'apart; default %(default)s')
@@ -332,15 +452,28 @@ def run(args: argparse.Namespace, context=None, stream=None,
     monitor = Monitor(gap_s=args.gap, on_choice=screen.choice, context=context)
     executor = make_executor(context=context)
     executor.add_node(monitor)
-    duration = args.period if args.once else args.duration
     start = time.monotonic()
     next_show = start + (args.period if args.once else 0.0)
+    next_look = start
+
+    def done(now: float) -> bool:
+        if args.once:
+            # Discovery takes seconds: one period is too short to see a running pipeline.
+            return now - start >= args.period and (monitor.settled(now)
+                                                   or now - start >= args.wait)
+        return args.duration is not None and now - start >= args.duration
+
     try:
-        while not stop.is_set() and (duration is None or time.monotonic() - start < duration):
+        while not stop.is_set() and not done(time.monotonic()):
             executor.spin_once(timeout_sec=min(0.05, args.period))
-            if time.monotonic() >= next_show and not args.once:
+            now = time.monotonic()
+            if now >= next_look:
+                monitor.look_at_graph()
+                next_look = now + GRAPH_PERIOD_S
+            if now >= next_show and not args.once:
                 screen.show(monitor)
                 next_show += args.period
+        monitor.look_at_graph()
         screen.show(monitor)
     finally:
         executor.shutdown()

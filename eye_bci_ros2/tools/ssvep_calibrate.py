@@ -37,7 +37,9 @@ Example::
 """
 
 import argparse
+import os
 import sys
+import tempfile
 import time
 from typing import List, Optional, Sequence, Tuple
 
@@ -48,6 +50,12 @@ from eye_bci_ros2.ssvep.layouts import LAYOUT_NAMES, LAYOUTS, parse_channels, re
 from eye_bci_ros2.ssvep.online import DEFAULT_ONSET_S
 from eye_bci_ros2.ssvep.stimuli import assign_stimuli, StimulusMap
 from eye_bci_ros2.ssvep.training import fit_trca
+
+#: Exit status for a user error (bad options, unusable recordings).
+EXIT_BAD_INPUT = 2
+#: Exit status when an output file cannot be written: before recording (nothing recorded),
+#: or after it (the result is then in a fallback file, named in one line).
+EXIT_WRITE_FAILED = 1
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -164,6 +172,56 @@ def record_lsl(args, stimuli: StimulusMap):
             streamer.stop()
 
 
+def npz_path(path: str) -> str:
+    """Return the file ``np.savez`` writes for ``path`` (it adds ``.npz`` when missing)."""
+    return path if path.endswith('.npz') else path + '.npz'
+
+
+def unwritable(path: str) -> Optional[str]:
+    """
+    Return why ``path`` cannot be written (one line), or None when it can.
+
+    Tried for real (opened for appending, a new file removed again), so a missing or
+    read-only directory, a directory of that name or a full disk are all caught.
+    """
+    existed = os.path.exists(path)
+    try:
+        with open(path, 'ab'):
+            pass
+    except OSError as error:
+        return f"cannot write '{path}': {error.strerror or error}"
+    if not existed:
+        os.remove(path)
+    return None
+
+
+def fallback_path(path: str) -> str:
+    """Return where a file meant for ``path`` goes when ``path`` fails: the temp dir, stamped."""
+    stamp = time.strftime('%Y%m%d-%H%M%S')
+    return os.path.join(tempfile.gettempdir(),
+                        f'ssvep_calibrate-{stamp}-{os.getpid()}-{os.path.basename(path)}')
+
+
+def save_or_fallback(path: str, save, what: str) -> str:
+    """
+    Write with ``save(path)``; when that fails, write to :func:`fallback_path` instead.
+
+    :param what: what is saved, for the one line said on stderr.
+    :returns: the file written.
+    :raises OSError: when the fallback cannot be written either.
+    """
+    try:
+        save(path)
+        return npz_path(path)
+    except OSError as error:
+        fallback = npz_path(fallback_path(npz_path(path)))
+        save(fallback)
+        print(f"ssvep_calibrate: cannot write '{npz_path(path)}' "
+              f'({error.strerror or error}): {what} saved to {fallback} instead',
+              file=sys.stderr, flush=True)
+        return fallback
+
+
 def save_recording(path: str, times, samples, trials, rate: float, labels) -> None:
     """Write a calibration recording (.npz, no pickles); rest trials have label ''."""
     np.savez(path, times=np.asarray(times, float), samples=np.asarray(samples, float),
@@ -194,8 +252,20 @@ def load_recordings(paths: Sequence[str]):
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    """Run the calibration; 0 on success, 2 on a user error (with the reason)."""
+    """
+    Run the calibration; 0 on success, 2 on a user error, 1 when an output is unwritable.
+
+    An output that cannot be written is refused before anything is recorded; one that
+    fails afterwards is saved to a fallback file (named in one line), so a session is
+    never lost.
+    """
     args = build_parser().parse_args(argv)
+    for path in filter(None, (args.output, args.save_recording)):
+        problem = unwritable(npz_path(path))
+        if problem:
+            print(f'ssvep_calibrate: {problem}; nothing recorded', file=sys.stderr)
+            return EXIT_WRITE_FAILED
+    written = {}
     try:
         options = [label.strip() for label in args.options.split(',') if label.strip()]
         if args.trials < 2:
@@ -212,22 +282,31 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             record = record_simulated if args.source == 'sim' else record_lsl
             times, samples, trials, rate, labels = record(args, stimuli)
             if args.save_recording:
-                save_recording(args.save_recording, times, samples, trials, rate, labels)
+                recorded = (times, samples, trials, rate, labels)
+                written['recording'] = save_or_fallback(
+                    args.save_recording, lambda path: save_recording(path, *recorded),
+                    'the recording')
             times, samples, trials = [times], [samples], [trials]
         indices, names = resolve_channels(LAYOUTS[args.layout], labels, samples[0].shape[1],
                                           parse_channels(args.channels))
         model = fit_trca([x[:, indices] for x in samples], times, trials, stimuli, rate,
                          names, args.trial_s, notch_hz=args.notch_hz, onset_s=args.onset_s,
                          ensemble=not args.single)
-        model.save(args.output)
+        written['model'] = save_or_fallback(args.output, model.save, 'the model')
     except ValueError as error:
         print(f'ssvep_calibrate: {error}', file=sys.stderr)
-        return 2
+        return EXIT_BAD_INPUT
+    except OSError as error:
+        print(f'ssvep_calibrate: cannot write the fallback file either: {error}',
+              file=sys.stderr)
+        return EXIT_WRITE_FAILED
     count = sum(label is not None for listed in trials for _, label in listed)
     print(f'saved TRCA model of {len(options)} options, {count} trials from {len(trials)} '
           f"recording(s) ({args.trial_s:g} s, channels {', '.join(names)}, {rate:g} Hz) to "
-          f'{args.output}')
-    return 0
+          f"{written['model']}")
+    asked = {'model': args.output, 'recording': args.save_recording}
+    return 0 if all(path == npz_path(asked[key]) for key, path in written.items()) \
+        else EXIT_WRITE_FAILED
 
 
 if __name__ == '__main__':

@@ -1,5 +1,6 @@
 """bench/real_gaze.py: the node's rule on real recorded gaze, and the command a lab runs."""
 
+from lab_recording import write_lab_csv
 import numpy as np
 import pytest
 
@@ -53,11 +54,7 @@ def test_a_labs_own_csv_recording_runs_through_the_command(tmp_path, capsys):
     target = np.minimum((stamps / period).astype(int), 11)
     points = places[target] + rng.normal(0, 8, (len(stamps), 2))
     points[stamps % period <= flight] = np.nan
-    rows = '\n'.join(f'{t:.4f},{x:.1f},{y:.1f}' for t, (x, y) in zip(stamps, points))
-    (tmp_path / 'lab.gaze.csv').write_text('time_s,x_px,y_px\n' + rows + '\n')
-    (tmp_path / 'lab.targets.csv').write_text(
-        'onset_s,x_px,y_px\n' + '\n'.join(f'{period * k},{x},{y}' for k, (x, y) in
-                                          enumerate(places)) + '\n')
+    write_lab_csv(tmp_path, stamps, points, places, period)
     assert real_gaze.main(['--data', str(tmp_path), '--sizes', '200', '--options', '3']) == 0
     out = capsys.readouterr().out
     assert 'lab (csv, 60 Hz, 12 targets)' in out

@@ -113,6 +113,7 @@ SPECIFIC = {
         'scene_file': [('/nonexistent/scene.yaml', 'missing file'),
                        (lambda _, tmp_path: _bad_scene(tmp_path), 'malformed YAML')],
         'world_frame': [('', 'empty frame'), ('odom', "inconsistent with the scene's frame")],
+        'robot_radius_m': [(1.0, 'inconsistent: no table where a robot this large fits')],
     },
     'gaze_validation': {
         'targets': [(7, 'neither 5 nor 9')],
@@ -157,7 +158,7 @@ GOOD_CHANGE = {
     'marker_projector': ('screen_offset_x', 64),
     'choice_arbiter': ('window_s', 1.5),
     'lsl_gaze_bridge': ('screen_width', 2560),
-    'choice_menu': ('repeat', False),
+    'choice_menu': ('robot_radius_m', 0.25),
     'gaze_validation': ('target_s', 2.0),
     'ssvep_decoder': ('threshold', 0.9),
     'ssvep_stimulus_map': ('lead_s', 0.2),

@@ -120,6 +120,54 @@ def test_invalid_samples_are_dropped_and_counted(graph):
     assert (counters['nonfinite'], counters['offscreen'], counters['published']) == (2, 2, 3)
 
 
+def push_seconds(outlet, points, rate=120.0):
+    """Push screen points (N, 2) as one chunk stamped ``rate`` Hz back from now, LSL s."""
+    stamps = pylsl.local_clock() - np.arange(len(points))[::-1] / rate
+    outlet.push_chunk(np.asarray(points, float).tolist(), stamps.tolist())
+
+
+def bridge_warnings(text):
+    """Return the bridge's WARN lines in a log."""
+    return [line for line in text.splitlines() if 'WARN' in line and 'lsl_gaze_bridge' in line]
+
+
+def test_blinks_and_glances_away_are_counted_in_the_statistics_not_warned(graph, capfd):
+    outlet, info = make_outlet('custom')   # x, y in screen px
+    log = LogTap(capfd)
+    node, gaze = start_bridge(graph, **bridge_parameters('custom', info, invalid_warn_s=1.0,
+                                                         stats_period_s=0.5))
+    connect(graph, outlet)
+    # 6 s at 120 Hz: a person reading the screen, blinking (0.25 s of NaN) and glancing
+    # away (0.75 s off the screen) again and again, never longer than invalid_warn_s.
+    second = [[960.0, 540.0]] * 60 + [[NAN, NAN]] * 30 + [[960.0, 540.0]] * 60 \
+        + [[4000.0, 540.0]] * 90
+    for _ in range(3):
+        push_seconds(outlet, second * 2)
+    assert log.wait_for(graph, r'lsl_gaze_bridge.*gaze: \d+ received, \d+ published .*'
+                               r'dropped since start: 180 nonfinite, 540 offscreen')
+    assert gaze.count == 720
+    assert bridge_warnings(log.read()) == []
+
+
+def test_a_layout_yielding_only_invalid_samples_gets_one_warning_with_the_reason(
+        graph, capfd):
+    outlet, info = make_outlet('custom')   # x, y in screen px, read as normalized: off-screen
+    log = LogTap(capfd)
+    node, gaze = start_bridge(graph, **bridge_parameters('custom', info, units='normalized',
+                                                         invalid_warn_s=1.0,
+                                                         stats_period_s=0.5))
+    connect(graph, outlet)
+    for pushed in (240, 480, 720):
+        push_seconds(outlet, [[960.0, 540.0]] * 240)
+        assert graph.spin_until(lambda: node.counters['offscreen'] >= pushed, WAIT_S)
+    assert log.wait_for(graph, r'lsl_gaze_bridge.*dropped since start: 720 offscreen')
+    warnings = bridge_warnings(log.read())
+    assert len(warnings) == 1, warnings
+    assert 'no valid gaze sample since the stream started' in warnings[0]
+    assert 'offscreen' in warnings[0] and 'units' in warnings[0]
+    assert gaze.count == 0
+
+
 def test_a_stream_without_the_channels_is_not_taken_until_the_parameters_fit(graph, capfd):
     outlet, info = make_outlet('custom')   # 2 channels
     log = LogTap(capfd)

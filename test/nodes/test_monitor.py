@@ -125,7 +125,9 @@ def test_nothing_yet_and_stale_gaze_are_said_plainly(graph):
     monitor = graph.add(Monitor)
     lines = status_lines(monitor.status())
     assert lines == ['gaze     nothing on gaze/samples yet', 'looking  -',
-                     'options  none offered', 'choice   -']
+                     'options  none offered', 'choice   -',
+                     "nodes    none of the pipeline's seen (is eye_bci running, with this "
+                     'ROS_DOMAIN_ID and namespace?)']
     sender = Sender(graph)
     assert graph.spin_until(lambda: sender.gaze.get_subscription_count() > 0, 10.0)
     sender.batches(1)
@@ -142,9 +144,9 @@ def test_terminal_output_redraws_in_place_and_pipe_output_appends_lines(graph):
     for _ in range(2):
         screen.show(monitor)
         plain.show(monitor)
-    first, second = terminal.getvalue().split('\n' + '\x1b[5F\x1b[J')
+    first, second = terminal.getvalue().split('\n' + '\x1b[6F\x1b[J')
     assert first.startswith('eye_bci monitor ') and '\x1b' not in first
-    assert second.count('\n') == 5
+    assert second.count('\n') == 6
     lines = pipe.getvalue().splitlines()
     assert len(lines) == 2 and all(line.startswith('t=') for line in lines)
     assert '\x1b' not in pipe.getvalue()

@@ -28,9 +28,9 @@ WAIT_S = 15.0
 #: The projector's panel: not the validation's defaults (1280x720 at 320, 180).
 PANEL = {'image_width': 800, 'image_height': 600, 'screen_offset_x': 64.5,
          'screen_offset_y': 40.0}
-#: Validation settings that end quickly: no bridge to wait for, nothing saved.
-QUICK = {'bridge_timeout_s': 0.1, 'output': '', 'target_s': 0.5, 'settle_s': 0.1,
-         'camera_wait_s': 5.0, 'arbiter_node': '', 'validate_again': False}
+#: Validation settings that end quickly: no gaze or bridge to wait for, nothing saved.
+QUICK = {'gaze_wait_s': 0.0, 'bridge_timeout_s': 0.1, 'output': '', 'target_s': 0.5,
+         'settle_s': 0.1, 'camera_wait_s': 5.0, 'arbiter_node': '', 'validate_again': False}
 
 
 def first_target(graph, **params):

@@ -323,23 +323,50 @@ def test_a_further_stream_is_reported_once_and_never_used(stream_type):
     rig.close()
 
 
-def test_a_lost_stream_is_replaced_by_the_newest_of_its_source(stream_type):
-    source = unique_id('tobii-A')
-    first, first_info = make_outlet('xy_pixels', stream_type=stream_type, source_id=source)
+def lose(rig, outlet_info):
+    """Acquire until the connection has lost the stream it reads (its outlet was deleted)."""
+    assert rig.until(lambda: rig.conn.stream is None, step=rig.conn.acquire), rig.log.text()
+    assert rig.log.having('lost gaze stream') and rig.quiet == [True]
+    assert rig.log.having(f"'{outlet_info.name()}'")
+
+
+def test_a_restarted_sender_is_back_and_preferred_to_a_newer_device(stream_type):
+    source, name = unique_id('tobii-A'), unique_id('tracker')
+    first, first_info = make_outlet('xy_pixels', stream_type=stream_type, source_id=source,
+                                    name=name)
     rig = gaze_rig(stream_type)
     rig.connect(first_info.uid())
     assert rig.until(lambda: rig.conn.clock_offset is not None, step=rig.conn.acquire)
-    # The application restarts (same source) while another device appears after it: once
-    # the first stream is lost, its source wins although the other one is newer.
-    again, again_info = make_outlet('xy_pixels', stream_type=stream_type, source_id=source)
+    # The application restarts (same source and name) while another device appears after
+    # it: once the first stream is lost, its source wins although the other one is newer.
+    again, again_info = make_outlet('xy_pixels', stream_type=stream_type, source_id=source,
+                                    name=name)
     other, other_info = make_outlet('xy_pixels', stream_type=stream_type)
     assert rig.until(lambda: len(rig.log.having('another LSL stream')) == 2)
     del first   # the outlet closes: its inlet's next pull raises liblsl's LostError
-    assert rig.until(lambda: rig.conn.stream is None, step=rig.conn.acquire), rig.log.text()
-    assert rig.log.having('lost gaze stream') and rig.quiet == [True]
+    lose(rig, first_info)
     rig.connect(again_info.uid())
-    assert rig.log.having('is gone: switching to')
+    # To the user it is the same stream back, not a switch to one of the same name.
+    assert rig.log.having(f"source_id '{source}', 2 ch, irregular rate, host "
+                          f'{first_info.hostname()}) is back (its sender restarted); '
+                          'reconnecting')
+    assert not rig.log.having('switching to')
     assert not other.have_consumers()
+    rig.close()
+
+
+def test_a_lost_stream_is_replaced_by_another_with_a_warning(stream_type):
+    first, first_info = make_outlet('xy_pixels', stream_type=stream_type)
+    rig = gaze_rig(stream_type)
+    rig.connect(first_info.uid())
+    assert rig.until(lambda: rig.conn.clock_offset is not None, step=rig.conn.acquire)
+    other, other_info = make_outlet('xy_pixels', stream_type=stream_type)
+    assert rig.until(lambda: rig.log.having('another LSL stream'))
+    del first
+    lose(rig, first_info)
+    rig.connect(other_info.uid())
+    switch, = rig.log.having('is gone: switching to')
+    assert f"'{first_info.name()}'" in switch and f"'{other_info.name()}'" in switch
     rig.close()
 
 

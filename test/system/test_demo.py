@@ -14,7 +14,7 @@ from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.experiments import demo
 from eye_bci_ros2.experiments.render import png_size
 from eye_bci_ros2.ros.package_files import default_scene_path
-from eye_bci_ros2.task.menu import BACK_LABEL
+from eye_bci_ros2.task.menu import BACK_LABEL, GO_LABEL
 from eye_bci_ros2.task.scene import load_scene
 
 SCENE = load_scene(default_scene_path())
@@ -94,14 +94,14 @@ def test_quick_demo_finishes_with_every_choice_right(quick_run):
     assert code == 0
     # The node's default rule, named as the pictures' legend names it.
     assert 'decision rule: fixation rule: a still fixation of 0.15 s' in printed
-    assert 'summary: 2 selections, 2 correct: accuracy 100.0 %' in printed
+    assert 'summary: 3 selections, 3 correct: accuracy 100.0 %' in printed
     assert 'ITR' in printed
     for row in summary['selections']:
         # The picture shows exactly the samples the decision weighed, classified by its rule.
         assert (row['picture_samples'], row['picture_counted']) == (
             row['samples_used'], row['in_region_samples']), row
     selections = summary['selections']
-    assert [s['correct'] for s in selections] == [True, True]
+    assert [s['correct'] for s in selections] == [True, True, True]
     assert summary['accuracy'] == 1.0
     assert summary['itr_bits_per_min'] > 0
     for selection in selections:
@@ -120,7 +120,7 @@ def test_quick_demo_finishes_with_every_choice_right(quick_run):
 def test_menu_goes_from_rooms_to_the_room_view_to_its_tables(quick_run):
     _, _, _, summary = quick_run
     (room, table), = [entry.split('/') for entry in summary['script']]
-    rooms, tables = summary['selections']
+    rooms, tables, confirm = summary['selections']
     assert rooms['step'] == 'rooms' and rooms['intended'] == room
     assert sorted(rooms['offered']) == sorted(SCENE.room_labels)
     assert np.allclose(rooms['camera_eye'], SCENE.overview.eye, atol=1e-3)
@@ -131,6 +131,14 @@ def test_menu_goes_from_rooms_to_the_room_view_to_its_tables(quick_run):
     # The camera had zoomed into the chosen room when the table was chosen.
     assert np.allclose(tables['camera_eye'], SCENE.room(room).view.eye, atol=1e-3)
     assert summary['outcomes'] == [f'{room}/{table}']
+    # The table was confirmed ('go', in the same view) before the robot drove there.
+    assert confirm['step'] == 'confirm' and confirm['intended'] == confirm['chosen'] == GO_LABEL
+    assert sorted(confirm['offered']) == sorted([GO_LABEL, BACK_LABEL])
+    assert np.allclose(confirm['camera_eye'], SCENE.room(room).view.eye, atol=1e-3)
+    robot = tables['robot']
+    assert robot['arrived'] and len(robot['goal']) == 3
+    assert robot['drive_s'] > 0 and robot['path_m'] > 0
+    assert rooms['robot'] is None and confirm['robot'] is None
 
 
 @pytest.mark.ros
@@ -138,14 +146,20 @@ def test_menu_goes_from_rooms_to_the_room_view_to_its_tables(quick_run):
 def test_quick_demo_writes_a_screen_picture_per_selection(quick_run):
     _, _, out, summary = quick_run
     pictures = [s['picture'] for s in summary['selections']]
-    assert [os.path.basename(p) for p in pictures] == ['round1_rooms.png', 'round1_tables.png']
+    assert [os.path.basename(p) for p in pictures] == ['round1_rooms.png', 'round1_tables.png',
+                                                       'round1_confirm.png']
     for picture in pictures:
         assert png_size(picture) == demo.SCREEN_SIZE
         assert os.path.getsize(picture) > 20000
     with open(out / 'selections.csv', newline='') as stream:
         rows = list(csv.DictReader(stream))
-    assert [row['correct'] for row in rows] == ['True', 'True']
+    assert [row['correct'] for row in rows] == ['True', 'True', 'True']
     assert rows[0]['picture'] == 'round1_rooms.png'
+    # The drive, from above: the map, the path driven, the goal and the robot.
+    drive = summary['selections'][1]['robot']['picture']
+    assert os.path.basename(drive) == 'round1_drive.png' and os.path.getsize(drive) > 20000
+    assert rows[1]['robot_arrived'] == 'True' and len(rows[1]['robot_goal'].split()) == 3
+    assert float(rows[1]['robot_path_m']) > 0 and rows[0]['robot_arrived'] == ''
 
 
 @pytest.mark.ros
@@ -169,6 +183,27 @@ def test_quick_demo_with_ssvep_input_chooses_right(tmp_path, mode):
     printed = stdout.getvalue()
     assert code == 0, printed[-2000:]
     summary = json.loads((tmp_path / 'summary.json').read_text())
-    assert [s['correct'] for s in summary['selections']] == [True, True]
+    assert [s['correct'] for s in summary['selections']] == [True, True, True]
     assert {s['method'] for s in summary['selections']} == {mode}
+    assert summary['selections'][1]['robot']['arrived']
     assert summary['itr_bits_per_min'] > 0
+
+
+@pytest.mark.ros
+@pytest.mark.lsl
+def test_make_demo_confirms_every_table_and_the_robot_arrives(tmp_path):
+    """What ``make demo`` shows a user: four tables, each confirmed, sent and arrived at."""
+    stdout = io.StringIO()
+    with contextlib.redirect_stdout(stdout):
+        code = demo.main(['--output-dir', str(tmp_path), '--no-pictures'])
+    printed = stdout.getvalue()
+    assert code == 0, printed[-2000:]
+    summary = json.loads((tmp_path / 'summary.json').read_text())
+    tables = [s for s in summary['selections'] if s['step'] == 'tables'
+              and s['chosen'] != BACK_LABEL]
+    assert [s['chosen'] for s in tables] == summary['script'] == summary['outcomes']
+    for table in tables:
+        later = summary['selections'][summary['selections'].index(table) + 1]
+        assert (later['step'], later['chosen']) == ('confirm', GO_LABEL)
+        assert table['robot']['arrived'], table['robot']
+    assert printed.count('arrived after') == 4

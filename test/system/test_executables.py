@@ -6,6 +6,7 @@ domain, the way ``ros2 run`` and ``ros2 launch`` start them.
 """
 
 import contextlib
+import math
 import os
 import signal
 import subprocess
@@ -13,11 +14,14 @@ import sys
 import time
 
 from domain_coordinator import domain_id
+from geometry_msgs.msg import PointStamped
 from lsl_outlets import make_outlet, unique_id
 from paths import loaded
 import pytest
+from ros_harness import Collector
 
 from eye_bci_ros2.ros.runner import CLEANUP_LIMIT_S, HARD_LIMIT_S
+from eye_bci_ros2.ros.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -98,14 +102,24 @@ def test_gaze_validation_refuses_a_bad_start_with_one_line(args, reason):
     assert last.startswith('cannot start:') and reason in last, err[-2000:]
 
 
-def test_gaze_validation_without_gaze_refuses_with_one_line_and_status_1(tmp_path):
+def test_gaze_validation_without_gaze_refuses_before_a_target_with_one_line(graph, tmp_path):
+    """No bridge running: refused after gaze_wait_s, the reason in one line, no target shown."""
+    targets = Collector(graph.node('person'), PointStamped, VALIDATION_TARGET_TOPIC,
+                        LATCHED_QOS)
     output = tmp_path / 'correction.yaml'
-    status, _, err = run('gaze_validation', '--ros-args', '-p', 'targets:=5', '-p',
-                         'target_s:=0.3', '-p', 'settle_s:=0.1', '-p', 'camera_wait_s:=0.0',
-                         '-p', 'bridge_timeout_s:=0.2', '-p', f'output:={output}')
-    assert status == 1 and 'Traceback' not in err, err[-2000:]
+    with killed_if_left(start('gaze_validation', '--ros-args', '-p', 'gaze_wait_s:=2.0', '-p',
+                              f'output:={output}', domain=graph.domain)) as process:
+        # Its first target message (latched) says "none yet": the listener hears it.
+        assert graph.spin_until(lambda: targets.messages, 30.0), 'never heard validation/target'
+        assert graph.spin_until(lambda: process.poll() is not None, 60.0), 'still running'
+        out, err = process.communicate()
+    graph.spin_for(0.5)     # anything it published before it ended
+    assert process.returncode == 1 and 'Traceback' not in err, err[-2000:]
     refused = [line for line in err.splitlines() if 'validation refused' in line]
-    assert len(refused) == 1 and 'got fewer than 10 gaze samples' in refused[0], err[-2000:]
+    assert len(refused) == 1 and refused[0].endswith(
+        'validation refused: no gaze on gaze/samples in 2 s: is lsl_gaze_bridge running and '
+        'the tracker streaming?'), err[-2000:]
+    assert all(math.isnan(message.point.x) for message in targets.messages)
     assert not output.exists()
 
 

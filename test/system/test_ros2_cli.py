@@ -336,7 +336,7 @@ def assert_clean_stop(process: Process, status: int, expected_nodes: Optional[in
 
 
 @pytest.mark.parametrize('file, nodes', [('pipeline.launch.py', 4),
-                                         ('experiment.launch.py', 5)])
+                                         ('experiment.launch.py', 6)])
 def test_launch_then_ctrl_c_once_stops_every_node(ros2, env, tmp_path, file, nodes):
     arguments = [file] + (['rviz:=false'] if file.startswith('experiment') else [])
     with domain_id() as domain:
@@ -364,8 +364,8 @@ def test_launch_ctrl_c_twice_and_during_start_up(ros2, env, tmp_path):
         status = twice.finish()
         # Every node stops cleanly; launch's own process may end on the second SIGINT when
         # it lands after the nodes have gone (launch's behaviour, not the nodes').
-        assert stopped_cleanly(twice.output()) == 5, twice.output()
-        assert_clean_stop(twice, 0 if status == -signal.SIGINT else status, 5)
+        assert stopped_cleanly(twice.output()) == 6, twice.output()
+        assert_clean_stop(twice, 0 if status == -signal.SIGINT else status, 6)
         # While the nodes still import (rclpy is loaded, no node exists yet).  Earlier, in
         # Python's own start-up, only Python itself could keep quiet.
         early = launch(ros2, env, domain, tmp_path, 'pipeline.launch.py', name='early')
@@ -391,6 +391,51 @@ def test_launch_refuses_a_missing_params_file_and_rviz2_before_starting_anything
             pytest.skip('rviz2 is installed here')
         assert status == 1 and 'rviz2 is not installed' in rviz.output(), rviz.output()
         assert not started_pids(rviz.output())
+
+
+def test_a_failed_node_is_seen_as_the_readme_says_though_launch_exits_0(ros2, env, tmp_path):
+    """README, "What to expect": ``echo $?`` gives 0; the "process has died" line tells."""
+    readme = (Path(__file__).resolve().parents[2] / 'README.md').read_text()
+    for said in ('; echo $?` prints `0`', 'process has died [pid N, exit code 1',
+                 "2>&1 | tee launch.log` then\n  `grep 'process has died' launch.log`"):
+        assert said in readme, said
+    log = tmp_path / 'launch.log'
+    # As a user's script does it, in a shell: the launch's own status, then the grep.
+    script = (f"'{ros2}' launch {PACKAGE} pipeline.launch.py profile:=tobi 2>&1 "
+              f"| tee '{log}'; echo \"launch status ${{PIPESTATUS[0]}}\"; "
+              f"grep 'process has died' '{log}'")
+    with domain_id() as domain:
+        shell = Process(['bash', '-c', script], env, domain, tmp_path / 'shell.log')
+        assert shell.finish() == 0, shell.output()
+    output = shell.output()
+    assert 'launch status 0' in output, output[-3000:]
+    died = [line for line in output.splitlines() if line.startswith('[ERROR]')]
+    assert len(died) == 2 and died[0] == died[1], output[-3000:]   # the launch's, the grep's
+    assert re.match(r'\[ERROR\] \[lsl_gaze_bridge-1\]: process has died \[pid \d+, '
+                    r'exit code 1, ', died[0]), died
+    assert "cannot start: invalid parameter override: profile: 'tobi'" in output
+    assert 'process[lsl_gaze_bridge-1] was required: shutting down launched system' in output
+    assert not alive(started_pids(output)), output[-3000:]
+
+
+def test_launch_refuses_a_boolean_argument_that_is_not_one(ros2, env, tmp_path):
+    with domain_id() as domain:
+        maybe = launch(ros2, env, domain, tmp_path, 'experiment.launch.py', 'rviz:=maybe',
+                       name='maybe')
+        status = maybe.finish()
+        output = maybe.output()
+        assert status == 1, output
+        assert "rviz:='maybe' is not a boolean (accepted: true, 1, false, 0; any case)" \
+            in output
+        assert output.count('is not a boolean') == 1 and not TRACEBACK.search(output), output
+        assert not started_pids(output)
+        # The accepted values are read as launch reads them: 'False' starts no RViz2.
+        accepted = launch(ros2, env, domain, tmp_path, 'experiment.launch.py', 'rviz:=False',
+                          'robot:=none',
+                          name='accepted')
+        assert accepted.wait_for('waiting for camera/pose'), accepted.output()
+        accepted.interrupt()
+        assert_clean_stop(accepted, accepted.finish(), 5)
 
 
 def test_launch_ends_every_node_when_one_dies_at_start_up(ros2, env, tmp_path):

@@ -75,6 +75,8 @@ def test_sim_person_bridge_and_validation_reach_the_residual_goal(tmp_path):
                 'nodes.gaze_validation', '--ros-args', '-p', 'screen_width_mm:=527.0',
                 '-p', 'screen_height_mm:=296.0', '-p', 'viewing_distance_mm:=600.0',
                 '-p', 'camera_wait_s:=0.0', '-p', 'bridge_timeout_s:=20.0',
+                # Started with the bridge: its first gaze may take a while on a loaded machine.
+                '-p', 'gaze_wait_s:=30.0',
                 '-p', f'output:={output}', domain=domain)
             out, err = validation.communicate(timeout=120)
         finally:

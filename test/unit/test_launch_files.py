@@ -8,7 +8,9 @@ console script of setup.py, every file reached through
 ``FindPackageShare('eye_bci_ros2')`` must be installed by setup.py's
 ``data_files`` (evaluated by running setup.py with ``setuptools.setup``
 captured), every ``LaunchConfiguration`` must be declared in its file, and
-the files may import only launch, launch_ros, ament_index_python and os.
+the files may import only launch, launch_ros, ament_index_python, os and the
+package's boolean-argument check (every boolean argument is declared through
+it, so ``rviz:=maybe`` is refused).
 """
 
 import ast
@@ -20,10 +22,14 @@ from unittest import mock
 
 import pytest
 
+from eye_bci_ros2.ros.launch_arguments import FALSE_VALUES, parse_boolean, TRUE_VALUES
+
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = 'eye_bci_ros2'
 LAUNCH_FILES = sorted((REPO / 'launch').glob('*.launch.py'))
 ALLOWED_IMPORTS = ('launch', 'launch_ros', 'ament_index_python', 'os')
+#: The package's launch helper (its booleans); no other module of the package.
+HELPER = 'eye_bci_ros2.ros.launch_arguments'
 #: Executables of other packages a launch file may start: package -> executables.
 EXTERNAL_EXECUTABLES = {'rviz2': {'rviz2'}}
 #: Files added apart (config/eye_bci.rviz): checked once they exist.
@@ -115,6 +121,17 @@ def share_paths(module: ast.Module, constants) -> List[str]:
     return paths
 
 
+def booleans(module: ast.Module) -> Dict[str, bool]:
+    """Return the arguments declared by ``boolean_arguments((name, default, text), ...)``."""
+    found = {}
+    for call in calls(module, 'boolean_arguments'):
+        for argument in call.args:
+            assert isinstance(argument, ast.Tuple), 'boolean_arguments takes literal tuples'
+            name, default = (literal(part, 'boolean argument') for part in argument.elts[:2])
+            found[name] = default
+    return found
+
+
 @pytest.fixture(scope='module')
 def installed():
     return installed_files()
@@ -138,7 +155,8 @@ def test_only_launch_launch_ros_and_ament_index_are_imported(path):
             imported.append(node.module)
     assert imported
     for name in imported:
-        assert name.split('.')[0] in ALLOWED_IMPORTS, f'{path.name} imports {name}'
+        assert name.split('.')[0] in ALLOWED_IMPORTS or name == HELPER, \
+            f'{path.name} imports {name}'
     assert any(isinstance(node, ast.FunctionDef) and node.name == 'generate_launch_description'
                for node in module.body)
 
@@ -186,9 +204,10 @@ def test_the_rviz_file_glob_is_in_data_files():
 def test_every_launch_configuration_is_declared(path):
     module = tree(path)
     declared = {literal(call.args[0], 'DeclareLaunchArgument')
-                for call in calls(module, 'DeclareLaunchArgument')}
+                for call in calls(module, 'DeclareLaunchArgument')} | set(booleans(module))
     used = {literal(call.args[0], 'LaunchConfiguration')
             for call in calls(module, 'LaunchConfiguration')}
+    used |= {literal(call.args[1], 'is_true') for call in calls(module, 'is_true')}
     assert used and used <= declared, f'{path.name}: undeclared {sorted(used - declared)}'
     for call in calls(module, 'DeclareLaunchArgument'):
         assert 'description' in keywords(call), f'{path.name}: argument without description'
@@ -220,6 +239,45 @@ def test_pipeline_starts_the_four_pipeline_nodes_and_the_experiment_adds_menu_an
     assert executables('pipeline.launch.py') == [
         'camera_tracker', 'choice_arbiter', 'lsl_gaze_bridge', 'marker_projector']
     assert executables('experiment.launch.py') == ['choice_menu', 'rviz2', 'sim_robot']
+
+
+@pytest.mark.parametrize('path', LAUNCH_FILES, ids=lambda path: path.name)
+def test_every_boolean_argument_is_declared_with_its_check(path):
+    """A boolean declared plainly would read ``rviz:=maybe`` as false without a word."""
+    module = tree(path)
+    for call in calls(module, 'DeclareLaunchArgument'):
+        default = keywords(call).get('default_value')
+        if isinstance(default, ast.Constant) and isinstance(default.value, str):
+            assert default.value.lower() not in TRUE_VALUES + FALSE_VALUES, \
+                f'{path.name}: {literal(call.args[0], "argument")} is a boolean: declare it ' \
+                'with boolean_arguments (it refuses what is not one)'
+    assert "LaunchConfiguration('rviz')" not in path.read_text()
+
+
+def test_the_experiment_declares_rviz_as_a_checked_boolean_before_anything_starts():
+    module = tree(REPO / 'launch' / 'experiment.launch.py')
+    assert booleans(module) == {'rviz': True}
+    listed = [ast.unparse(element) for element in calls(module, 'LaunchDescription')[0]
+              .args[0].elts]
+    check = next(i for i, text in enumerate(listed) if 'boolean_arguments' in text)
+    starts = [i for i, text in enumerate(listed)
+              if text.startswith(('IncludeLaunchDescription', 'OpaqueFunction(function=_menu',
+                                  'OpaqueFunction(function=_robot'))]
+    assert starts and check < min(starts)
+
+
+@pytest.mark.parametrize('text, expected', [('true', True), ('True', True), ('1', True),
+                                            ('false', False), ('FALSE', False), ('0', False)])
+def test_boolean_arguments_read_launch_s_own_values(text, expected):
+    assert parse_boolean('rviz', text) is expected
+
+
+@pytest.mark.parametrize('text', ['maybe', '', 'yes!', 'treu', '2'])
+def test_anything_else_is_refused_with_the_accepted_values(text):
+    with pytest.raises(ValueError) as refused:
+        parse_boolean('rviz', text)
+    assert str(refused.value) == (f"rviz:='{text}' is not a boolean (accepted: true, 1, false, "
+                                  '0; any case): nothing started')
 
 
 def launch_function(name, values):

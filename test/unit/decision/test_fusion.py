@@ -1,8 +1,10 @@
 """Input modes: gaze, SSVEP, hybrid (gaze never chooses alone)."""
 
+import numpy as np
 import pytest
 
-from eye_bci_ros2.decision.fusion import ChoiceFusion, FusionOutcome, FusionSettings
+from eye_bci_ros2.decision.fusion import ChoiceFusion, confirmation, FusionOutcome, FusionSettings
+from eye_bci_ros2.ssvep.decision import DEFAULT_GAIN, DEFAULT_REST_Z, posterior
 
 OPTIONS = ('kitchen', 'bedroom', 'bathroom')
 
@@ -106,3 +108,30 @@ def test_a_gaze_decision_says_when_its_round_can_lead_to_no_choice():
     assert hybrid.ssvep_choice('kitchen', 2.5) == 'kitchen'
     assert hybrid.gaze_outcome(None, 3.0, reason='no sample') == FusionOutcome(), \
         'a round already chosen is not reported as ending without a choice'
+
+
+def test_the_candidate_is_confirmed_against_rest_not_against_the_other_options():
+    """Gaze says which option: the EEG answers "this one, or nothing?" (one-stimulus detection)."""
+    # The decoder's posterior of the candidate (index 1) is its one-stimulus detection against
+    # rest whatever the unattended options' evidence, as long as they do not lead it.
+    detection = np.exp(DEFAULT_GAIN * 2.5) / (np.exp(DEFAULT_GAIN * 2.5)
+                                              + np.exp(DEFAULT_GAIN * DEFAULT_REST_Z))
+    for others in ([0.0, 0.0], [1.5, 1.0], [-1.0, 2.4]):
+        z = np.array([others[0], 2.5, others[1]])
+        assert confirmation(posterior(z))[1] == pytest.approx(detection)
+    # Another option leading: the person attends that one, the gaze is wrong.
+    assert confirmation(posterior(np.array([4.0, 2.5, 0.0])))[1] == 0.0
+    # No "nothing attended" share (another decoder): its posterior as it is; junk counts 0.
+    assert confirmation([0.2, 0.8, 0.0]).tolist() == [0.0, 0.8, 0.0]
+    assert confirmation([float('nan'), 0.5, 0.1]).tolist()[0] == 0.0
+
+
+def test_hybrid_a_posterior_shared_with_unattended_options_still_confirms():
+    fusion = _fusion('hybrid', confirm_threshold=0.9, hold_s=0.0)
+    assert fusion.gaze('bedroom', 1.0) is None
+    # 0.85 of the posterior, 0.1 on an option nobody looks at, 0.05 on nothing: 0.85 / 0.9.
+    assert fusion.ssvep_scores(OPTIONS, [0.1, 0.85, 0.0], 1.1) == 'bedroom'
+    fusion = _fusion('hybrid', confirm_threshold=0.9, hold_s=0.0)
+    assert fusion.gaze('bedroom', 1.0) is None
+    # 0.6 on it and 0.4 on nothing: not enough, whatever the threshold of the decoder.
+    assert fusion.ssvep_scores(OPTIONS, [0.0, 0.6, 0.0], 1.1) is None

@@ -129,6 +129,9 @@ def test_profile_defaults_and_explicit_parameters_precedence():
     ({'origin': 'centre'}, "origin 'centre'"),
     ({'screen_width': 0}, 'screen size must be positive'),
     ({'confidence_channel': 'a,b'}, 'must name one channel'),
+    ({'profile': 'custom', 'x_channel': '0', 'y_channel': '0'},
+     "x_channel and y_channel both name channel '0': x and y must be two different channels"),
+    ({'x_channel': 'lx,rx', 'y_channel': 'ly,lx'}, "both name channel 'lx'"),
 ])
 def test_bad_configuration_says_why(values, message):
     with pytest.raises(ValueError, match=message):
@@ -148,6 +151,10 @@ def test_mapping_by_label_index_and_fallback_layout():
         mapping_for('pupil_capture', labels=['a', 'b'], channel_count=2)
     with pytest.raises(ValueError, match='index 1 is out of range, the stream has 1 channel'):
         mapping_for('xy_pixels', channel_count=1)
+    # A label and an index naming one column: refused once bound to the stream.
+    config = build_config({'profile': 'custom', 'x_channel': 'gx', 'y_channel': '0'})
+    with pytest.raises(ValueError, match='x_channel and y_channel both name column 0: x and y'):
+        resolve_mapping(config, ['gx', 'gy'], 2)
 
 
 def test_stream_selection_and_resolver_predicate():

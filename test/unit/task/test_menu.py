@@ -6,9 +6,10 @@ import pytest
 from eye_bci_ros2.projection.camera_model import look_at_pose, rviz_intrinsic
 from eye_bci_ros2.projection.geometry import project_points
 from eye_bci_ros2.ros.package_files import default_scene_path
-from eye_bci_ros2.task.menu import (Answer, ASKING, BACK_LABEL, back_marker, FINISHED, LOOK_AWAY,
-                                    MenuProtocol, Offer, PAUSED, ProtocolSettings, READY, Request,
-                                    Result, WAITING_FOR_CAMERA)
+from eye_bci_ros2.task.menu import (Answer, ASKING, BACK_LABEL, back_marker, confirm_markers,
+                                    DRIVING, FINISHED, GO_LABEL, Log, LOOK_AWAY, MenuProtocol,
+                                    Offer, PAUSED, Progress, ProtocolSettings, READY, Request,
+                                    Result, SendGoal, STOP_LABEL, WAITING_FOR_CAMERA)
 from eye_bci_ros2.task.scene import load_scene
 
 SCENE = load_scene(default_scene_path())
@@ -67,11 +68,19 @@ def test_a_camera_that_stops_short_counts_as_arrived_once_settled():
     menu.on_camera_pose(position + [2.0, 0, 0], quaternion, 0.2)
     menu.on_camera_pose(position + [1.0, 0, 0], quaternion, 0.4)    # still moving
     assert not kinds(menu.tick(1.3), Request)
-    assert kinds(menu.tick(1.41), Request)
+    actions = menu.tick(1.41)
+    assert kinds(actions, Request)
+    assert [log.text for log in kinds(actions, Log)] == [
+        'camera settled (1 s without moving): taken as arrived']
     # Without any camera/pose at all (static view): asked after settle_s.
     still = MenuProtocol(SCENE, ProtocolSettings(settle_s=1.0))
     still.start(0.0)
-    assert not kinds(still.tick(0.9), Request) and kinds(still.tick(1.0), Request)
+    assert not kinds(still.tick(0.9), Request)
+    actions = still.tick(1.0)
+    assert kinds(actions, Request)
+    # ... and says so: no "camera settled", as there is no camera.
+    said = [log.text for log in kinds(actions, Log)]
+    assert said == ['no camera/pose in 1 s: asking without waiting for the camera'], said
 
 
 def test_choices_count_only_as_answers():
@@ -89,7 +98,9 @@ def test_choices_count_only_as_answers():
     assert kinds(actions, Request) and menu.asked_at == 1.0
     actions = menu.on_choice('kitchen', 1.5)
     offer = kinds(actions, Offer)[0]
-    assert tuple(m.text for m in offer.markers) == TABLES and offer.view is KITCHEN.view
+    assert offer.markers == () and offer.view is KITCHEN.view   # the camera moves first
+    shown = kinds(arrive(menu, KITCHEN.view, 2.0), Offer)[0]
+    assert tuple(m.text for m in shown.markers) == TABLES and shown.view is None
 
 
 def test_back_option_returns_to_the_rooms_without_an_outcome():
@@ -99,7 +110,7 @@ def test_back_option_returns_to_the_rooms_without_an_outcome():
     assert menu.state == ASKING
     actions = menu.on_choice(BACK_LABEL, 3.0)
     assert not kinds(actions, Result)
-    assert tuple(m.text for m in kinds(actions, Offer)[0].markers) == ROOMS
+    assert menu.options == ROOMS and kinds(actions, Offer)[0].view is SCENE.overview
     without = asked_menu(back_option=False)
     without.on_choice('kitchen', 1.0)
     assert BACK_LABEL not in without.options
@@ -159,13 +170,14 @@ def test_gaze_off_screen_pauses_and_resumes_with_a_new_question():
 
 
 def test_outcome_then_rooms_again_or_finish():
-    menu = asked_menu(look_away_s=0.2)
+    """Without a robot (robot_goals false) the table is the outcome at once."""
+    menu = asked_menu(look_away_s=0.2, robot_goals=False)
     menu.on_choice('kitchen', 1.0)
     arrive(menu, KITCHEN.view, 1.5)
     actions = menu.on_choice('kitchen/table_2', 2.0)
     assert [r.label for r in kinds(actions, Result)] == ['kitchen/table_2']
     assert menu.options == ROOMS
-    done = asked_menu(repeat=False, look_away_s=0.2)
+    done = asked_menu(repeat=False, look_away_s=0.2, robot_goals=False)
     done.on_choice('kitchen', 1.0)
     arrive(done, KITCHEN.view, 1.5)
     actions = done.on_choice('kitchen/table_1', 2.0)
@@ -211,3 +223,196 @@ def test_every_choice_the_menu_acts_on_is_an_answer():
     assert [r.label for r in kinds(actions, Result)] == ['kitchen/table_2']
     ignored = menu.on_choice('office', 4.6)  # not asked: ignored, no answer
     assert kinds(ignored, Answer) == []
+
+
+# -- options shown once the view has settled (issue 33, point 7) ------------------------------
+
+def test_options_appear_once_when_the_camera_has_settled():
+    """Back to the rooms: none is offered while the camera moves, all four once it is there."""
+    menu = asked_menu(look_away_s=0.2)
+    menu.on_choice('kitchen', 1.0)
+    arrive(menu, KITCHEN.view, 1.5)
+    actions = menu.on_choice(BACK_LABEL, 2.0)
+    offers = kinds(actions, Offer)
+    assert [o.markers for o in offers] == [()] and offers[0].view is SCENE.overview
+    position, quaternion = at(SCENE.overview)
+    shown = []
+    for step, now in enumerate(np.arange(2.1, 2.6, 0.1)):     # on its way
+        shown += kinds(menu.on_camera_pose(position + [0, -3.0 + 0.6 * step, 0], quaternion,
+                                           now), Offer)
+        shown += kinds(menu.tick(now + 0.05), Offer)
+    assert shown == [] and menu.state == WAITING_FOR_CAMERA
+    shown = kinds(menu.on_camera_pose(position, quaternion, 2.7), Offer)
+    assert [tuple(m.text for m in o.markers) for o in shown] == [ROOMS]
+    assert shown[0].view is None                 # the camera goal was sent with the withdrawal
+    assert not kinds(menu.tick(5.0), Offer)      # offered once
+    # A camera that stops short: shown when it has settled (settle_s), once.
+    menu.on_choice('office', 3.0)
+    menu.on_camera_pose(position + [1.0, 0, 0], quaternion, 3.1)
+    assert not kinds(menu.tick(3.9), Offer)
+    assert len(kinds(menu.tick(4.2), Offer)) == 1 and not kinds(menu.tick(4.5), Offer)
+
+
+# -- the robot: confirm, goal, stop, progress, arrival --------------------------------------
+
+#: A goal per table (x, y, yaw): a metre south of the table, facing north.
+GOALS = {table.marker.text: np.array([table.marker.position[0],
+                                      table.marker.position[1] - 1.0, np.pi / 2])
+         for room in SCENE.rooms for table in room.tables}
+TABLE = 'kitchen/table_2'
+
+
+def confirming(**settings):
+    """Return a menu asking 'go' or 'back' after kitchen/table_2 was chosen, and the time."""
+    menu = MenuProtocol(SCENE, ProtocolSettings(**{'look_away_s': 0.2, **settings}),
+                        GOALS)
+    menu.start(0.0)
+    arrive(menu, SCENE.overview, 0.5)
+    menu.on_choice('kitchen', 1.0)
+    arrive(menu, KITCHEN.view, 1.5)
+    actions = menu.on_choice(TABLE, 2.0)
+    assert not kinds(actions, SendGoal) and not kinds(actions, Result)
+    assert menu.options == (GO_LABEL, BACK_LABEL) and menu.pending == TABLE
+    assert kinds(menu.tick(2.3), Request) and menu.state == ASKING
+    return menu, 2.5
+
+
+def driving(**settings):
+    menu, now = confirming(**settings)
+    menu.on_odometry(2.0, 7.0, 0.0, now)
+    actions = menu.on_choice(GO_LABEL, now)
+    return menu, actions, now
+
+
+def test_a_table_is_sent_only_after_go():
+    menu, actions, now = driving()
+    goal = kinds(actions, SendGoal)
+    assert [g.label for g in goal] == [TABLE]
+    np.testing.assert_allclose(goal[0].pose, GOALS[TABLE])
+    assert [r.label for r in kinds(actions, Result)] == [TABLE]
+    assert menu.options == (STOP_LABEL,) and menu.state == DRIVING
+    # The stop is asked at once: no look-away gate, no camera move.
+    assert kinds(actions, Request)
+    assert kinds(actions, Progress)[0].text == f"driving to '{TABLE}': 3.0 m left"
+
+
+def test_back_in_the_confirmation_sends_nothing_and_offers_the_tables():
+    menu, now = confirming()
+    actions = menu.on_choice(BACK_LABEL, now)
+    assert not kinds(actions, SendGoal) and not kinds(actions, Result)
+    assert menu.options == TABLES and menu.pending is None
+    # Rooms and back are no destinations; a table is confirmed again.
+    menu.tick(now + 0.5)
+    assert not kinds(menu.on_choice(BACK_LABEL, now + 1.0), SendGoal)
+    assert menu.options == ROOMS
+
+
+def test_looking_away_neither_sends_nor_stops():
+    menu, now = confirming(pause_after_s=1.0)
+    menu.on_screen(False, now)
+    for t in np.arange(now, now + 30.0, 0.5):       # the person looks away for 30 s
+        assert not kinds(menu.tick(t), SendGoal)
+    assert menu.state == PAUSED and menu.pending == TABLE
+    menu.on_screen(True, now + 30.0)
+    menu, actions, now = driving(pause_after_s=1.0, drive_timeout_s=60.0)
+    menu.on_screen(False, now + 0.1)
+    later = []
+    for step, t in enumerate(np.arange(now + 0.5, now + 20.0, 0.5)):
+        later += menu.on_odometry(2.0 + 0.1 * step, 7.0, 0.0, t) + menu.tick(t)
+    assert not kinds(later, SendGoal) and menu.drive is not None and menu.state == PAUSED
+
+
+def test_stop_while_driving_is_a_goal_at_the_robots_pose():
+    menu, actions, now = driving()
+    menu.on_odometry(3.0, 7.2, 0.5, now + 1.0)
+    actions = menu.on_choice(STOP_LABEL, now + 1.2)
+    stop = kinds(actions, SendGoal)
+    assert [g.label for g in stop] == [STOP_LABEL]
+    np.testing.assert_allclose(stop[0].pose, [3.0, 7.2, 0.5])
+    assert menu.drive is None and menu.options == ROOMS     # the next task
+    assert 'stopped' in kinds(actions, Progress)[0].text
+
+
+def test_progress_and_arrival_within_the_tolerances():
+    menu, actions, now = driving()
+    x, y, yaw = GOALS[TABLE]
+    lines = []
+    for step, distance in enumerate((2.5, 2.45, 2.3, 1.0)):
+        lines += kinds(menu.on_odometry(x - distance, y, yaw, now + step), Progress)
+    # A line when the distance left changed by 0.1 m or more.
+    assert [p.text for p in lines] == [f"driving to '{TABLE}': {d} m left"
+                                       for d in ('2.5', '2.3', '1.0')]
+    assert not kinds(menu.on_odometry(x - 0.25, y, yaw, now + 5), Offer)   # 0.25 m: not yet
+    assert not kinds(menu.on_odometry(x - 0.1, y, yaw + np.radians(20), now + 6), Offer)
+    assert menu.state == DRIVING
+    actions = menu.on_odometry(x - 0.15, y + 0.1, yaw - np.radians(10), now + 7)
+    assert kinds(actions, Progress)[-1].text == f"arrived at '{TABLE}'"
+    assert menu.drive is None and menu.options == ROOMS and not kinds(actions, SendGoal)
+    done, _, now = driving(repeat=False)
+    x, y, yaw = GOALS[TABLE]
+    done.on_odometry(x, y, yaw + 2 * np.pi, now + 1)       # the same heading
+    assert done.state == FINISHED
+
+
+def test_a_robot_that_does_not_move_is_reported_and_the_task_offered_again():
+    # No odometry at all: said in one line, nothing sent, the tables again.
+    menu, now = confirming(drive_timeout_s=5.0)
+    menu.on_choice(GO_LABEL, now)
+    assert not kinds(menu.tick(now + 4.9), Log)
+    actions = menu.tick(now + 5.0)
+    warnings = [a.text for a in kinds(actions, Log) if a.level == 'warning']
+    assert len(warnings) == 1 and 'no odometry' in warnings[0]
+    assert not kinds(actions, SendGoal) and menu.options == TABLES and menu.drive is None
+    # Odometry, but no nearer (a refused goal): held where it is.
+    menu, actions, now = driving(drive_timeout_s=5.0)
+    for t in np.arange(now, now + 4.9, 0.5):
+        menu.on_odometry(2.0, 7.0, 0.0, t)
+        assert not kinds(menu.tick(t), SendGoal)
+    actions = menu.tick(now + 5.0)
+    assert [g.label for g in kinds(actions, SendGoal)] == [STOP_LABEL]
+    assert 'no nearer' in kinds(actions, Progress)[0].text and menu.options == TABLES
+    # Progress resets the wait.
+    menu, actions, now = driving(drive_timeout_s=5.0)
+    for step, t in enumerate(np.arange(now + 1, now + 20, 1.0)):
+        menu.on_odometry(2.0 + 0.1 * step, 7.0, 0.0, t)
+        assert menu.tick(t) == [] or menu.drive is not None
+    assert menu.drive is not None
+
+
+def test_a_new_scene_while_driving_stops_the_robot():
+    menu, actions, now = driving()
+    actions = menu.start(now + 1.0)
+    assert [g.label for g in kinds(actions, SendGoal)] == [STOP_LABEL]
+    assert menu.drive is None
+
+
+def test_without_robot_goals_a_table_is_the_outcome_and_nothing_moves():
+    menu = MenuProtocol(SCENE, ProtocolSettings(look_away_s=0.2, robot_goals=False), GOALS)
+    menu.start(0.0)
+    arrive(menu, SCENE.overview, 0.5)
+    menu.on_choice('kitchen', 1.0)
+    arrive(menu, KITCHEN.view, 1.5)
+    actions = menu.on_choice(TABLE, 2.0)
+    assert [r.label for r in kinds(actions, Result)] == [TABLE] and not kinds(actions, SendGoal)
+
+
+def test_confirmation_layout_go_is_far_from_the_chosen_table():
+    """'back' takes the chosen table's place, 'go' the other side of the view (Midas touch)."""
+    intrinsic = rviz_intrinsic(1280, 720)
+    for table in KITCHEN.tables:
+        go, back = confirm_markers(KITCHEN.view, table.marker)
+        uv, depth = project_points(np.array([table.marker.position, go.position,
+                                             back.position]), intrinsic,
+                                   KITCHEN.view.external())
+        assert np.all(depth > 0) and np.all((uv >= 0) & (uv <= [1280, 720]))
+        assert np.hypot(*(uv[1] - uv[0])) >= 0.6 * 640        # go: 384 px or more away
+        assert np.hypot(*(uv[2] - uv[0])) < 60                 # back: where the table was
+        assert go.position[2] > table.marker.position[2]        # above the tables and floor
+        assert (go.text, back.text) == (GO_LABEL, BACK_LABEL)
+
+
+def test_arrival_tolerances_are_the_robots():
+    from eye_bci_ros2.navigation.robot_settings import GOAL_TOLERANCE_DEG, GOAL_TOLERANCE_M
+    settings = ProtocolSettings()
+    assert (settings.goal_tolerance_m, settings.goal_tolerance_deg) == (GOAL_TOLERANCE_M,
+                                                                        GOAL_TOLERANCE_DEG)

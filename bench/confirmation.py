@@ -1,0 +1,148 @@
+"""
+How often a wrong first choice still becomes a robot goal, with the menu's confirmation step.
+
+On real recorded gaze (:mod:`bench.real_gaze`'s recordings and rules, the
+node's default rule): a goal is sent only after 'go' in the confirmation
+step, and a person who sees a wrong table chosen looks at 'back'.  So a
+wrong goal needs two things: a wrong first choice (the 9 x 100 px intent
+rounds of :func:`bench.real_gaze.intent`) and a confirmation round that picks
+'go' while the person looks at 'back'.  The confirmation rounds are real
+gaze rounds too: every jump of a recording's dot is one, 'back' (100 px)
+centred where the dot appears, 'go' (100 px) beside it:
+
+* **menu layout**: 'go' :data:`MENU_GAP_DEG` away horizontally (the menu
+  puts 'go' 0.6 half-widths of the panel from the chosen table and 'back'
+  there, :func:`eye_bci_ros2.task.menu.confirm_markers`: 384 px of the default
+  1280 px panel, 9.4 deg on the default 24-inch screen at 65 cm);
+* **adjacent** (a bound for any layout): 'go' at the benchmark's pitch of
+  1.5 sizes, a 50 px gap.
+
+A confirmation round without a choice is asked again (the menu asks until
+answered), so the share of confirmation answers that are 'go' is
+``go / (go + back)``; the wrong-goal rate per first choice is the wrong-first
+rate times that.  With no 'go' in N rounds the upper 95 % bound is 3 / N
+(the rule of three).  The rounds are independent of the first choice's
+(a wrong first choice comes with the same tracker error at that place: the
+figure assumes the confirmation does not share it, which the menu's layout
+helps, 'go' being elsewhere on the screen).
+
+Usage::
+
+    python -m bench.confirmation [--data DIR] [--seed 0]
+"""
+
+import argparse
+import sys
+from typing import Dict, List, Optional, Sequence
+
+import numpy as np
+
+from bench.real_gaze import (_decide, _fits, _ppd, intent, load_folder, PITCH, RULES,
+                             settings_for_recording)
+from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, px_per_degree_at
+from eye_bci_ros2.recordings import find_data
+from eye_bci_ros2.recordings.gaze import GazeRecording
+from eye_bci_ros2.task.menu import GO_RIGHT
+
+#: Option size, px (the tables step's measured figure is at 100 px).
+SIZE = 100
+#: The menu's 'go' to 'back' distance on the default screen, degrees: GO_RIGHT half-widths
+#: of the 1280 px panel, at the screen's centre.
+MENU_GAP_DEG = float(GO_RIGHT * 640 / px_per_degree_at(
+    np.array([[DEFAULT_VIEWING.width_px / 2, DEFAULT_VIEWING.height_px / 2]]),
+    DEFAULT_VIEWING)[0])
+
+
+def confirm_rounds(recording: GazeRecording, gap_px, rng: np.random.Generator):
+    """Yield (start s, centres (2, 2): go, back) for each jump; 'back' on the dot."""
+    targets = recording.targets
+    if not targets.jumps:
+        return
+    for k in range(1, len(targets)):
+        back = np.asarray(targets.places[k], dtype=float)
+        gap = gap_px(recording, back)
+        for side in rng.permutation([1.0, -1.0]):
+            centres = np.array([back + [side * gap, 0.0], back])
+            if _fits(centres, SIZE, recording):
+                yield float(targets.onsets[k]), centres
+                break
+
+
+def confirmation(recordings: Sequence[GazeRecording], gap_px, seed: int = 0) -> Dict:
+    """Count the confirmation rounds' outcomes under the default rule: go, back, none."""
+    counts = {'rounds': 0, 'go': 0, 'back': 0, 'none': 0}
+    rng = np.random.default_rng([seed, 31])
+    for recording in recordings:
+        rule = settings_for_recording(RULES['default'], recording)
+        for start, centres in confirm_rounds(recording, gap_px, rng):
+            chosen, _ = _decide(recording, centres, SIZE, start, rule)
+            counts['rounds'] += 1
+            counts[{None: 'none', 0: 'go', 1: 'back'}[chosen]] += 1
+    return counts
+
+
+LAYOUTS = {
+    f'menu layout (go {MENU_GAP_DEG:.1f} deg away)':
+        lambda recording, place: MENU_GAP_DEG * _ppd(recording, place),
+    f'adjacent (go {PITCH * SIZE:.0f} px away)': lambda recording, place: PITCH * SIZE,
+}
+
+
+def run(data=None, seed: int = 0) -> Dict:
+    """Return the first-choice tally and each layout's confirmation counts and rates."""
+    folder = data if data is not None else find_data('real_gaze')
+    if folder is None:
+        return {'skipped': 'no real gaze recordings (../shared/data/real_gaze or --data DIR)'}
+    recordings = load_folder(folder)
+    first = intent(recordings, RULES['default'], 9, SIZE, seed)
+    result = {'first': first, 'layouts': {}}
+    wrong_first = first['wrong %'] / 100.0
+    for name, gap in LAYOUTS.items():
+        counts = confirmation(recordings, gap, seed)
+        answered = counts['go'] + counts['back']
+        go_share = counts['go'] / answered if answered else float('nan')
+        bound = (counts['go'] if counts['go'] else 3.0) / max(answered, 1)
+        result['layouts'][name] = dict(
+            counts, go_share=go_share, go_share_bound=bound,
+            wrong_goal=wrong_first * go_share, wrong_goal_bound=wrong_first * bound)
+    return result
+
+
+def format_lines(result: Dict) -> List[str]:
+    """Return the report, as printed."""
+    if 'skipped' in result:
+        return [f"skipped: {result['skipped']}"]
+    first = result['first']
+    lines = [f"first choice, 9 x {SIZE} px, default rule: {first['rounds']} rounds, "
+             f"{first['right %']:.1f} % right, {first['wrong %']:.1f} % wrong", '',
+             "| confirmation ('back' looked at) | rounds | go | back | none | 'go' per answer "
+             '| wrong goals per first choice |', '|---|---|---|---|---|---|---|']
+    for name, row in result['layouts'].items():
+        share = (f"{100 * row['go_share']:.2f} %" if row['go'] else
+                 f"0 (< {100 * row['go_share_bound']:.2f} %, 95 %)")
+        goal = (f"{100 * row['wrong_goal']:.4f} %" if row['go'] else
+                f"0 (< {100 * row['wrong_goal_bound']:.4f} %, 95 %)")
+        lines.append(f"| {name} | {row['rounds']} | {row['go']} | {row['back']} | "
+                     f"{row['none']} | {share} | {goal} |")
+    lines.append(f"without the confirmation step: {first['wrong %']:.1f} % of first choices "
+                 'are wrong goals')
+    return lines
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Command line (module doc)."""
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0].strip())
+    parser.add_argument('--data', help='folder of recordings (default: the development copy)')
+    parser.add_argument('--seed', type=int, default=0)
+    args = parser.parse_args(argv)
+    try:
+        result = run(data=args.data, seed=args.seed)
+    except (OSError, ValueError) as error:
+        print(f'confirmation: {error}', file=sys.stderr)
+        return 1
+    print('\n'.join(format_lines(result)))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
