@@ -7,9 +7,9 @@ gaze bridge (:mod:`eye_bci_ros2.nodes.lsl_gaze_bridge`) and the SSVEP decoder
 (:mod:`eye_bci_ros2.nodes.ssvep_decoder`) only turn its chunks into messages.
 No pylsl here: liblsl sits behind the small :class:`Lsl` / :class:`Inlet`
 interfaces, implemented with pylsl by :mod:`eye_bci_ros2.ros.lsl_adapter`,
-so every rule below is tested with a fake clock and a fake network
-(``test/unit/streams/test_lsl_connection.py``) and with real liblsl in the node
-tests.  The model is mne-lsl's ``StreamLSL`` (connect / acquire /
+so the pure rules are tested alone (``test/unit/streams/``) and every rule
+with real liblsl and real outlets (``test/streams/test_lsl_connection.py``,
+and the node tests).  The model is mne-lsl's ``StreamLSL`` (connect / acquire /
 disconnect), with the I/O apart as in tf2's Buffer and listener.
 
 Rules (docs/DESIGN.md, "LSL streams"):
@@ -362,7 +362,7 @@ class StreamConnection:
     the clock offset) and :meth:`acquire` every poll (zero-timeout pulls).
 
     :param profile: which streams to take.
-    :param lsl: liblsl (the pylsl adapter, or a fake in unit tests).
+    :param lsl: liblsl (the pylsl adapter).
     :param settings: timeouts and chunk size.
     :param report: where log lines go.
     :param ros_now_ns: the node's ROS clock, ns.

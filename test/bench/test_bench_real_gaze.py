@@ -45,17 +45,34 @@ def test_the_previous_default_chose_wrong_where_the_new_one_abstains(recordings)
 
 
 def test_a_labs_own_csv_recording_runs_through_the_command(tmp_path, capsys):
+    # Twelve targets, 1.5 s apart; the eyes leave at each onset and give no sample for
+    # 0.25 s (the jump), then rest on the new target with 8 px noise until the next onset.
+    rate, period, flight = 60, 1.5, 0.25
     rng = np.random.default_rng(0)
     places = rng.uniform([300, 300], [1620, 780], size=(12, 2))
-    stamps = np.arange(0, 12 * 1.5, 1 / 60)
-    target = np.minimum((stamps / 1.5).astype(int), 11)
-    lag = np.minimum(((stamps - 0.25) / 1.5).astype(int).clip(0), 11)
-    looked_at = np.where(stamps % 1.5 > 0.25, target, lag)
-    points = places[looked_at] + rng.normal(0, 8, (len(stamps), 2))
-    write_lab_csv(tmp_path, stamps, points, places, 1.5)
+    stamps = np.arange(0, 12 * period, 1 / rate)
+    target = np.minimum((stamps / period).astype(int), 11)
+    points = places[target] + rng.normal(0, 8, (len(stamps), 2))
+    points[stamps % period <= flight] = np.nan
+    write_lab_csv(tmp_path, stamps, points, places, period)
     assert real_gaze.main(['--data', str(tmp_path), '--sizes', '200', '--options', '3']) == 0
     out = capsys.readouterr().out
-    assert '| default | 3 x 200 px |' in out and 'lab (csv' in out
+    assert 'lab (csv, 60 Hz, 12 targets)' in out
+    table = {cells[0]: cells[1:] for cells in (
+        [cell.strip() for cell in line.strip('|').split('|')] for line in out.splitlines()
+        if line.startswith('| ') and '3 x 200 px' in line)}
+    # Every target after the first is one round (the first has no jump to it); the eyes
+    # rest on each goal for 1.25 s, so every rule chooses it, and never another.
+    for rule in real_gaze.RULES:
+        assert table[rule][:5] == ['3 x 200 px', '11', '100.0', '0.0', '0.0'], (rule, out)
+    # The default rule decides the dwell after the first sample on the goal; the "window
+    # end" rule at the end of its window.
+    first_on_goal = np.ceil(flight * rate + 1e-9) / rate
+    default = real_gaze.RULES['default']
+    assert float(table['default'][5]) == pytest.approx(
+        1000 * (first_on_goal + default.dwell_s), abs=1.0)
+    assert float(table['default, window end'][5]) == pytest.approx(
+        1000 * real_gaze.RULES['default, window end'].window_s, abs=1.0)
 
 
 def test_a_folder_that_does_not_exist_is_one_line_and_status_1(tmp_path, capsys):

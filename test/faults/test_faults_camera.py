@@ -16,7 +16,7 @@ import pytest
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.projection.camera_model import look_at_pose, ogre_pose_from_optical
-from eye_bci_ros2.ros.conversions import pose_to_arrays
+from eye_bci_ros2.ros.conversions import pose_to_arrays, stamp_to_ns
 
 pytestmark = pytest.mark.ros
 
@@ -220,7 +220,6 @@ def test_no_camera_pose_means_no_regions_and_no_choice(graph, capfd, fault):
         markers = room_markers()
         rig.choices_pub.publish(MarkerArray(markers=markers))
         assert log.wait_for(graph, 'marker_projector.*no camera/pose yet')
-        graph.spin_for(0.5)
         assert rig.regions.messages == []
         assert rig.arbiter.rounds_started == 0
         # Gaze where a room would be, even with a request: nothing to choose from.
@@ -233,8 +232,14 @@ def test_no_camera_pose_means_no_regions_and_no_choice(graph, capfd, fault):
         assert rig.finish_round().label is None
         assert rig.published_choices() == []
         # The camera arrives late: the latched markers are projected at once.
+        camera_at = rig.now()
         rig.publish_camera(*look_at_pose(EYE, FOCUS, UP))
         assert graph.spin_until(lambda: len(rig.current()) == 3, WAIT_S)
+        # And only then: the projector publishes in order, so regions made before the
+        # camera (late, or not) would have come first, stamped before it.
+        stamps = [stamp_to_ns(marker.header.stamp) * 1e-9
+                  for message in rig.regions.messages for marker in message.markers]
+        assert stamps and min(stamps) >= camera_at, (stamps, camera_at)
         rig.choose('kitchen')
 
 

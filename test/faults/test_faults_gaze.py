@@ -167,9 +167,10 @@ def test_a_burst_of_ten_thousand_samples(graph, capfd, fault):
         assert rig.published_choices() == ['bedroom']
         assert log.wait_for(graph, r"choice 'bedroom' by mean: \d+ samples", mark)
         assert rig.answers('/choice_arbiter')
-        # Counted, so a loss is visible (the QoS keeps 1000 per reader).
+        # 10 000 samples are 417 batches of 24, within the gaze QoS's depth of 1000 messages
+        # (reliable): every sample must be counted; a loss would be a smaller count.
         case.note = f'{decision.samples_used} of 10000 samples reached the arbiter'
-        assert decision.samples_used >= 1000, case.note
+        assert decision.samples_used == 10000, case.note
 
 
 def test_gaze_that_stops_mid_round_closes_the_round_on_time(graph, capfd, fault):
@@ -389,15 +390,19 @@ def test_lsl_stream_lost_mid_round_and_restarted(graph, capfd, fault):
     with fault('gaze', 'LSL outlet lost mid-round (cable pulled) and restarted'):
         mark = log.mark()
         rig.request()
-        push(outlet, rig.look_at_region('bedroom', count=120))
+        published = len(rig.choices.messages)
+        count = rig.gazes.count
+        push(outlet, rig.look_at_region('bedroom', count=360))
+        # 0.3 s on the bedroom (twice the dwell) reached gaze before the tracker dies.
+        assert graph.spin_until(lambda: rig.gazes.count >= count + 360, WAIT_S)
         del outlet   # the tracker application dies
         gc.collect()
         assert log.wait_for(graph, 'lsl_gaze_bridge.*(lost gaze stream|no longer advertised)',
                             mark)
         decision = rig.finish_round()
-        # What came before the loss is all the evidence: the bedroom, or nothing.
-        assert decision.label in ('bedroom', None)
-        assert set(rig.published_choices()) <= {'bedroom'}
+        # What came before the loss is the evidence: the bedroom, chosen once.
+        assert decision.label == 'bedroom', decision.summary()
+        assert [m.data for m in rig.choices.messages[published:]] == ['bedroom']
         outlet, _ = make_outlet('custom', name=name, source_id=source_id,
                                 stream_type=stream_type)
         connect(graph, outlet)

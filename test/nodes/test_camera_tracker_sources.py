@@ -20,6 +20,10 @@ pytestmark = pytest.mark.ros
 
 PORT_TOPIC = 'rviz_plugin_view_animated_1/pose'
 CONFIG = Path(__file__).resolve().parents[2] / 'config' / 'eye_bci.rviz'
+#: An RViz file whose view is a first-person camera at (1, 2, 3) m, pitched 0.2 rad down.
+FPS_VIEW = ('Visualization Manager:\n  Global Options:\n    Fixed Frame: map\n'
+            '  Views:\n    Current:\n      Class: rviz_default_plugins/FPS\n'
+            '      Position: {X: 1, Y: 2, Z: 3}\n      Pitch: 0.2\n      Yaw: 0\n')
 
 #: A view RViz might show, and its optical pose.
 EYE, FOCUS, UP = [0.0, -8.0, 12.0], [1.0, 2.0, 0.0], [0.0, 0.0, 1.0]
@@ -154,18 +158,21 @@ def test_unusable_rviz_config_stops_the_node_with_a_reason(graph, tmp_path, cont
             Parameter('rviz_config', value=str(config))])
 
 
-def test_rviz_config_is_read_only(graph):
-    start(graph)
+def test_rviz_config_is_read_only(graph, tmp_path):
+    config = tmp_path / 'fps.rviz'
+    config.write_text(FPS_VIEW)
+    _, poses = start(graph, rviz_config=str(config))
     result = graph.set_parameters('/camera_tracker', {'rviz_config': str(CONFIG)})[0]
-    assert not result.successful
+    # Refused with the reason, and the file read at start-up still holds.
+    assert not result.successful and 'read-only' in result.reason, result.reason
+    assert graph.get_parameters('/camera_tracker', ['rviz_config']) == [str(config)]
+    np.testing.assert_allclose(pose_to_arrays(poses.last.pose)[0], [1, 2, 3])
 
 
 def test_view_parameters_at_their_defaults_do_not_hide_rviz_config(graph, tmp_path):
     # As with --params-file config/eye_bci.yaml, which spells out every default.
     config = tmp_path / 'fps.rviz'
-    config.write_text('Visualization Manager:\n  Global Options:\n    Fixed Frame: map\n'
-                      '  Views:\n    Current:\n      Class: rviz_default_plugins/FPS\n'
-                      '      Position: {X: 1, Y: 2, Z: 3}\n      Pitch: 0.2\n      Yaw: 0\n')
+    config.write_text(FPS_VIEW)
     _, poses = start(graph, rviz_config=str(config), eye=DEFAULT_EYE, focus=DEFAULT_FOCUS,
                      up=[0.0, 0.0, 1.0])
     position, quaternion = pose_to_arrays(poses.last.pose)

@@ -81,13 +81,11 @@ def test_mean_chooses_the_looked_at_region(graph):
     start = rig.offer({'kitchen': LEFT, 'bedroom': RIGHT})
     points = np.vstack([rig.looks(RIGHT, 100), rig.rng.uniform(0, 1900, (20, 2))])
     rig.send(points, start)
-    assert graph.spin_until(lambda: rig.choices.messages, 10.0)
-    graph.spin_for(0.3)
-    assert rig.labels == ['bedroom']
-    decision = rig.arbiter.last_decision
+    decision = rig.wait_decision()
     assert decision.method == 'mean'
     assert decision.samples_used == 100  # the 1 s window at 100 Hz
     assert decision.in_region_samples == 100
+    assert rig.choices_before_sentinel() == ['bedroom']
 
 
 def test_vote_and_mean_differ_when_the_mean_falls_between(graph):
@@ -148,8 +146,7 @@ def test_no_choice_when_every_sample_is_outside(graph):
     assert decision.label is None
     assert decision.reason == 'no sample in any region'
     assert decision.samples_used == 100
-    graph.spin_for(0.3)
-    assert rig.labels == []
+    assert rig.choices_before_sentinel() == []
 
 
 def test_round_without_gaze_closes_after_the_window(graph):
@@ -253,9 +250,7 @@ def test_early_decision_alone_does_not_choose_the_option_under_a_resting_gaze(gr
     decision = rig.wait_decision()
     assert decision.label == 'table2' and decision.method == 'early'
     assert 0.2 < decision.time_to_decision < 0.3
-    assert graph.spin_until(lambda: rig.choices.messages, 10.0)
-    graph.spin_for(0.1)
-    assert rig.labels == ['table2']
+    assert rig.choices_before_sentinel() == ['table2']
 
 
 def test_min_reaction_is_validated_against_its_range(graph):

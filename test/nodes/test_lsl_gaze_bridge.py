@@ -245,8 +245,11 @@ def test_newest_of_two_outlets_of_one_source_is_used(graph):
     old.push_sample([0.0, 0.0])
     new.push_sample([1366.0, 768.0])
     np.testing.assert_allclose(wait_for(graph, gaze, 1), [[1920, 1080]])
-    graph.spin_for(0.2)
-    assert gaze.count == 1
+    # A sentinel on the new stream: the bridge forwards in order, so had it read the old
+    # stream's sample, that would arrive before this one.
+    new.push_sample([683.0, 384.0])
+    assert graph.spin_until(lambda: np.allclose(gaze.samples()[1][-1], [960, 540]), WAIT_S)
+    np.testing.assert_allclose(gaze.samples()[1], [[1920, 1080], [960, 540]])
     assert not old.have_consumers()
     assert node.stream_uid == new_info.uid()
 
@@ -295,13 +298,18 @@ def test_quiet_stream_is_kept_while_advertised_and_replaced_once_gone(graph, cap
     # The bridge has seen the newer stream and says so, but stays with the quiet one.
     assert log.wait_for(graph, f'lsl_gaze_bridge.*another LSL stream .*{replacement_info.uid()}')
     assert graph.spin_until(lambda: node.stale, WAIT_S), 'quiet stream not reported'
-    graph.spin_for(0.5)
     assert node.stream_uid == hung_info.uid() and not replacement.have_consumers()
     # The application restarts: its old outlet goes away, the new one is picked up.
+    gone = log.mark()
     del hung
     gc.collect()
     connect(graph, replacement)
     assert node.stream_uid == replacement_info.uid()
+    # Only now: the bridge logs each stream it connects to, in order; a switch while the
+    # quiet stream was still advertised would be logged before its outlet went.
+    connected = f"connected to gaze LSL stream '{name}'"
+    assert log.read()[:gone].count(connected) == 1
+    assert log.wait_for(graph, connected, gone)
     replacement.push_sample([7.0, 8.0])
     np.testing.assert_allclose(wait_for(graph, gaze, 1), [[7, 8]])
 

@@ -2,8 +2,9 @@
 
 from dataclasses import replace
 
-from lsl_outlets import bridge_parameters, unique_id
+from lsl_outlets import bridge_parameters, sample_for, unique_id
 import numpy as np
+import pylsl
 import pytest
 from rclpy.parameter import Parameter
 from ros_harness import GazeCollector
@@ -20,6 +21,8 @@ REAL_GAZE = find_data('real_gaze')
 REPLAY_S = 2.0
 #: Generous wait for everything to arrive, s (2 shared cores; never a timing assertion).
 WAIT_S = 30.0
+#: The sentinel sample's stamp ahead of the clock, s (past every replayed sample's).
+SENTINEL_AHEAD_S = 1.0
 
 
 def first_seconds(recording: GazeRecording, seconds: float) -> GazeRecording:
@@ -48,8 +51,14 @@ def test_replayed_real_gaze_reaches_gaze_samples_with_every_sample(graph, profil
         assert graph.spin_until(lambda: gaze.count >= np.count_nonzero(valid)
                                 and replayer.finished, WAIT_S + REPLAY_S * 3), \
             f'{gaze.count} of {np.count_nonzero(valid)} samples arrived'
-        graph.spin_for(0.3)     # anything extra would arrive now
-    stamps, points = gaze.samples()
+        # A sentinel sample after the replay, stamped a second ahead: the bridge forwards
+        # samples in order, so anything extra of the replay arrives before it.
+        sentinel_s = bridge.get_clock().now().nanoseconds * 1e-9 + SENTINEL_AHEAD_S - 0.5
+        replayer.outlet.push_sample(sample_for(profile, [[100.0, 100.0]])[0].tolist(),
+                                    pylsl.local_clock() + SENTINEL_AHEAD_S)
+        assert graph.spin_until(lambda: gaze.count and gaze.samples()[0][-1] > sentinel_s,
+                                WAIT_S), 'the sentinel sample never arrived'
+    stamps, points = (part[:-1] for part in gaze.samples())
     # Every valid sample, once, at its place; the lost ones were sent and counted.
     assert len(points) == np.count_nonzero(valid)
     np.testing.assert_allclose(points, recording.points[valid], atol=0.01)

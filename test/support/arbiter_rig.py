@@ -3,19 +3,21 @@
 from builtin_interfaces.msg import Time
 import numpy as np
 from rclpy.parameter import Parameter
-from ros_harness import Collector
+from ros_harness import Collector, gaze_messages
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Empty, String
-from visualization_msgs.msg import MarkerArray
+from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.decision.rounds import COUNT_RULE
 from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
-from eye_bci_ros2.ros.conversions import ns_to_stamp
+from eye_bci_ros2.ros.conversions import ns_to_stamp, regions_to_marker_array
 from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC,
                                      LATCHED_QOS, REQUEST_TOPIC)
 
 #: The tests publish a round's gaze at once, stamped up to ~1 s ahead of the clock.
 MAX_FUTURE_S = 5.0
+#: The tests' gaze of a round ends at most this long after its window, s.
+SENT_AFTER_WINDOW_S = 0.5
 
 
 def to_time(seconds: float) -> Time:
@@ -80,3 +82,40 @@ class ArbiterRig:
         self.request_pub.publish(Empty())
         assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, 10.0)
         return self.arbiter.round_start
+
+    #: The label of :meth:`choices_before_sentinel`'s option; no test offers it.
+    SENTINEL = 'sentinel'
+
+    def choices_before_sentinel(self, centre=(960.0, 540.0), rate_hz: float = 100.0,
+                                timeout: float = 10.0):
+        """
+        Return the choices received before one more choice that must come.
+
+        Offers a new option, :data:`SENTINEL` (a 200 px square at ``centre``), rests
+        the gaze on it and waits for its choice.  The arbiter publishes its choices
+        in order on one topic, so a late choice of anything before arrives ahead of
+        this one: a check that nothing (else) was chosen sees it, where a fixed wait
+        may end before it comes.
+        """
+        window = self.arbiter.settings.window_s
+        # Past every stamp of the gaze sent before (at most a window and a bit after its
+        # round's start), so that none of it lands in the sentinel's window.
+        last = self.arbiter.last_decision
+        if last is not None and last.round_start is not None:
+            clear = last.round_start + window + SENT_AFTER_WINDOW_S
+            assert self.graph.spin_until(lambda: self.now() > clear, timeout + window)
+        x, y = centre
+        square = np.array([[[x - 100, y - 100], [x + 100, y - 100], [x + 100, y + 100],
+                            [x - 100, y + 100]]], dtype=float)
+        rounds = self.arbiter.rounds_started
+        start = self.now()   # new options: a round starts at their stamp
+        self.regions.publish(regions_to_marker_array(
+            square, [Marker(ns='sentinel', id=0, text=self.SENTINEL)], to_time(start)))
+        assert self.graph.spin_until(lambda: self.arbiter.rounds_started > rounds, timeout)
+        count = int(round((window + 0.2) * rate_hz))
+        stamps = start + (np.arange(count) + 0.5) / rate_hz
+        for message in gaze_messages(self.rng.normal(centre, 10.0, (count, 2)), stamps):
+            self.gaze.publish(message)
+        assert self.graph.spin_until(lambda: self.SENTINEL in self.labels, timeout), \
+            f'the sentinel was not chosen: {self.labels}'
+        return self.labels[:self.labels.index(self.SENTINEL)]

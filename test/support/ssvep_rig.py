@@ -88,6 +88,24 @@ class Rig:
         self.streamer.attend(attend, lsl_epoch)
         return now
 
+    #: The option :meth:`choices_before_sentinel` offers; no test offers it otherwise.
+    SENTINEL = 'sentinel'
+
+    def choices_before_sentinel(self):
+        """
+        Return the choices received before one more choice that must come.
+
+        Offers new options (a new round), one of them :data:`SENTINEL`, which the
+        person attends, and waits for its choice.  The decoder publishes its
+        choices in order on one topic, so a late choice of an earlier round arrives
+        ahead of this one, where a fixed wait may end before it comes; no earlier
+        round offered :data:`SENTINEL`, so that late choice cannot be mistaken for it.
+        """
+        self.offer((self.SENTINEL, 'elsewhere'), attend=self.SENTINEL)
+        labels = lambda: [m.data for m in self.choices.messages]  # noqa: E731
+        assert self.graph.spin_until(lambda: self.SENTINEL in labels(), WAIT_S), labels()
+        return labels()[:labels().index(self.SENTINEL)]
+
     def stop(self):
         """Close the decoder's inlet, then stop the outlet (the stream disappears)."""
         # liblsl can crash when an outlet is destroyed under a connected inlet: the
