@@ -26,19 +26,37 @@ rate times that.  With no 'go' in N rounds the upper 95 % bound is 3 / N
 figure assumes the confirmation does not share it, which the menu's layout
 helps, 'go' being elsewhere on the screen).
 
+**Midas goals** (``--midas``): robot goals per minute of a person who only
+looks around, with no intent, through the menu's flow on the same real gaze
+(:mod:`bench.midas`'s free looking, rounds back to back as the menu asks):
+a tables step (3 tables + 'back', :data:`SIZE` px, placed as
+:func:`bench.midas.layout` places options, clear of the dots); a table
+chosen opens the confirmation step at once, 'back' on the table's place and
+'go' :data:`MENU_GAP_DEG` beside it towards the screen's centre (the menu's
+layout, :func:`eye_bci_ros2.task.menu.confirm_markers`; the other side if it
+does not fit, else anywhere at least that far: 'go' must be clear of the dots
+too, and the dense grids leave no room at the menu's places); 'back' there returns to the same
+tables; 'go' is a goal, and a new room's tables follow (as does the tables
+step's 'back': the rooms step between is left out, it only adds time without
+goals, so the figure is an upper bound in that respect).  The drive's time
+is not counted: minutes are minutes of menu.
+
 Usage::
 
-    python -m bench.confirmation [--data DIR] [--seed 0]
+    python -m bench.confirmation [--data DIR] [--seed 0] [--midas [--layouts 5]]
 """
 
 import argparse
 import sys
-from typing import Dict, List, Optional, Sequence
+from typing import Callable, Dict, List, Optional, Sequence
 
 import numpy as np
 
+from bench import midas
 from bench.real_gaze import (_decide, _fits, _ppd, intent, load_folder, PITCH, RULES,
                              settings_for_recording)
+from eye_bci_ros2.decision.rounds import ArbiterSettings
+from eye_bci_ros2.experiments.trials import decide_trial
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, px_per_degree_at
 from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.gaze import GazeRecording
@@ -108,6 +126,133 @@ def run(data=None, seed: int = 0) -> Dict:
     return result
 
 
+#: The tables step: 3 tables and 'back' (the last option).
+TABLES = 3
+
+
+def midas_confirm_layout(recording: GazeRecording, back: np.ndarray, rng: np.random.Generator,
+                         clearance_deg: float = midas.CLEARANCE_DEG) -> Optional[np.ndarray]:
+    """
+    Return the confirmation step's centres (2, 2), (go, back), for a table at ``back``.
+
+    'back' on the table's place, 'go' :data:`MENU_GAP_DEG` beside it towards the
+    screen's centre, else on the other side, else anywhere at least that far from
+    'back' on the screen; always clear of the dots; None if no place is (module doc).
+    """
+    back = np.asarray(back, dtype=float)
+    gap = MENU_GAP_DEG * _ppd(recording, back)
+    inwards = 1.0 if back[0] < recording.screen.width_px / 2 else -1.0
+    screen = np.array([recording.screen.width_px, recording.screen.height_px], dtype=float)
+    places = [back + [inwards * gap, 0.0], back - [inwards * gap, 0.0]] + list(
+        rng.uniform(SIZE / 2, screen - SIZE / 2, (midas.TRIES, 2)))
+    for go in places:
+        centres = np.array([go, back])
+        if (np.hypot(*(go - back)) >= gap - 1e-9 and _fits(centres, SIZE, recording)
+                and midas._edge_distance(go, SIZE, recording.targets.places).min()
+                >= clearance_deg * _ppd(recording, go)):
+            return centres
+    return None
+
+
+def midas_goals(recording: GazeRecording, rule: ArbiterSettings, layouts: int = midas.LAYOUTS,
+                seed: int = 0,
+                tables: Optional[Callable[[], Optional[np.ndarray]]] = None,
+                confirm: Optional[Callable[[np.ndarray], Optional[np.ndarray]]] = None
+                ) -> Dict[str, float]:
+    """
+    Replay one recording as free looking through the menu's flow, once per layout (module doc).
+
+    :param tables: draws a tables step's centres (TABLES + 1, 2), 'back' last (default:
+        :func:`bench.midas.layout`, clear of the dots); :param confirm: the confirmation
+        step's centres (go, back) for a chosen table's centre (default:
+        :func:`midas_confirm_layout`).  Either returning None ends the layout's replay.
+    :returns: ``{'minutes': of menu, 'rounds': asked, 'tables': chosen, 'back': the
+        confirmation's 'back' chosen, 'goals': its 'go' chosen, 'layouts': replayed,
+        'go after': per goal, s from the table's choice to the 'go'}``.
+    """
+    rng = np.random.default_rng([seed, 33, len(recording.stamps)])
+    if tables is None:
+        def tables():
+            return midas.layout(recording, TABLES + 1, SIZE, midas.CLEARANCE_DEG, rng)
+    if confirm is None:
+        def confirm(place):
+            return midas_confirm_layout(recording, place, rng)
+    stamps, points = midas._valid(recording)
+    first, end = float(recording.stamps[0]), float(recording.stamps[-1])
+    total = {'minutes': 0.0, 'rounds': 0, 'tables': 0, 'back': 0, 'goals': 0, 'layouts': 0,
+             'go after': []}
+    for _ in range(layouts):
+        start = shown = first
+        room = centres = tables()
+        confirming = False
+        if centres is None:
+            continue
+        total['layouts'] += 1
+        while start + rule.window_s <= end:
+            low, high = np.searchsorted(stamps, [start, start + rule.window_s])
+            outcome = decide_trial(points[low:high], stamps[low:high],
+                                   midas._options(centres, SIZE, shown), rule, start=start,
+                                   shown_since=shown)
+            total['rounds'] += 1
+            if outcome.label is None:
+                start += rule.window_s
+                continue
+            # The next step's options appear, and are asked about, at the choice.
+            asked, start = shown, outcome.time_s
+            shown = start
+            chosen = int(outcome.label)
+            if not confirming and chosen < TABLES:
+                total['tables'] += 1
+                centres, confirming = confirm(room[chosen]), True
+            elif confirming and chosen == 1:
+                total['back'] += 1
+                centres, confirming = room, False
+            else:
+                if confirming:
+                    total['goals'] += 1
+                    total['go after'].append(start - asked)
+                room = centres = tables()
+                confirming = False
+            if centres is None:
+                break
+        total['minutes'] += (min(start, end) - first) / 60.0
+    return total
+
+
+def run_midas(data=None, layouts: int = midas.LAYOUTS, seed: int = 0) -> Dict:
+    """Return the Midas goals summed over the recordings (module doc), per minute of menu."""
+    folder = data if data is not None else find_data('real_gaze')
+    if folder is None:
+        return {'skipped': 'no real gaze recordings (../shared/data/real_gaze or --data DIR)'}
+    recordings = load_folder(folder)
+    if not recordings:
+        raise ValueError(f'no gaze recording of a known format in {folder}')
+    total = {'minutes': 0.0, 'rounds': 0, 'tables': 0, 'back': 0, 'goals': 0, 'layouts': 0,
+             'go after': []}
+    for recording in recordings:
+        rule = settings_for_recording(RULES['default'], recording)
+        for key, value in midas_goals(recording, rule, layouts, seed).items():
+            total[key] += value
+    minutes = max(total['minutes'], 1e-9)
+    after = total['go after']
+    return dict(total, goals_per_minute=total['goals'] / minutes,
+                tables_per_minute=total['tables'] / minutes,
+                median_go_s=float(np.median(after)) if after else float('nan'))
+
+
+def format_midas(result: Dict) -> List[str]:
+    """Return the Midas goals' report, as printed."""
+    if 'skipped' in result:
+        return [f"skipped: {result['skipped']}"]
+    return ['looking around without intent, through the menu (tables: 3 + back, '
+            f'{SIZE} px; confirm: go/back, menu layout), default rule:',
+            '| layouts | minutes | rounds | tables chosen | then back | then go (goals) | '
+            'goals per minute | median s from table to go |', '|---|---|---|---|---|---|---|---|',
+            f"| {result['layouts']} | {result['minutes']:.1f} | {result['rounds']} | "
+            f"{result['tables']} | {result['back']} | {result['goals']} | "
+            f"{result['goals_per_minute']:.2f} | {result['median_go_s']:.1f} |"]
+
+
 def format_lines(result: Dict) -> List[str]:
     """Return the report, as printed."""
     if 'skipped' in result:
@@ -134,13 +279,20 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0].strip())
     parser.add_argument('--data', help='folder of recordings (default: the development copy)')
     parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--midas', action='store_true',
+                        help='robot goals per minute of looking around without intent')
+    parser.add_argument('--layouts', type=int, default=midas.LAYOUTS,
+                        help='with --midas: replays per recording')
     args = parser.parse_args(argv)
     try:
-        result = run(data=args.data, seed=args.seed)
+        if args.midas:
+            lines = format_midas(run_midas(args.data, args.layouts, args.seed))
+        else:
+            lines = format_lines(run(data=args.data, seed=args.seed))
     except (OSError, ValueError) as error:
         print(f'confirmation: {error}', file=sys.stderr)
         return 1
-    print('\n'.join(format_lines(result)))
+    print('\n'.join(lines))
     return 0
 
 
