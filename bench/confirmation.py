@@ -39,11 +39,17 @@ too, and the dense grids leave no room at the menu's places); 'back' there retur
 tables; 'go' is a goal, and a new room's tables follow (as does the tables
 step's 'back': the rooms step between is left out, it only adds time without
 goals, so the figure is an upper bound in that respect).  The drive's time
-is not counted: minutes are minutes of menu.
+is not counted: minutes are minutes of menu.  Measured as the menu asks
+until answered, and with its ``confirm_timeout_s`` (unanswered that long
+after it appeared: back to the tables, no goal).  Its price: the intended
+'go' rounds (every jump of a dot, 'go' 100 px on the dot, 'back' at the
+menu's gap beside it, asked back to back until a choice, the next jump or
+the timeout): how many are still answered 'go'.
 
 Usage::
 
-    python -m bench.confirmation [--data DIR] [--seed 0] [--midas [--layouts 5]]
+    python -m bench.confirmation [--data DIR] [--seed 0]
+    python -m bench.confirmation --midas [--layouts 5] [--confirm-timeout S [S ...]]
 """
 
 import argparse
@@ -60,7 +66,7 @@ from eye_bci_ros2.experiments.trials import decide_trial
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, px_per_degree_at
 from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.gaze import GazeRecording
-from eye_bci_ros2.task.menu import GO_RIGHT
+from eye_bci_ros2.task.menu import GO_RIGHT, ProtocolSettings
 
 #: Option size, px (the tables step's measured figure is at 100 px).
 SIZE = 100
@@ -157,8 +163,8 @@ def midas_confirm_layout(recording: GazeRecording, back: np.ndarray, rng: np.ran
 def midas_goals(recording: GazeRecording, rule: ArbiterSettings, layouts: int = midas.LAYOUTS,
                 seed: int = 0,
                 tables: Optional[Callable[[], Optional[np.ndarray]]] = None,
-                confirm: Optional[Callable[[np.ndarray], Optional[np.ndarray]]] = None
-                ) -> Dict[str, float]:
+                confirm: Optional[Callable[[np.ndarray], Optional[np.ndarray]]] = None,
+                timeout_s: Optional[float] = None) -> Dict[str, float]:
     """
     Replay one recording as free looking through the menu's flow, once per layout (module doc).
 
@@ -166,9 +172,11 @@ def midas_goals(recording: GazeRecording, rule: ArbiterSettings, layouts: int = 
         :func:`bench.midas.layout`, clear of the dots); :param confirm: the confirmation
         step's centres (go, back) for a chosen table's centre (default:
         :func:`midas_confirm_layout`).  Either returning None ends the layout's replay.
+    :param timeout_s: a confirmation unanswered this long after it appeared returns to the
+        tables, s (None: asked until answered, as the menu does).
     :returns: ``{'minutes': of menu, 'rounds': asked, 'tables': chosen, 'back': the
         confirmation's 'back' chosen, 'goals': its 'go' chosen, 'layouts': replayed,
-        'go after': per goal, s from the table's choice to the 'go'}``.
+        'go after': per goal, s from the table's choice to the 'go', 'timeouts'}``.
     """
     rng = np.random.default_rng([seed, 33, len(recording.stamps)])
     if tables is None:
@@ -180,7 +188,7 @@ def midas_goals(recording: GazeRecording, rule: ArbiterSettings, layouts: int = 
     stamps, points = midas._valid(recording)
     first, end = float(recording.stamps[0]), float(recording.stamps[-1])
     total = {'minutes': 0.0, 'rounds': 0, 'tables': 0, 'back': 0, 'goals': 0, 'layouts': 0,
-             'go after': []}
+             'go after': [], 'timeouts': 0}
     for _ in range(layouts):
         start = shown = first
         room = centres = tables()
@@ -189,11 +197,17 @@ def midas_goals(recording: GazeRecording, rule: ArbiterSettings, layouts: int = 
             continue
         total['layouts'] += 1
         while start + rule.window_s <= end:
-            low, high = np.searchsorted(stamps, [start, start + rule.window_s])
+            deadline = shown + timeout_s if confirming and timeout_s is not None else np.inf
+            low, high = np.searchsorted(stamps, [start, min(start + rule.window_s, deadline)])
             outcome = decide_trial(points[low:high], stamps[low:high],
                                    midas._options(centres, SIZE, shown), rule, start=start,
                                    shown_since=shown)
             total['rounds'] += 1
+            if outcome.label is None and start + rule.window_s >= deadline:
+                total['timeouts'] += 1
+                centres, confirming, start = room, False, deadline
+                shown = start
+                continue
             if outcome.label is None:
                 start += rule.window_s
                 continue
@@ -219,19 +233,65 @@ def midas_goals(recording: GazeRecording, rule: ArbiterSettings, layouts: int = 
     return total
 
 
-def run_midas(data=None, layouts: int = midas.LAYOUTS, seed: int = 0) -> Dict:
-    """Return the Midas goals summed over the recordings (module doc), per minute of menu."""
+def intended_go(recordings: Sequence[GazeRecording], timeout_s: Optional[float] = None,
+                seed: int = 0) -> Dict:
+    """Count the intended 'go' rounds' answers (module doc): go, back, none; 'go after' s."""
+    counts: Dict = {'rounds': 0, 'go': 0, 'back': 0, 'none': 0, 'go after': []}
+    rng = np.random.default_rng([seed, 31])
+    gap = next(iter(LAYOUTS.values()))
+    for recording in recordings:
+        rule = settings_for_recording(RULES['default'], recording)
+        stamps, points = midas._valid(recording)
+        onsets = list(recording.targets.onsets) + [float(recording.stamps[-1])]
+        for onset, centres in confirm_rounds(recording, gap, rng):
+            options = midas._options(centres[::-1], SIZE, onset)     # 'go' on the dot
+            end = onsets[onsets.index(onset) + 1]
+            end = end if timeout_s is None else min(end, onset + timeout_s)
+            start, answer = onset, 'none'
+            while start < end:
+                low, high = np.searchsorted(stamps, [start, min(start + rule.window_s, end)])
+                made = decide_trial(points[low:high], stamps[low:high], options, rule,
+                                    start=start, shown_since=onset)
+                if made.label is not None:
+                    answer = 'go' if made.label == '0' else 'back'
+                    counts['go after'] += [made.time_s - onset] if answer == 'go' else []
+                    break
+                start += rule.window_s
+            counts['rounds'] += 1
+            counts[answer] += 1
+    return counts
+
+
+def run_midas(data=None, layouts: int = midas.LAYOUTS, seed: int = 0,
+              timeouts: Sequence[Optional[float]] = (
+                  None, ProtocolSettings().confirm_timeout_s)) -> Dict:
+    """
+    Return the Midas goals and the intended 'go' answers per confirmation timeout (module doc).
+
+    :returns: ``{'midas': {timeout: {...}}, 'intended': {timeout: {...}}}`` (timeout None:
+        asked until answered), or ``{'skipped': reason}`` without data.
+    """
     folder = data if data is not None else find_data('real_gaze')
     if folder is None:
         return {'skipped': 'no real gaze recordings (../shared/data/real_gaze or --data DIR)'}
     recordings = load_folder(folder)
     if not recordings:
         raise ValueError(f'no gaze recording of a known format in {folder}')
+    return {'midas': {timeout: _midas_total(recordings, layouts, seed, timeout)
+                      for timeout in timeouts},
+            'intended': {timeout: intended_go(recordings, timeout, seed)
+                         for timeout in timeouts}}
+
+
+def _midas_total(recordings: Sequence[GazeRecording], layouts: int, seed: int,
+                 timeout_s: Optional[float]) -> Dict:
+    """Sum :func:`midas_goals` over the recordings; the rates per minute of menu."""
     total = {'minutes': 0.0, 'rounds': 0, 'tables': 0, 'back': 0, 'goals': 0, 'layouts': 0,
-             'go after': []}
+             'go after': [], 'timeouts': 0}
     for recording in recordings:
         rule = settings_for_recording(RULES['default'], recording)
-        for key, value in midas_goals(recording, rule, layouts, seed).items():
+        for key, value in midas_goals(recording, rule, layouts, seed,
+                                      timeout_s=timeout_s).items():
             total[key] += value
     minutes = max(total['minutes'], 1e-9)
     after = total['go after']
@@ -240,17 +300,32 @@ def run_midas(data=None, layouts: int = midas.LAYOUTS, seed: int = 0) -> Dict:
                 median_go_s=float(np.median(after)) if after else float('nan'))
 
 
+def _timeout_name(timeout: Optional[float]) -> str:
+    return 'until answered' if timeout is None else f'confirm_timeout_s {timeout:g} s'
+
+
 def format_midas(result: Dict) -> List[str]:
     """Return the Midas goals' report, as printed."""
     if 'skipped' in result:
         return [f"skipped: {result['skipped']}"]
-    return ['looking around without intent, through the menu (tables: 3 + back, '
-            f'{SIZE} px; confirm: go/back, menu layout), default rule:',
-            '| layouts | minutes | rounds | tables chosen | then back | then go (goals) | '
-            'goals per minute | median s from table to go |', '|---|---|---|---|---|---|---|---|',
-            f"| {result['layouts']} | {result['minutes']:.1f} | {result['rounds']} | "
-            f"{result['tables']} | {result['back']} | {result['goals']} | "
-            f"{result['goals_per_minute']:.2f} | {result['median_go_s']:.1f} |"]
+    lines = ['looking around without intent, through the menu (tables: 3 + back, '
+             f'{SIZE} px; confirm: go/back, menu layout), default rule:',
+             '| confirmation asked | layouts | minutes | tables chosen | then back | timeouts | '
+             'then go (goals) | goals per minute | median s from table to go |',
+             '|---|---|---|---|---|---|---|---|---|']
+    for timeout, row in result['midas'].items():
+        lines.append(f"| {_timeout_name(timeout)} | {row['layouts']} | {row['minutes']:.1f} | "
+                     f"{row['tables']} | {row['back']} | {row['timeouts']} | {row['goals']} | "
+                     f"{row['goals_per_minute']:.2f} | {row['median_go_s']:.1f} |")
+    lines += ['', "intended 'go' (go on the dot, real gaze rounds, asked until a choice or the "
+                  'next jump):', '| confirmation asked | rounds | go | back | none | go % | '
+                  "slowest 'go', s |", '|---|---|---|---|---|---|---|']
+    for timeout, row in result['intended'].items():
+        slowest = max(row['go after']) if row['go after'] else float('nan')
+        lines.append(f"| {_timeout_name(timeout)} | {row['rounds']} | {row['go']} | "
+                     f"{row['back']} | {row['none']} | "
+                     f"{100 * row['go'] / max(row['rounds'], 1):.1f} | {slowest:.2f} |")
+    return lines
 
 
 def format_lines(result: Dict) -> List[str]:
@@ -283,10 +358,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                         help='robot goals per minute of looking around without intent')
     parser.add_argument('--layouts', type=int, default=midas.LAYOUTS,
                         help='with --midas: replays per recording')
+    parser.add_argument('--confirm-timeout', type=float, nargs='+',
+                        help='with --midas: confirm_timeout_s values, s (0: asked until '
+                             "answered; default: 0 and the menu's)")
     args = parser.parse_args(argv)
     try:
         if args.midas:
-            lines = format_midas(run_midas(args.data, args.layouts, args.seed))
+            timeouts = (None, ProtocolSettings().confirm_timeout_s) if not \
+                args.confirm_timeout else [t if t > 0 else None for t in args.confirm_timeout]
+            lines = format_midas(run_midas(args.data, args.layouts, args.seed, timeouts))
         else:
             lines = format_lines(run(data=args.data, seed=args.seed))
     except (OSError, ValueError) as error:

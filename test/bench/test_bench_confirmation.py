@@ -66,12 +66,13 @@ def looking_around(folder, second_place):
     return recording
 
 
-def midas_goals(recording):
+def midas_goals(recording, timeout_s=None):
     """Replay it with the tables at TABLES and the confirmation's 'go' at G, 'back' on T."""
     rule = confirmation.settings_for_recording(confirmation.RULES['default'], recording)
     assert rule.dwell_s < 0.8 and rule.window_s == 1.0
     return confirmation.midas_goals(recording, rule, layouts=1, tables=lambda: TABLES,
-                                    confirm=lambda table: np.array([G, table]))
+                                    confirm=lambda table: np.array([G, table]),
+                                    timeout_s=timeout_s)
 
 
 def test_a_glance_at_a_table_then_at_go_is_a_robot_goal(tmp_path):
@@ -79,9 +80,12 @@ def test_a_glance_at_a_table_then_at_go_is_a_robot_goal(tmp_path):
     # reaction to them) a fixation on T chooses table 0, the next one on G sends the robot
     # (before the first round of the confirmation ends), and a new room's tables appear.
     # 19 cycles (at 2.5 ... 47.5 s) in 50.2 s: 19 goals, none undone.
-    total = midas_goals(looking_around(tmp_path, G))
+    recording = looking_around(tmp_path, G)
+    total = midas_goals(recording)
     assert (total['tables'], total['goals'], total['back']) == (19, 19, 0), total
     assert 48.4 / 60 < total['minutes'] <= SECONDS / 60
+    # Each 'go' 0.8 s after its table: a 2 s confirm_timeout_s keeps every one.
+    assert midas_goals(recording, timeout_s=2.0)['goals'] == 19
 
 
 def test_gaze_that_comes_back_to_the_table_undoes_it(tmp_path):
@@ -89,8 +93,14 @@ def test_gaze_that_comes_back_to_the_table_undoes_it(tmp_path):
     # fixation on 'back' (on T).  The same tables return under the gaze resting on T (not a
     # reaction to them); it leaves and comes back: a table every 5 s (2.5 ... 47.5 s), each
     # one undone 2.5 s later but the last (the recording ends during its confirmation).
-    total = midas_goals(looking_around(tmp_path, ELSEWHERE))
+    recording = looking_around(tmp_path, ELSEWHERE)
+    total = midas_goals(recording)
     assert (total['tables'], total['goals'], total['back']) == (10, 0, 9), total
+    # A 2 s confirm_timeout_s: back to the tables 2 s after each table (the gaze elsewhere),
+    # and the next landing on T 0.35 s later chooses the table again: one every 2.5 s.
+    total = midas_goals(recording, timeout_s=2.0)
+    assert (total['tables'], total['timeouts'], total['goals'], total['back']) == \
+        (19, 19, 0, 0), total
 
 
 def test_the_menu_layout_puts_back_on_the_table_and_go_beside_it(tmp_path):
@@ -116,11 +126,17 @@ def test_midas_on_an_empty_folder_says_why_and_fails(tmp_path, capsys):
 
 @pytest.mark.skipif(REAL is None, reason='no real gaze recordings (../shared/data/real_gaze)')
 def test_robot_goals_of_looking_around_on_real_gaze(capsys):
-    assert confirmation.main(['--midas', '--layouts', '1']) == 0
-    assert 'goals per minute' in capsys.readouterr().out
-    result = confirmation.run_midas(layouts=1)
-    # Every recording replayed to its end: the two 5-minute sessions and seven short ones.
-    assert result['layouts'] == 9 and result['minutes'] > 12.0
-    # A goal needs a table first, and each table is answered once at most.
-    assert result['goals'] + result['back'] <= result['tables']
-    assert result['goals_per_minute'] == result['goals'] / result['minutes']
+    assert confirmation.main(['--midas', '--layouts', '1', '--confirm-timeout', '0', '5']) == 0
+    printed = capsys.readouterr().out
+    assert '| until answered | 9 |' in printed and '| confirm_timeout_s 5 s | 9 |' in printed
+    result = confirmation.run_midas(layouts=1, timeouts=(None, 5.0))
+    for row in result['midas'].values():
+        # Every recording replayed to its end: the two 5-minute sessions and seven short ones.
+        assert row['layouts'] == 9 and row['minutes'] > 12.0
+        # A goal needs a table first, and each table is answered once at most.
+        assert row['goals'] + row['back'] + row['timeouts'] <= row['tables']
+        assert row['goals_per_minute'] == row['goals'] / row['minutes']
+    assert result['midas'][None]['timeouts'] == 0
+    for intended in result['intended'].values():
+        # The person looking at 'go' as it appears confirms almost every time.
+        assert intended['go'] > 0.95 * intended['rounds'] > 250
