@@ -40,16 +40,16 @@ tables; 'go' is a goal, and a new room's tables follow (as does the tables
 step's 'back': the rooms step between is left out, it only adds time without
 goals, so the figure is an upper bound in that respect).  The drive's time
 is not counted: minutes are minutes of menu.  Measured as the menu asks
-until answered, and with its ``confirm_timeout_s`` (unanswered that long
-after it appeared: back to the tables, no goal).  Its price: the intended
+until answered, and with its ``confirm_rounds`` (asked that many rounds
+without an answer: back to the tables, no goal).  Its price: the intended
 'go' rounds (every jump of a dot, 'go' 100 px on the dot, 'back' at the
 menu's gap beside it, asked back to back until a choice, the next jump or
-the timeout): how many are still answered 'go'.
+the last round): how many are still answered 'go'.
 
 Usage::
 
     python -m bench.confirmation [--data DIR] [--seed 0]
-    python -m bench.confirmation --midas [--layouts 5] [--confirm-timeout S [S ...]]
+    python -m bench.confirmation --midas [--layouts 5] [--confirm-rounds N [N ...]]
 """
 
 import argparse
@@ -173,7 +173,7 @@ def midas_goals(recording: GazeRecording, rule: ArbiterSettings, layouts: int = 
         step's centres (go, back) for a chosen table's centre (default:
         :func:`midas_confirm_layout`).  Either returning None ends the layout's replay.
     :param timeout_s: a confirmation unanswered this long after it appeared returns to the
-        tables, s (None: asked until answered, as the menu does).
+        tables, s (None: asked until answered; the menu's ``confirm_rounds`` N: N windows).
     :returns: ``{'minutes': of menu, 'rounds': asked, 'tables': chosen, 'back': the
         confirmation's 'back' chosen, 'goals': its 'go' chosen, 'layouts': replayed,
         'go after': per goal, s from the table's choice to the 'go', 'timeouts'}``.
@@ -233,7 +233,7 @@ def midas_goals(recording: GazeRecording, rule: ArbiterSettings, layouts: int = 
     return total
 
 
-def intended_go(recordings: Sequence[GazeRecording], timeout_s: Optional[float] = None,
+def intended_go(recordings: Sequence[GazeRecording], rounds: Optional[int] = None,
                 seed: int = 0) -> Dict:
     """Count the intended 'go' rounds' answers (module doc): go, back, none; 'go after' s."""
     counts: Dict = {'rounds': 0, 'go': 0, 'back': 0, 'none': 0, 'go after': []}
@@ -246,7 +246,7 @@ def intended_go(recordings: Sequence[GazeRecording], timeout_s: Optional[float] 
         for onset, centres in confirm_rounds(recording, gap, rng):
             options = midas._options(centres[::-1], SIZE, onset)     # 'go' on the dot
             end = onsets[onsets.index(onset) + 1]
-            end = end if timeout_s is None else min(end, onset + timeout_s)
+            end = end if rounds is None else min(end, onset + rounds * rule.window_s)
             start, answer = onset, 'none'
             while start < end:
                 low, high = np.searchsorted(stamps, [start, min(start + rule.window_s, end)])
@@ -263,33 +263,29 @@ def intended_go(recordings: Sequence[GazeRecording], timeout_s: Optional[float] 
 
 
 def run_midas(data=None, layouts: int = midas.LAYOUTS, seed: int = 0,
-              timeouts: Sequence[Optional[float]] = (
-                  None, ProtocolSettings().confirm_timeout_s)) -> Dict:
+              rounds: Sequence[Optional[int]] = (None, ProtocolSettings().confirm_rounds)
+              ) -> Dict:
     """
-    Return the Midas goals and the intended 'go' answers per confirmation timeout (module doc).
+    Return the Midas goals and the intended 'go' answers per ``confirm_rounds`` (module doc).
 
-    :returns: ``{'midas': {timeout: {...}}, 'intended': {timeout: {...}}}`` (timeout None:
+    :returns: ``{'midas': {rounds: {...}}, 'intended': {rounds: {...}}}`` (rounds None:
         asked until answered), or ``{'skipped': reason}`` without data.
     """
-    folder = data if data is not None else find_data('real_gaze')
-    if folder is None:
-        return {'skipped': 'no real gaze recordings (../shared/data/real_gaze or --data DIR)'}
-    recordings = load_folder(folder)
-    if not recordings:
-        raise ValueError(f'no gaze recording of a known format in {folder}')
-    return {'midas': {timeout: _midas_total(recordings, layouts, seed, timeout)
-                      for timeout in timeouts},
-            'intended': {timeout: intended_go(recordings, timeout, seed)
-                         for timeout in timeouts}}
+    recordings = midas.load_recordings(data)
+    if recordings is None:
+        return {'skipped': midas.NO_DATA}
+    return {'midas': {count: _midas_total(recordings, layouts, seed, count) for count in rounds},
+            'intended': {count: intended_go(recordings, count, seed) for count in rounds}}
 
 
 def _midas_total(recordings: Sequence[GazeRecording], layouts: int, seed: int,
-                 timeout_s: Optional[float]) -> Dict:
+                 rounds: Optional[int]) -> Dict:
     """Sum :func:`midas_goals` over the recordings; the rates per minute of menu."""
     total = {'minutes': 0.0, 'rounds': 0, 'tables': 0, 'back': 0, 'goals': 0, 'layouts': 0,
              'go after': [], 'timeouts': 0}
     for recording in recordings:
         rule = settings_for_recording(RULES['default'], recording)
+        timeout_s = None if rounds is None else rounds * rule.window_s
         for key, value in midas_goals(recording, rule, layouts, seed,
                                       timeout_s=timeout_s).items():
             total[key] += value
@@ -300,8 +296,8 @@ def _midas_total(recordings: Sequence[GazeRecording], layouts: int, seed: int,
                 median_go_s=float(np.median(after)) if after else float('nan'))
 
 
-def _timeout_name(timeout: Optional[float]) -> str:
-    return 'until answered' if timeout is None else f'confirm_timeout_s {timeout:g} s'
+def _rounds_name(rounds: Optional[int]) -> str:
+    return 'until answered' if rounds is None else f'confirm_rounds {rounds}'
 
 
 def format_midas(result: Dict) -> List[str]:
@@ -313,16 +309,16 @@ def format_midas(result: Dict) -> List[str]:
              '| confirmation asked | layouts | minutes | tables chosen | then back | timeouts | '
              'then go (goals) | goals per minute | median s from table to go |',
              '|---|---|---|---|---|---|---|---|---|']
-    for timeout, row in result['midas'].items():
-        lines.append(f"| {_timeout_name(timeout)} | {row['layouts']} | {row['minutes']:.1f} | "
+    for rounds, row in result['midas'].items():
+        lines.append(f"| {_rounds_name(rounds)} | {row['layouts']} | {row['minutes']:.1f} | "
                      f"{row['tables']} | {row['back']} | {row['timeouts']} | {row['goals']} | "
                      f"{row['goals_per_minute']:.2f} | {row['median_go_s']:.1f} |")
     lines += ['', "intended 'go' (go on the dot, real gaze rounds, asked until a choice or the "
                   'next jump):', '| confirmation asked | rounds | go | back | none | go % | '
                   "slowest 'go', s |", '|---|---|---|---|---|---|---|']
-    for timeout, row in result['intended'].items():
+    for rounds, row in result['intended'].items():
         slowest = max(row['go after']) if row['go after'] else float('nan')
-        lines.append(f"| {_timeout_name(timeout)} | {row['rounds']} | {row['go']} | "
+        lines.append(f"| {_rounds_name(rounds)} | {row['rounds']} | {row['go']} | "
                      f"{row['back']} | {row['none']} | "
                      f"{100 * row['go'] / max(row['rounds'], 1):.1f} | {slowest:.2f} |")
     return lines
@@ -358,15 +354,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                         help='robot goals per minute of looking around without intent')
     parser.add_argument('--layouts', type=int, default=midas.LAYOUTS,
                         help='with --midas: replays per recording')
-    parser.add_argument('--confirm-timeout', type=float, nargs='+',
-                        help='with --midas: confirm_timeout_s values, s (0: asked until '
-                             "answered; default: 0 and the menu's)")
+    parser.add_argument('--confirm-rounds', type=int, nargs='+',
+                        help='with --midas: confirm_rounds values (0: asked until answered; '
+                             "default: 0 and the menu's)")
     args = parser.parse_args(argv)
     try:
         if args.midas:
-            timeouts = (None, ProtocolSettings().confirm_timeout_s) if not \
-                args.confirm_timeout else [t if t > 0 else None for t in args.confirm_timeout]
-            lines = format_midas(run_midas(args.data, args.layouts, args.seed, timeouts))
+            rounds = (None, ProtocolSettings().confirm_rounds) if not args.confirm_rounds \
+                else [n if n > 0 else None for n in args.confirm_rounds]
+            lines = format_midas(run_midas(args.data, args.layouts, args.seed, rounds))
         else:
             lines = format_lines(run(data=args.data, seed=args.seed))
     except (OSError, ValueError) as error:

@@ -84,7 +84,7 @@ def test_a_glance_at_a_table_then_at_go_is_a_robot_goal(tmp_path):
     total = midas_goals(recording)
     assert (total['tables'], total['goals'], total['back']) == (19, 19, 0), total
     assert 48.4 / 60 < total['minutes'] <= SECONDS / 60
-    # Each 'go' 0.8 s after its table: a 2 s confirm_timeout_s keeps every one.
+    # Each 'go' 0.8 s after its table: 2 rounds of the confirmation (2 s) keep every one.
     assert midas_goals(recording, timeout_s=2.0)['goals'] == 19
 
 
@@ -96,7 +96,7 @@ def test_gaze_that_comes_back_to_the_table_undoes_it(tmp_path):
     recording = looking_around(tmp_path, ELSEWHERE)
     total = midas_goals(recording)
     assert (total['tables'], total['goals'], total['back']) == (10, 0, 9), total
-    # A 2 s confirm_timeout_s: back to the tables 2 s after each table (the gaze elsewhere),
+    # 2 rounds (2 s): back to the tables 2 s after each table (the gaze elsewhere),
     # and the next landing on T 0.35 s later chooses the table again: one every 2.5 s.
     total = midas_goals(recording, timeout_s=2.0)
     assert (total['tables'], total['timeouts'], total['goals'], total['back']) == \
@@ -126,10 +126,10 @@ def test_midas_on_an_empty_folder_says_why_and_fails(tmp_path, capsys):
 
 @pytest.mark.skipif(REAL is None, reason='no real gaze recordings (../shared/data/real_gaze)')
 def test_robot_goals_of_looking_around_on_real_gaze(capsys):
-    assert confirmation.main(['--midas', '--layouts', '1', '--confirm-timeout', '0', '5']) == 0
+    assert confirmation.main(['--midas', '--layouts', '1', '--confirm-rounds', '0', '5']) == 0
     printed = capsys.readouterr().out
-    assert '| until answered | 9 |' in printed and '| confirm_timeout_s 5 s | 9 |' in printed
-    result = confirmation.run_midas(layouts=1, timeouts=(None, 5.0))
+    assert '| until answered | 9 |' in printed and '| confirm_rounds 5 | 9 |' in printed
+    result = confirmation.run_midas(layouts=1, rounds=(None, 5))
     for row in result['midas'].values():
         # Every recording replayed to its end: the two 5-minute sessions and seven short ones.
         assert row['layouts'] == 9 and row['minutes'] > 12.0

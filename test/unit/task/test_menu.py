@@ -289,29 +289,28 @@ def test_a_table_is_sent_only_after_go():
 
 
 def test_an_unanswered_confirmation_returns_to_the_tables_without_a_goal():
-    # Asked at 2.3 s (the look-away gate opened then), not when 'go' appeared at 2.0 s.
-    menu, now = confirming(confirm_timeout_s=5.0)
-    assert kinds(menu.on_no_choice('no fixation', 3.3), Request)   # asked again: same clock
-    assert menu.tick(7.29) == [] and menu.pending == TABLE
-    actions = menu.tick(7.3)
-    assert f"no answer to '{TABLE}' in 5 s" in [a.text for a in kinds(actions, Log)]
+    menu, now = confirming(confirm_rounds=3)
+    for t in (3.3, 4.3):                        # asked at 2.3 s: two rounds without a choice
+        assert kinds(menu.on_no_choice('no fixation', t), Request) and menu.pending == TABLE
+    actions = menu.on_no_choice('no fixation', 5.3)
+    assert f"no answer to '{TABLE}' in 3 rounds" in [a.text for a in kinds(actions, Log)]
     assert not kinds(actions, SendGoal) and not kinds(actions, Result)
     assert menu.options == TABLES and menu.pending is None
-    # A late 'go' is no answer any more; the next confirmation has its own 5 s.
-    assert not kinds(menu.on_choice(GO_LABEL, 7.5), SendGoal)
-    menu.tick(9.0)
-    menu.on_choice(TABLE, 9.5)
-    assert kinds(menu.tick(9.8), Request) and menu.pending == TABLE
-    assert menu.tick(14.7) == [] and menu.pending == TABLE
-    assert [g.label for g in kinds(menu.on_choice(GO_LABEL, 14.7), SendGoal)] == [TABLE]
-    # A pause stops the clock: asked again after it, the confirmation has 5 s anew.
-    menu, now = confirming(confirm_timeout_s=5.0, pause_after_s=1.0)
-    menu.on_screen(False, 6.0)
-    assert [a.text for a in menu.tick(7.0)] == ['gaze off screen for 1 s: paused']
-    assert menu.tick(20.0) == [] and menu.pending == TABLE
-    assert kinds(menu.on_screen(True, 20.0), Request)
-    assert menu.tick(24.9) == [] and menu.pending == TABLE
-    assert menu.options == (GO_LABEL, BACK_LABEL) and kinds(menu.tick(25.0), Offer)
+    # A late 'go' is no answer any more; the next confirmation has its own 3 rounds.
+    assert not kinds(menu.on_choice(GO_LABEL, 5.5), SendGoal)
+    menu.tick(7.0)
+    menu.on_choice(TABLE, 7.5)
+    assert kinds(menu.tick(7.8), Request) and menu.pending == TABLE
+    for t in (8.8, 9.8):
+        menu.on_no_choice('no fixation', t)
+    assert [g.label for g in kinds(menu.on_choice(GO_LABEL, 10.0), SendGoal)] == [TABLE]
+    # Rounds while paused are not the person's: not counted.
+    menu, now = confirming(confirm_rounds=1, pause_after_s=1.0)
+    menu.on_screen(False, 2.5)
+    assert [a.text for a in menu.tick(3.5)] == ['gaze off screen for 1 s: paused']
+    assert menu.on_no_choice('no fixation', 4.0) == [] and menu.pending == TABLE
+    with pytest.raises(ValueError, match='confirm_rounds must be an integer >= 1'):
+        ProtocolSettings(confirm_rounds=0)
 
 
 def test_back_in_the_confirmation_sends_nothing_and_offers_the_tables():
