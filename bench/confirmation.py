@@ -306,7 +306,7 @@ def format_midas(result: Dict) -> List[str]:
         return [f"skipped: {result['skipped']}"]
     lines = ['looking around without intent, through the menu (tables: 3 + back, '
              f'{SIZE} px; confirm: go/back, menu layout), default rule:',
-             '| confirmation asked | layouts | minutes | tables chosen | then back | timeouts | '
+             '| confirmation asked | layouts | minutes | tables chosen | then back | unanswered | '
              'then go (goals) | goals per minute | median s from table to go |',
              '|---|---|---|---|---|---|---|---|---|']
     for rounds, row in result['midas'].items():
