@@ -26,23 +26,47 @@ rate times that.  With no 'go' in N rounds the upper 95 % bound is 3 / N
 figure assumes the confirmation does not share it, which the menu's layout
 helps, 'go' being elsewhere on the screen).
 
+**Midas goals** (``--midas``): robot goals per minute of a person who only
+looks around, with no intent, through the menu's flow on the same real gaze
+(:mod:`bench.midas`'s free looking, rounds back to back as the menu asks):
+a tables step (3 tables + 'back', :data:`SIZE` px, placed as
+:func:`bench.midas.layout` places options, clear of the dots); a table
+chosen opens the confirmation step at once, 'back' on the table's place and
+'go' :data:`MENU_GAP_DEG` beside it towards the screen's centre (the menu's
+layout, :func:`eye_bci_ros2.task.menu.confirm_markers`; the other side if it
+does not fit, else anywhere at least that far: 'go' must be clear of the dots
+too, and the dense grids leave no room at the menu's places); 'back' there returns to the same
+tables; 'go' is a goal, and a new room's tables follow (as does the tables
+step's 'back': the rooms step between is left out, it only adds time without
+goals, so the figure is an upper bound in that respect).  The drive's time
+is not counted: minutes are minutes of menu.  Measured as the menu asks
+until answered, and with its ``confirm_rounds`` (asked that many rounds
+without an answer: back to the tables, no goal).  Its price: the intended
+'go' rounds (every jump of a dot, 'go' 100 px on the dot, 'back' at the
+menu's gap beside it, asked back to back until a choice, the next jump or
+the last round): how many are still answered 'go'.
+
 Usage::
 
     python -m bench.confirmation [--data DIR] [--seed 0]
+    python -m bench.confirmation --midas [--layouts 5] [--confirm-rounds N [N ...]]
 """
 
 import argparse
 import sys
-from typing import Dict, List, Optional, Sequence
+from typing import Callable, Dict, List, Optional, Sequence
 
 import numpy as np
 
+from bench import midas
 from bench.real_gaze import (_decide, _fits, _ppd, intent, load_folder, PITCH, RULES,
                              settings_for_recording)
+from eye_bci_ros2.decision.rounds import ArbiterSettings
+from eye_bci_ros2.experiments.trials import decide_trial
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, px_per_degree_at
 from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.gaze import GazeRecording
-from eye_bci_ros2.task.menu import GO_RIGHT
+from eye_bci_ros2.task.menu import GO_RIGHT, ProtocolSettings
 
 #: Option size, px (the tables step's measured figure is at 100 px).
 SIZE = 100
@@ -108,6 +132,198 @@ def run(data=None, seed: int = 0) -> Dict:
     return result
 
 
+#: The tables step: 3 tables and 'back' (the last option).
+TABLES = 3
+
+
+def midas_confirm_layout(recording: GazeRecording, back: np.ndarray, rng: np.random.Generator,
+                         clearance_deg: float = midas.CLEARANCE_DEG) -> Optional[np.ndarray]:
+    """
+    Return the confirmation step's centres (2, 2), (go, back), for a table at ``back``.
+
+    'back' on the table's place, 'go' :data:`MENU_GAP_DEG` beside it towards the
+    screen's centre, else on the other side, else anywhere at least that far from
+    'back' on the screen; always clear of the dots; None if no place is (module doc).
+    """
+    back = np.asarray(back, dtype=float)
+    gap = MENU_GAP_DEG * _ppd(recording, back)
+    inwards = 1.0 if back[0] < recording.screen.width_px / 2 else -1.0
+    screen = np.array([recording.screen.width_px, recording.screen.height_px], dtype=float)
+    places = [back + [inwards * gap, 0.0], back - [inwards * gap, 0.0]] + list(
+        rng.uniform(SIZE / 2, screen - SIZE / 2, (midas.TRIES, 2)))
+    for go in places:
+        centres = np.array([go, back])
+        if (np.hypot(*(go - back)) >= gap - 1e-9 and _fits(centres, SIZE, recording)
+                and midas._edge_distance(go, SIZE, recording.targets.places).min()
+                >= clearance_deg * _ppd(recording, go)):
+            return centres
+    return None
+
+
+def midas_goals(recording: GazeRecording, rule: ArbiterSettings, layouts: int = midas.LAYOUTS,
+                seed: int = 0,
+                tables: Optional[Callable[[], Optional[np.ndarray]]] = None,
+                confirm: Optional[Callable[[np.ndarray], Optional[np.ndarray]]] = None,
+                timeout_s: Optional[float] = None) -> Dict[str, float]:
+    """
+    Replay one recording as free looking through the menu's flow, once per layout (module doc).
+
+    :param tables: draws a tables step's centres (TABLES + 1, 2), 'back' last (default:
+        :func:`bench.midas.layout`, clear of the dots); :param confirm: the confirmation
+        step's centres (go, back) for a chosen table's centre (default:
+        :func:`midas_confirm_layout`).  Either returning None ends the layout's replay.
+    :param timeout_s: a confirmation unanswered this long after it appeared returns to the
+        tables, s (None: asked until answered; the menu's ``confirm_rounds`` N: N windows).
+    :returns: ``{'minutes': of menu, 'rounds': asked, 'tables': chosen, 'back': the
+        confirmation's 'back' chosen, 'goals': its 'go' chosen, 'layouts': replayed,
+        'go after': per goal, s from the table's choice to the 'go', 'timeouts'}``.
+    """
+    rng = np.random.default_rng([seed, 33, len(recording.stamps)])
+    if tables is None:
+        def tables():
+            return midas.layout(recording, TABLES + 1, SIZE, midas.CLEARANCE_DEG, rng)
+    if confirm is None:
+        def confirm(place):
+            return midas_confirm_layout(recording, place, rng)
+    stamps, points = midas._valid(recording)
+    first, end = float(recording.stamps[0]), float(recording.stamps[-1])
+    total = {'minutes': 0.0, 'rounds': 0, 'tables': 0, 'back': 0, 'goals': 0, 'layouts': 0,
+             'go after': [], 'timeouts': 0}
+    for _ in range(layouts):
+        start = shown = first
+        room = centres = tables()
+        confirming = False
+        if centres is None:
+            continue
+        total['layouts'] += 1
+        while start + rule.window_s <= end:
+            deadline = shown + timeout_s if confirming and timeout_s is not None else np.inf
+            low, high = np.searchsorted(stamps, [start, min(start + rule.window_s, deadline)])
+            outcome = decide_trial(points[low:high], stamps[low:high],
+                                   midas._options(centres, SIZE, shown), rule, start=start,
+                                   shown_since=shown)
+            total['rounds'] += 1
+            if outcome.label is None and start + rule.window_s >= deadline:
+                total['timeouts'] += 1
+                centres, confirming, start = room, False, deadline
+                shown = start
+                continue
+            if outcome.label is None:
+                start += rule.window_s
+                continue
+            # The next step's options appear, and are asked about, at the choice.
+            asked, start = shown, outcome.time_s
+            shown = start
+            chosen = int(outcome.label)
+            if not confirming and chosen < TABLES:
+                total['tables'] += 1
+                centres, confirming = confirm(room[chosen]), True
+            elif confirming and chosen == 1:
+                total['back'] += 1
+                centres, confirming = room, False
+            else:
+                if confirming:
+                    total['goals'] += 1
+                    total['go after'].append(start - asked)
+                room = centres = tables()
+                confirming = False
+            if centres is None:
+                break
+        total['minutes'] += (min(start, end) - first) / 60.0
+    return total
+
+
+def intended_go(recordings: Sequence[GazeRecording], rounds: Optional[int] = None,
+                seed: int = 0) -> Dict:
+    """Count the intended 'go' rounds' answers (module doc): go, back, none; 'go after' s."""
+    counts: Dict = {'rounds': 0, 'go': 0, 'back': 0, 'none': 0, 'go after': []}
+    rng = np.random.default_rng([seed, 31])
+    gap = next(iter(LAYOUTS.values()))
+    for recording in recordings:
+        rule = settings_for_recording(RULES['default'], recording)
+        stamps, points = midas._valid(recording)
+        onsets = list(recording.targets.onsets) + [float(recording.stamps[-1])]
+        for onset, centres in confirm_rounds(recording, gap, rng):
+            options = midas._options(centres[::-1], SIZE, onset)     # 'go' on the dot
+            end = onsets[onsets.index(onset) + 1]
+            end = end if rounds is None else min(end, onset + rounds * rule.window_s)
+            start, answer = onset, 'none'
+            while start < end:
+                low, high = np.searchsorted(stamps, [start, min(start + rule.window_s, end)])
+                made = decide_trial(points[low:high], stamps[low:high], options, rule,
+                                    start=start, shown_since=onset)
+                if made.label is not None:
+                    answer = 'go' if made.label == '0' else 'back'
+                    counts['go after'] += [made.time_s - onset] if answer == 'go' else []
+                    break
+                start += rule.window_s
+            counts['rounds'] += 1
+            counts[answer] += 1
+    return counts
+
+
+def run_midas(data=None, layouts: int = midas.LAYOUTS, seed: int = 0,
+              rounds: Sequence[Optional[int]] = (None, ProtocolSettings().confirm_rounds)
+              ) -> Dict:
+    """
+    Return the Midas goals and the intended 'go' answers per ``confirm_rounds`` (module doc).
+
+    :returns: ``{'midas': {rounds: {...}}, 'intended': {rounds: {...}}}`` (rounds None:
+        asked until answered), or ``{'skipped': reason}`` without data.
+    """
+    recordings = midas.load_recordings(data)
+    if recordings is None:
+        return {'skipped': midas.NO_DATA}
+    return {'midas': {count: _midas_total(recordings, layouts, seed, count) for count in rounds},
+            'intended': {count: intended_go(recordings, count, seed) for count in rounds}}
+
+
+def _midas_total(recordings: Sequence[GazeRecording], layouts: int, seed: int,
+                 rounds: Optional[int]) -> Dict:
+    """Sum :func:`midas_goals` over the recordings; the rates per minute of menu."""
+    total = {'minutes': 0.0, 'rounds': 0, 'tables': 0, 'back': 0, 'goals': 0, 'layouts': 0,
+             'go after': [], 'timeouts': 0}
+    for recording in recordings:
+        rule = settings_for_recording(RULES['default'], recording)
+        timeout_s = None if rounds is None else rounds * rule.window_s
+        for key, value in midas_goals(recording, rule, layouts, seed,
+                                      timeout_s=timeout_s).items():
+            total[key] += value
+    minutes = max(total['minutes'], 1e-9)
+    after = total['go after']
+    return dict(total, goals_per_minute=total['goals'] / minutes,
+                tables_per_minute=total['tables'] / minutes,
+                median_go_s=float(np.median(after)) if after else float('nan'))
+
+
+def _rounds_name(rounds: Optional[int]) -> str:
+    return 'until answered' if rounds is None else f'confirm_rounds {rounds}'
+
+
+def format_midas(result: Dict) -> List[str]:
+    """Return the Midas goals' report, as printed."""
+    if 'skipped' in result:
+        return [f"skipped: {result['skipped']}"]
+    lines = ['looking around without intent, through the menu (tables: 3 + back, '
+             f'{SIZE} px; confirm: go/back, menu layout), default rule:',
+             '| confirmation asked | layouts | minutes | tables chosen | then back | unanswered | '
+             'then go (goals) | goals per minute | median s from table to go |',
+             '|---|---|---|---|---|---|---|---|---|']
+    for rounds, row in result['midas'].items():
+        lines.append(f"| {_rounds_name(rounds)} | {row['layouts']} | {row['minutes']:.1f} | "
+                     f"{row['tables']} | {row['back']} | {row['timeouts']} | {row['goals']} | "
+                     f"{row['goals_per_minute']:.2f} | {row['median_go_s']:.1f} |")
+    lines += ['', "intended 'go' (go on the dot, real gaze rounds, asked until a choice or the "
+                  'next jump):', '| confirmation asked | rounds | go | back | none | go % | '
+                  "slowest 'go', s |", '|---|---|---|---|---|---|---|']
+    for rounds, row in result['intended'].items():
+        slowest = max(row['go after']) if row['go after'] else float('nan')
+        lines.append(f"| {_rounds_name(rounds)} | {row['rounds']} | {row['go']} | "
+                     f"{row['back']} | {row['none']} | "
+                     f"{100 * row['go'] / max(row['rounds'], 1):.1f} | {slowest:.2f} |")
+    return lines
+
+
 def format_lines(result: Dict) -> List[str]:
     """Return the report, as printed."""
     if 'skipped' in result:
@@ -134,13 +350,25 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0].strip())
     parser.add_argument('--data', help='folder of recordings (default: the development copy)')
     parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--midas', action='store_true',
+                        help='robot goals per minute of looking around without intent')
+    parser.add_argument('--layouts', type=int, default=midas.LAYOUTS,
+                        help='with --midas: replays per recording')
+    parser.add_argument('--confirm-rounds', type=int, nargs='+',
+                        help='with --midas: confirm_rounds values (0: asked until answered; '
+                             "default: 0 and the menu's)")
     args = parser.parse_args(argv)
     try:
-        result = run(data=args.data, seed=args.seed)
+        if args.midas:
+            rounds = (None, ProtocolSettings().confirm_rounds) if not args.confirm_rounds \
+                else [n if n > 0 else None for n in args.confirm_rounds]
+            lines = format_midas(run_midas(args.data, args.layouts, args.seed, rounds))
+        else:
+            lines = format_lines(run(data=args.data, seed=args.seed))
     except (OSError, ValueError) as error:
         print(f'confirmation: {error}', file=sys.stderr)
         return 1
-    print('\n'.join(format_lines(result)))
+    print('\n'.join(lines))
     return 0
 
 

@@ -197,6 +197,25 @@ def _intent_tally(outcomes: List[str]) -> Dict[str, float]:
             'median ms': 1000.0 * float(np.median(times)) if times else float('nan')}
 
 
+#: Why a run without a folder of recordings measures nothing.
+NO_DATA = 'no real gaze recordings (../shared/data/real_gaze or --data DIR)'
+
+
+def load_recordings(data=None) -> Optional[List[GazeRecording]]:
+    """
+    Return the gaze recordings in ``data`` (default: the development copy), None without one.
+
+    :raises ValueError: a folder without a recording of a known format.
+    """
+    folder = data if data is not None else find_data('real_gaze')
+    if folder is None:
+        return None
+    recordings = load_folder(folder)
+    if not recordings:
+        raise ValueError(f'no gaze recording of a known format in {folder}')
+    return recordings
+
+
 def run(data=None, sizes: Sequence[int] = SIZES, counts: Sequence[int] = COUNTS,
         layouts: int = LAYOUTS, clearance_deg: float = CLEARANCE_DEG, seed: int = 0,
         dwell_s: Optional[float] = None, new_question: bool = False) -> Dict:
@@ -207,12 +226,9 @@ def run(data=None, sizes: Sequence[int] = SIZES, counts: Sequence[int] = COUNTS,
         'intent': {rule: {f'9 x {S} px': {...}}}}``, or ``{'skipped': reason}`` without
         data.
     """
-    folder = data if data is not None else find_data('real_gaze')
-    if folder is None:
-        return {'skipped': 'no real gaze recordings (../shared/data/real_gaze or --data DIR)'}
-    recordings = load_folder(folder)
-    if not recordings:
-        raise ValueError(f'no gaze recording of a known format in {folder}')
+    recordings = load_recordings(data)
+    if recordings is None:
+        return {'skipped': NO_DATA}
     result: Dict = {'recordings': [r.name for r in recordings], 'midas': {}, 'intent': {}}
     for name in MIDAS_RULES:
         base = RULES[name] if dwell_s is None else RULES[name].replace(dwell_s=dwell_s)

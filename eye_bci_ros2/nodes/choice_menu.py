@@ -158,6 +158,9 @@ _PROTOCOL_PARAMETERS = {
                            (0.5, 180.0)),
     'drive_timeout_s': ('A robot that comes no nearer to its goal for this long (refused, no '
                         'odometry) is reported and the tables offered again, s', (1.0, 600.0)),
+    'confirm_rounds': ("A confirmation ('go' / 'back') asked this many times without an "
+                       'answer (choice/none) returns to the tables, no goal (a stray look '
+                       'answers it late)', None),
 }
 
 #: The robot's radius the approach poses are made for: sim_robot's default.

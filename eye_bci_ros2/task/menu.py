@@ -62,7 +62,13 @@ confirmation step, ``go`` and ``back`` (:func:`confirm_markers`, in the same
 view).  Only ``go`` sends the table's approach pose (:class:`SendGoal`,
 ``goals``: label -> x, y, yaw in the scene's frame) and is the outcome
 (:class:`Result`); ``back`` offers the tables again.  Rooms and ``back`` are
-not destinations: no goal.  While the robot drives, the menu offers
+not destinations: no goal.  A confirmation asked ``confirm_rounds`` times
+without an answer (rounds reported on ``choice/none``; the same chances in
+every input mode) goes back to the tables, no goal: a person who only looks
+around answers it by chance too, but late (``python -m bench.confirmation
+--midas``: a 'go' by the Midas touch comes a median 18 s after the table,
+every intended 'go' measured in the first two 1 s rounds), so asking for
+ever only lets a stray 'go' come.  While the robot drives, the menu offers
 ``stop`` (:func:`stop_marker`) and asks at once and again after each round
 without a choice; ``stop`` sends a goal at the robot's pose from odometry
 (:meth:`MenuProtocol.on_odometry`).  Looking away chooses nothing: the robot
@@ -149,6 +155,8 @@ class ProtocolSettings:
     :param goal_tolerance_m: the robot within this of its goal has arrived, m.
     :param goal_tolerance_deg: ... and its heading within this, degrees.
     :param drive_timeout_s: a robot that comes no nearer for this long is reported, s.
+    :param confirm_rounds: a confirmation asked this many times without an answer
+        returns to the tables, no goal.
     """
 
     ask_on_arrival: bool = True
@@ -169,6 +177,7 @@ class ProtocolSettings:
     goal_tolerance_m: float = 0.2
     goal_tolerance_deg: float = 15.0
     drive_timeout_s: float = 10.0
+    confirm_rounds: int = 5
 
     def __post_init__(self):
         """Reject values the protocol cannot run with."""
@@ -176,6 +185,10 @@ class ProtocolSettings:
                 self.validation_retries, int) or self.validation_retries < 0:
             raise ValueError(f'validation_retries must be an integer >= 0, got '
                              f'{self.validation_retries!r}')
+        if isinstance(self.confirm_rounds, bool) or not isinstance(
+                self.confirm_rounds, int) or self.confirm_rounds < 1:
+            raise ValueError(f'confirm_rounds must be an integer >= 1, got '
+                             f'{self.confirm_rounds!r}')
         for name in ('arrive_tolerance_m', 'arrive_tolerance_deg', 'settle_s', 'look_away_s',
                      'look_away_margin_px', 'pause_after_s', 'min_answer_s',
                      'goal_tolerance_m', 'goal_tolerance_deg', 'drive_timeout_s'):
@@ -452,6 +465,7 @@ class MenuProtocol:
         self._validated = False
         self._validation_runs = 0
         self.pending: Optional[str] = None          # a chosen table waiting for 'go'
+        self._unanswered = 0                         # its confirmation's rounds without one
         self.drive: Optional[_Drive] = None
         self._robot: Optional[np.ndarray] = None    # the robot's pose from odometry (3,)
 
@@ -657,6 +671,11 @@ class MenuProtocol:
             return []
         if now - self._asked_at < self.settings.min_answer_s:
             return []  # the round the request replaced, or one in flight with it
+        if self.pending is not None:
+            self._unanswered += 1
+            if self._unanswered >= self.settings.confirm_rounds:
+                return [Log('info', f"no answer to '{self.pending}' in {self._unanswered} "
+                                    'rounds'), *self._confirmed(False, now)]
         self._asked_at = now
         return [Log('info', f'no choice ({reason}): asking again'), Request()]
 
@@ -814,6 +833,7 @@ class MenuProtocol:
         return self._offer(markers, TABLES_NS, room.view, now)
 
     def _offer_confirm(self, now: float) -> List[Action]:
+        self._unanswered = 0
         go, back = confirm_markers(self.room.view, self.room.table(self.pending).marker)
         return self._offer([go, back], CONFIRM_NS, self.room.view, now)
 

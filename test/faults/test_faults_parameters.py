@@ -114,6 +114,7 @@ SPECIFIC = {
                        (lambda _, tmp_path: _bad_scene(tmp_path), 'malformed YAML')],
         'world_frame': [('', 'empty frame'), ('odom', "inconsistent with the scene's frame")],
         'robot_radius_m': [(1.0, 'inconsistent: no table where a robot this large fits')],
+        'confirm_rounds': [(0, 'no round to answer in')],
     },
     'gaze_validation': {
         'targets': [(7, 'neither 5 nor 9')],

@@ -61,6 +61,7 @@ class Probe:
         self.progress = Collector(node, String, 'choice_menu/progress', LATCHED_QOS)
         self.odom = node.create_publisher(Odometry, 'odom', ODOM_QOS)
         self.publisher = node.create_publisher(String, 'choice', EVENT_QOS)
+        self.no_choice = node.create_publisher(String, 'choice/none', EVENT_QOS)
         self.pose = node.create_publisher(PoseStamped, 'camera/pose', LATCHED_QOS)
         self.gaze = node.create_publisher(PointStamped, 'gaze/point', VIEW_QOS)
         self.on_screen = node.create_publisher(Bool, 'gaze/on_screen', LATCHED_QOS)
@@ -432,6 +433,21 @@ def test_looking_away_neither_sends_nor_stops(graph):
         graph.spin_for(0.2)
     assert len(probe.robot_goals.messages) == 1 and menu.options == ('stop',)
     assert probe.progress.last.data.startswith('driving')
+
+
+def test_an_unanswered_confirmation_returns_to_the_tables_and_sends_nothing(graph):
+    menu, probe = start(graph, confirm_rounds=2, min_answer_s=0.0)
+    probe.ask_and_answer('kitchen')
+    probe.wait_labels(KITCHEN_TABLES)
+    probe.ask_and_answer('kitchen/table_2')
+    asked = probe.answered          # the tables' question, answered
+    for _ in range(2):      # the confirmation asked, then the arbiter's round without a choice
+        assert graph.spin_until(lambda: len(probe.requests.messages) > asked, 10.0)
+        asked = len(probe.requests.messages)
+        assert probe.labels() == CONFIRM
+        probe.no_choice.publish(String(data='no fixation'))
+    probe.wait_labels(KITCHEN_TABLES)
+    assert not probe.robot_goals.messages and not probe.results.messages
 
 
 def test_a_robot_that_does_not_move_is_reported(graph):

@@ -296,6 +296,31 @@ def test_a_table_is_sent_only_after_go():
     assert kinds(actions, Progress)[0].text == f"driving to '{TABLE}': 3.0 m left"
 
 
+def test_an_unanswered_confirmation_returns_to_the_tables_without_a_goal():
+    menu, now = confirming(confirm_rounds=3)
+    for t in (3.3, 4.3):                        # asked at 2.3 s: two rounds without a choice
+        assert kinds(menu.on_no_choice('no fixation', t), Request) and menu.pending == TABLE
+    actions = menu.on_no_choice('no fixation', 5.3)
+    assert f"no answer to '{TABLE}' in 3 rounds" in [a.text for a in kinds(actions, Log)]
+    assert not kinds(actions, SendGoal) and not kinds(actions, Result)
+    assert menu.options == TABLES and menu.pending is None
+    # A late 'go' is no answer any more; the next confirmation has its own 3 rounds.
+    assert not kinds(menu.on_choice(GO_LABEL, 5.5), SendGoal)
+    menu.tick(7.0)
+    menu.on_choice(TABLE, 7.5)
+    assert kinds(menu.tick(7.8), Request) and menu.pending == TABLE
+    for t in (8.8, 9.8):
+        menu.on_no_choice('no fixation', t)
+    assert [g.label for g in kinds(menu.on_choice(GO_LABEL, 10.0), SendGoal)] == [TABLE]
+    # Rounds while paused are not the person's: not counted.
+    menu, now = confirming(confirm_rounds=1, pause_after_s=1.0)
+    menu.on_screen(False, 2.5)
+    assert [a.text for a in menu.tick(3.5)] == ['gaze off screen for 1 s: paused']
+    assert menu.on_no_choice('no fixation', 4.0) == [] and menu.pending == TABLE
+    with pytest.raises(ValueError, match='confirm_rounds must be an integer >= 1'):
+        ProtocolSettings(confirm_rounds=0)
+
+
 def test_back_in_the_confirmation_sends_nothing_and_offers_the_tables():
     menu, now = confirming()
     actions = menu.on_choice(BACK_LABEL, now)
