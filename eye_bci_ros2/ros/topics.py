@@ -82,6 +82,14 @@ SSVEP_CHOICE_TOPIC = 'ssvep/choice'
 #: path (nav_msgs/Path; PLAN_QOS) and the robot drawn for RViz (visualization_msgs/MarkerArray:
 #: its body and heading, and its footprint; ROBOT_MARKER_QOS).
 GOAL_POSE_TOPIC = 'goal_pose'
+#: nav2's NavigateToPose action (nav2_msgs/action/NavigateToPose, as bt_navigator serves it;
+#: rclpy's default action QoS): the menu is its client, sim_robot its server.  Its goal
+#: status is on ``navigate_to_pose/_action/status``.
+NAVIGATE_TO_POSE_ACTION = 'navigate_to_pose'
+#: TF (tf2_msgs/TFMessage; REP-105 frames map -> odom -> base_link): ``tf`` volatile,
+#: ``tf_static`` latched as tf2_ros's static broadcaster.
+TF_TOPIC = '/tf'
+TF_STATIC_TOPIC = '/tf_static'
 ODOM_TOPIC = 'odom'
 MAP_TOPIC = 'map'
 PLAN_TOPIC = 'plan'
