@@ -878,7 +878,7 @@ class MenuProtocol:
         return self._offer(markers, TABLES_NS, room.view, now)
 
     def _confirm_answer(self, label: str, now: float) -> List[Action]:
-        """The confirmation's answer: 'go' offers 'send' (send_rounds), 'send' sends the goal."""
+        """Act on the confirmation's answer: 'go' offers 'send' (send_rounds), 'send' sends."""
         if label == GO_LABEL and self.settings.send_rounds and not self._sending:
             return [Log('info', f"'go' for '{self.pending}': look at 'send' to send the robot"),
                     *self._offer_send(now)]

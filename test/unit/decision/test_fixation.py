@@ -273,7 +273,7 @@ def test_a_resting_gaze_is_never_due():
 
 
 def _stop_options(stamp=0.0):
-    """The drive step's one option, 'stop' (the arbiter's urgent_label), left of centre."""
+    """Return the drive step's one option, 'stop' (the arbiter's urgent_label)."""
     return options(stamp, {'stop': CENTRES['left']})
 
 
