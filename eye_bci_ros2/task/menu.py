@@ -394,26 +394,38 @@ def confirm_markers(view: View, chosen: CubeMarker, fov_y_deg: float = 45.0,
                         aspect))
 
 
-#: How far 'send' lies from 'go', vertically towards the view's centre, in half-heights
-#: (0.7: 252 px of a 720 px panel, about 6.5 deg on the default screen: a saccade of its
-#: own, well beyond the fixation rule's 2 deg resting radius and 3 sigma halo).
+#: How far 'send' lies from 'go', vertically, in half-heights (0.7: 252 px of a 720 px
+#: panel, about 6.5 deg on the default screen: a saccade of its own, well beyond the
+#: fixation rule's 2 deg resting radius and its 3 sigma halo around an option).
 SEND_DOWN = 0.7
+#: ... and no nearer the view's top or bottom edge than this, half-heights from the centre.
+SEND_EDGE = 0.85
 
 
-def send_marker(view: View, go: CubeMarker, fov_y_deg: float = 45.0,
-                aspect: float = 16.0 / 9.0) -> CubeMarker:
+def send_marker(view: View, go: CubeMarker, avoid: Sequence[CubeMarker] = (),
+                fov_y_deg: float = 45.0, aspect: float = 16.0 / 9.0) -> CubeMarker:
     """
-    Return the 'send' option: it appears once 'go' is chosen, :data:`SEND_DOWN` from it.
+    Return the 'send' option: it appears once 'go' is chosen, :data:`SEND_DOWN` above or below.
 
     The Midas touch's last gate: a wandering gaze that chose 'go' by chance
     must now, within ``send_rounds`` rounds, make a fresh fixation on a
-    target that was not there before and lies where the gaze was not (above
-    or below 'go', towards the view's centre: never where 'back', a table or
-    the coming 'stop' is).  A person who means 'go' looks at it at once.
+    target that was not there before and lies where the gaze was not.  Of the
+    places above and below 'go' (within :data:`SEND_EDGE`), the one farthest
+    from everything else worth looking at (``avoid``: the tables, 'back', where
+    'stop' will be) on the screen.  A person who means 'go' looks at it at once.
     """
     right, down = image_place(view, go.position, fov_y_deg, aspect)
-    send_down = down - SEND_DOWN if down >= 0 else down + SEND_DOWN
-    return view_square(view, SEND_LABEL, right, send_down, STEP_SIDE, GO_COLOUR, fov_y_deg,
+    others = np.array([image_place(view, marker.position, fov_y_deg, aspect)
+                       for marker in avoid]).reshape(-1, 2) * [aspect, 1.0]
+    best, clearance = None, -math.inf
+    for send_down in (down - SEND_DOWN, down + SEND_DOWN):
+        send_down = float(np.clip(send_down, -SEND_EDGE, SEND_EDGE))
+        # Distances in half-heights (the image's x scaled by the aspect).
+        nearest = float(np.min(np.hypot(*(others - [right * aspect, send_down]).T))) \
+            if len(others) else 0.0
+        if nearest > clearance:
+            best, clearance = send_down, nearest
+    return view_square(view, SEND_LABEL, right, best, STEP_SIDE, GO_COLOUR, fov_y_deg,
                        aspect)
 
 
@@ -891,7 +903,8 @@ class MenuProtocol:
         self._sending = True
         self._look_away = None
         go, back = confirm_markers(self.room.view, self.room.table(self.pending).marker)
-        return self._offer([send_marker(self.room.view, go)], CONFIRM_NS, self.room.view, now)
+        send = send_marker(self.room.view, go, [back] + [t.marker for t in self.room.tables])
+        return self._offer([send], CONFIRM_NS, self.room.view, now)
 
     def _offer_confirm(self, now: float) -> List[Action]:
         self._unanswered = 0
