@@ -174,6 +174,9 @@ SEND_GAP_DEG = float(SEND_DOWN * 360 / px_per_degree_at(
     DEFAULT_VIEWING)[0])
 #: One-sided confidence of the bound on goals per minute, split over its factors.
 CONFIDENCE = 0.95
+#: Replays per recording of ``--midas`` (each with its own layouts): 260 minutes of menu
+#: and 15,600 'send' trials over the 13 minutes of real gaze (docs/selection.md).
+MIDAS_REPLAYS = 20
 
 
 def send_layout(recording: GazeRecording, go: np.ndarray, rng: np.random.Generator,
@@ -408,7 +411,7 @@ def binomial_upper(passed: int, trials: int, confidence: float) -> float:
     return float(stats.beta.ppf(confidence, passed + 1, trials - passed))
 
 
-def run_midas(data=None, layouts: int = midas.LAYOUTS, seed: int = 0,
+def run_midas(data=None, layouts: int = MIDAS_REPLAYS, seed: int = 0,
               settings: Optional[ProtocolSettings] = None) -> Dict:
     """
     Goals per minute of looking around without intent, and the intended 'go' (module doc).
@@ -561,8 +564,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--midas', action='store_true',
                         help='robot goals per minute of looking around without intent')
-    parser.add_argument('--layouts', type=int, default=midas.LAYOUTS,
-                        help='with --midas: replays per recording')
+    parser.add_argument('--layouts', type=int, default=MIDAS_REPLAYS,
+                        help='with --midas: replays per recording, each with its own layouts')
     parser.add_argument('--confirm-rounds', type=int,
                         help="with --midas: the menu's confirm_rounds (default: its default)")
     parser.add_argument('--send-rounds', type=int,
