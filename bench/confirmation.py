@@ -206,8 +206,23 @@ def send_layout(recording: GazeRecording, go: np.ndarray, rng: np.random.Generat
 STEPS = ('rooms', 'tables', 'confirm', 'send')
 
 
+def asked_again(stamps: np.ndarray, start: float, window_s: float) -> float:
+    """
+    Return when the menu asks again after a round from ``start`` s ended without a choice.
+
+    As the nodes do it: the arbiter ends a round at the first sample stamped at or after
+    its window's end (``choice/none``), the menu asks again then, and the new round takes
+    the samples that arrive after the question (not that one: it closed the last round).
+
+    :param stamps: the valid samples' stamps (M,) s, ascending.
+    """
+    index = int(np.searchsorted(stamps, start + window_s))
+    return float(stamps[index]) if index < len(stamps) else start + window_s
+
+
 def _empty_tally() -> Dict:
     return {'minutes': 0.0, 'rounds': 0, 'layouts': 0, 'goals': 0, 'go after': [],
+            'answers': [],
             **{f'{step} offered': 0 for step in STEPS},
             **{f'{step} passed': 0 for step in STEPS},
             'tables back': 0, 'confirm back': 0, 'confirm unanswered': 0,
@@ -235,8 +250,9 @@ def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: Proto
         -> (1, 2); None from any ends the layout's replay.
     :returns: the tally: minutes of menu, rounds, per step how often it was
         offered and passed (rooms: a room chosen; tables: a table; confirm:
-        'go'; send: 'send'), 'back' and unanswered counts, goals, and per goal
-        the seconds from the table's choice.
+        'go'; send: 'send'), 'back' and unanswered counts, goals, per goal
+        the seconds from the table's choice, and 'answers': each step's
+        outcome in order, (step, the option's index or None: unanswered, s).
     """
     rng = np.random.default_rng([seed, 35, len(recording.stamps)])
     stamps, points = midas._valid(recording)
@@ -258,23 +274,31 @@ def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: Proto
         start = shown = first
         step, centres, room, unanswered, table_at = 'rooms', rooms, 0, 0, first
         total['rooms offered'] += 1
+        # New options start a round with the samples from their stamp on (the arbiter
+        # takes the recent ones), a question asked again after it (asked_again).
+        side = 'left'
         while start + rule.window_s <= end and centres is not None:
-            low, high = np.searchsorted(stamps, [start, start + rule.window_s])
+            low = np.searchsorted(stamps, start, side)
+            high = np.searchsorted(stamps, start + rule.window_s)
             outcome = decide_trial(points[low:high], stamps[low:high],
                                    midas._options(centres, SIZE, shown), rule, start=start,
                                    shown_since=shown)
             total['rounds'] += 1
             if outcome.label is None:
-                start += rule.window_s
+                start, side = asked_again(stamps, start, rule.window_s), 'right'
                 unanswered += 1
                 if unanswered >= limits[step]:
                     total[f'{step} unanswered'] += 1
+                    total['answers'].append((step, None, start))
                     step, centres, shown, unanswered = 'tables', tables[room], start, 0
                     total['tables offered'] += 1
+                    side = 'left'
                 continue
             chosen = int(outcome.label)
             start = shown = outcome.time_s
+            side = 'left'
             unanswered = 0
+            total['answers'].append((step, chosen, start))
             if step == 'rooms':
                 total['rooms passed'] += 1
                 room = chosen
@@ -328,11 +352,13 @@ def step_trials(recording: GazeRecording, rule: ArbiterSettings, step: str, roun
             if centres is None:
                 continue
             options, start, chosen = midas._options(centres, SIZE, onset), onset, None
+            side = 'left'
             while start < onset + span - 1e-9 and chosen is None:
-                low, high = np.searchsorted(stamps, [start, start + rule.window_s])
+                low = np.searchsorted(stamps, start, side)
+                high = np.searchsorted(stamps, start + rule.window_s)
                 chosen = decide_trial(points[low:high], stamps[low:high], options, rule,
                                       start=start, shown_since=onset).label
-                start += rule.window_s
+                start, side = asked_again(stamps, start, rule.window_s), 'right'
             tally['trials'] += 1
             tally['passed'] += int(chosen == '0')
     return tally
@@ -362,14 +388,15 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
         places = recording.targets.places
 
         def ask(options: RegionSet, onset: float, end: float) -> Tuple[Optional[str], float]:
-            start = onset
+            start, side = onset, 'left'
             while start < end - 1e-9:
-                low, high = np.searchsorted(stamps, [start, min(start + rule.window_s, end)])
+                low = np.searchsorted(stamps, start, side)
+                high = np.searchsorted(stamps, min(start + rule.window_s, end))
                 made = decide_trial(points[low:high], stamps[low:high], options, rule,
                                     start=start, shown_since=onset)
                 if made.label is not None:
                     return made.label, made.time_s - onset
-                start += rule.window_s
+                start, side = asked_again(stamps, start, rule.window_s), 'right'
             return None, math.nan
 
         for onset, centres in confirm_rounds(recording, gap, rng):
