@@ -376,9 +376,10 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
     asked ``send_rounds`` rounds (and until the jump after).  The time is the
     sum of the two reactions, each from its target's onset.
 
-    :returns: ``{'rounds', 'go' (both passed), 'back', 'none', 'go after': s per 'go'}``.
+    :returns: ``{'rounds', 'go' (both passed), 'back', 'none', 'go after': s per 'go',
+        'people': {recording: (rounds, go)}}``.
     """
-    counts: Dict = {'rounds': 0, 'go': 0, 'back': 0, 'none': 0, 'go after': []}
+    counts: Dict = {'rounds': 0, 'go': 0, 'back': 0, 'none': 0, 'go after': [], 'people': {}}
     rng = np.random.default_rng([seed, 31])
     gap = next(iter(LAYOUTS.values()))
     for recording in recordings:
@@ -399,6 +400,7 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
                 start, side = asked_again(stamps, start, rule.window_s), 'right'
             return None, math.nan
 
+        before = (counts['rounds'], counts['go'])
         for onset, centres in confirm_rounds(recording, gap, rng):
             index = onsets.index(onset)
             if index + 2 >= len(onsets):
@@ -423,6 +425,9 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
                 counts['go after'].append(go_s + send_s)
             else:
                 counts['none'] += 1
+        if counts['rounds'] > before[0]:
+            counts['people'][recording.name] = (counts['rounds'] - before[0],
+                                                counts['go'] - before[1])
     return counts
 
 
@@ -506,7 +511,9 @@ def run_midas(data=None, layouts: int = MIDAS_REPLAYS, seed: int = 0,
                         'rate': intended['go'] / max(intended['rounds'], 1),
                         'median_s': float(np.median(after)) if after else math.nan,
                         'slowest_s': float(max(after)) if after else math.nan,
-                        'back': intended['back'], 'none': intended['none']},
+                        'back': intended['back'], 'none': intended['none'],
+                        'within_1_5_s': sum(1 for t in after if t <= 1.5),
+                        'people': intended['people']},
     }
 
 
@@ -551,7 +558,9 @@ def format_midas(result: Dict) -> List[str]:
               f"intended 'go' (real gaze: 'go' on a dot, 'send' on the next): {go['go']} of "
               f"{go['rounds']} ({100 * go['rate']:.1f} %), {go['back']} back, {go['none']} none;"
               f" median {go['median_s']:.2f} s, slowest {go['slowest_s']:.2f} s from 'go' "
-              'appearing (both reactions)']
+              f"appearing (both reactions), {go['within_1_5_s']} within 1.5 s",
+              'per person: ' + ', '.join(
+                  f'{name} {done} of {rounds}' for name, (rounds, done) in go['people'].items())]
     return lines
 
 
