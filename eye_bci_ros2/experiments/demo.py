@@ -17,9 +17,10 @@ What runs (all real, nothing mocked but RViz and the person):
   room and offers its tables, the person looks at the scripted table, the
   arbiter decides again; the menu asks to confirm the table ('go' / 'back':
   the person looks at 'go' when the table chosen is the scripted one, else
-  at 'back', then at 'send', the second look that appears after 'go'), sends the robot (``sim_robot``, the simulated nav2 robot on the
-  scene's map, driving ``robot_time_scale`` times faster than real time so
-  the demo stays quick) and offers 'stop' while it drives: the person looks
+  at 'back'; after 'go', at 'send', the second look that appears then),
+  sends the robot (``sim_robot``, the simulated nav2 robot on the scene's map,
+  driving ``robot_time_scale`` times faster than real time so the demo stays
+  quick) and offers 'stop' while it drives: the person looks
   away (at a corner of the screen, off the panel: that neither stops nor
   sends it), and the menu offers the rooms again when it has arrived.
 

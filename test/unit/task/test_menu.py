@@ -506,3 +506,10 @@ def test_arrival_tolerances_are_the_robots():
     settings = ProtocolSettings()
     assert (settings.goal_tolerance_m, settings.goal_tolerance_deg) == (GOAL_TOLERANCE_M,
                                                                         GOAL_TOLERANCE_DEG)
+
+
+def test_the_arbiters_urgent_option_is_the_menus_stop():
+    # The fixation rule lets a resting gaze choose 'stop' (no look away and back): the
+    # arbiter's default must name the menu's stop (decision may not import task).
+    from eye_bci_ros2.decision.rounds import ArbiterSettings
+    assert ArbiterSettings().urgent_label == STOP_LABEL
