@@ -555,7 +555,8 @@ def format_midas(result: Dict) -> List[str]:
                   f"{m['product_upper95_per_min']:.2g}, goals counted "
                   f"{m['direct_upper95_per_min']:.2g}); one goal in "
                   f"{1 / max(m['upper95_per_min'], 1e-12) / 60:.1f} hours at the bound",
-              f"intended 'go' (real gaze: 'go' on a dot, 'send' on the next): {go['go']} of "
+              "intended 'go' (real gaze: 'go' on a dot"
+              f"{', send on the next' if conf['send_rounds'] else ''}): {go['go']} of "
               f"{go['rounds']} ({100 * go['rate']:.1f} %), {go['back']} back, {go['none']} none;"
               f" median {go['median_s']:.2f} s, slowest {go['slowest_s']:.2f} s from 'go' "
               f"appearing (both reactions), {go['within_1_5_s']} within 1.5 s",
