@@ -898,7 +898,10 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                                    'early_decision': options.early,
                                    'input_mode': options.input_mode},
                 'choice_menu': {'scene_file': scene_path, 'repeat': True,
-                                'ask_on_arrival': options.ask == 'on-arrival'},
+                                'ask_on_arrival': options.ask == 'on-arrival',
+                                # 'send' is one option: SSVEP has no other to tell it from,
+                                # and its EEG confirms 'go' already (docs/selection.md).
+                                **({} if options.input_mode == GAZE else {'send_rounds': 0})},
             }, with_menu=True)
             named = dict(zip(NODE_NAMES + ('choice_menu',), nodes))
             log(f"decision rule: {named['choice_arbiter'].settings.describe()}")

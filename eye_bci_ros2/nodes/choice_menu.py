@@ -164,7 +164,8 @@ _PROTOCOL_PARAMETERS = {
                        'answers it late)', None),
     'send_rounds': ("After 'go', 'send' appears where the gaze was not; a fresh look at it "
                     'within this many rounds sends the robot, else back to the tables (0: '
-                    "'go' sends at once)", None),
+                    "'go' sends at once; set 0 with the arbiter's input_mode ssvep or hybrid: "
+                    'one option gives SSVEP nothing to compare)', None),
 }
 
 #: The robot's radius the approach poses are made for: sim_robot's default.
