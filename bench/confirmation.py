@@ -27,29 +27,33 @@ figure assumes the confirmation does not share it, which the menu's layout
 helps, 'go' being elsewhere on the screen).
 
 **Midas goals** (``--midas``): robot goals per minute of a person who only
-looks around, with no intent, through the menu's flow on the same real gaze
-(:mod:`bench.midas`'s free looking, rounds back to back as the menu asks):
-a tables step (3 tables + 'back', :data:`SIZE` px, placed as
-:func:`bench.midas.layout` places options, clear of the dots); a table
-chosen opens the confirmation step at once, 'back' on the table's place and
-'go' :data:`MENU_GAP_DEG` beside it towards the screen's centre (the menu's
-layout, :func:`eye_bci_ros2.task.menu.confirm_markers`; the other side if it
-does not fit, else anywhere at least that far: 'go' must be clear of the dots
-too, and the dense grids leave no room at the menu's places); 'back' there returns to the same
-tables; 'go' is a goal, and a new room's tables follow (as does the tables
-step's 'back': the rooms step between is left out, it only adds time without
-goals, so the figure is an upper bound in that respect).  The drive's time
-is not counted: minutes are minutes of menu.  Measured as the menu asks
-until answered, and with its ``confirm_rounds`` (asked that many rounds
-without an answer: back to the tables, no goal).  Its price: the intended
-'go' rounds (every jump of a dot, 'go' 100 px on the dot, 'back' at the
-menu's gap beside it, asked back to back until a choice, the next jump or
-the last round): how many are still answered 'go'.
+looks around, with no intent, through the whole menu as the nodes run it,
+with the menu's defaults, on the same real gaze (:mod:`bench.midas`'s free
+looking: options at random places clear of the dots), from the rooms
+(:func:`menu_replay`): the rooms (:data:`ROOMS`), the chosen room's tables
+(:data:`TABLES` + 'back'), the confirmation ('back' on the table's place,
+'go' :data:`MENU_GAP_DEG` beside it towards the screen's centre, the menu's
+layout, :func:`eye_bci_ros2.task.menu.confirm_markers`; elsewhere when that
+place is not clear of the dots), asked ``confirm_rounds`` rounds, then
+'send' (:data:`SEND_GAP_DEG` above or below 'go', :func:`send_layout`),
+asked ``send_rounds`` rounds; 'send' is a goal, and the rooms again.  Rounds
+are asked again as the nodes do (:func:`asked_again`); the camera's arrival
+and the look-away gate are left out (an upper bound in that respect);
+minutes are minutes of menu.  Each step's share is reported, and the steps
+'go' / 'back' and 'send' are also measured at any moment of free looking
+(:func:`step_trials`: thousands of trials that share no gaze), so that the
+rate is a product of measured factors with a 95 % bound (each factor's
+bound at 1 - 0.05 / k).  Its price: the intended 'go' (:func:`intended_go`:
+'go' on a dot as it appears, then 'send' on the next dot), the share that
+reaches 'send', the median and slowest time.  ``--json PATH`` writes
+``{"midas": {"goals", "minutes", "goals_per_min", "upper95_per_min"},
+"intended_go": {"rounds", "go", "rate", "median_s", "slowest_s"}}``.
 
 Usage::
 
     python -m bench.confirmation [--data DIR] [--seed 0]
-    python -m bench.confirmation --midas [--layouts 5] [--confirm-rounds N [N ...]]
+    python -m bench.confirmation --midas [--json PATH] [--layouts 20]
+                                 [--confirm-rounds N] [--send-rounds N]
 """
 
 import argparse
