@@ -395,7 +395,7 @@ def confirm_markers(view: View, chosen: CubeMarker, fov_y_deg: float = 45.0,
 
 
 #: How far 'send' lies from 'go', vertically, in half-heights (0.7: 252 px of a 720 px
-#: panel, about 6.5 deg on the default screen: a saccade of its own, well beyond the
+#: panel, about 6.1 deg on the default screen: a saccade of its own, well beyond the
 #: fixation rule's 2 deg resting radius and its 3 sigma halo around an option).
 SEND_DOWN = 0.7
 #: ... and no nearer the view's top or bottom edge than this, half-heights from the centre.
