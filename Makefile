@@ -11,7 +11,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 
 .PHONY: demo test bench soak accuracy lint build clean
 
-$(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
+$(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml eye_bci_ros2/ros/registry.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -r requirements.txt -c constraints.txt
