@@ -262,7 +262,7 @@ def midas(recordings: Sequence[GazeRecording], settings: ArbiterSettings,
 
 
 def candidates() -> Dict[str, ArbiterSettings]:
-    """The rules a held-out choice picks from: :data:`RULES`, the default at each confidence."""
+    """Return the rules a held-out choice picks from: :data:`RULES`, the default per confidence."""
     found = dict(RULES)
     for confidence in CURVE:
         if confidence != RULES['default'].confidence:
@@ -311,13 +311,13 @@ def pool(rows: Sequence[Dict[str, float]]) -> Dict[str, float]:
 
 
 def people(recordings: Sequence[GazeRecording]) -> List[GazeRecording]:
-    """The recordings with intent rounds (jump schedules), one per person."""
+    """Return the recordings with intent rounds (jump schedules), one per person."""
     return [recording for recording in recordings if recording.targets.jumps]
 
 
 def new_people(recordings: Sequence[GazeRecording], seed: int = 0) -> Dict:
     """
-    What a person the rule was not chosen on can expect (module doc): leave-one-person-out.
+    Measure what a person the rule was not chosen on can expect: leave-one-person-out.
 
     :returns: ``{'people': {name: {'default': measure, 'chosen': rule, 'held out':
         measure}}, 'pooled': {layout: tally, kind: chosen %}, 'range': {layout:
@@ -465,7 +465,7 @@ def _measure_cells(rows: Dict[str, Dict[str, float]]) -> str:
 
 
 def new_people_lines(found: Dict) -> List[str]:
-    """The held-out table (:func:`new_people`): per person, and pooled."""
+    """Return the held-out table (:func:`new_people`): per person, and pooled."""
     layouts = [f'{count} x {size} px' for count, size in HELD_OUT_LAYOUTS]
     lines = ['', 'what a new person can expect: each person held out, the rule chosen on the '
              'others (leave-one-person-out)',
@@ -473,7 +473,7 @@ def new_people_lines(found: Dict) -> List[str]:
              + ' | resting near: chosen % | resting away: chosen % |',
              '|---|---|' + '---|' * (len(layouts) + 2)]
     for name, entry in found['people'].items():
-        lines.append(f"| {name} | default (chosen on this person too) | "
+        lines.append(f'| {name} | default (chosen on this person too) | '
                      f"{_measure_cells(entry['default'])} |")
         lines.append(f"| {name}, held out | {entry['chosen']} (chosen on the others) | "
                      f"{_measure_cells(entry['held out'])} |")

@@ -355,7 +355,7 @@ def grid_decisions(pairings: Sequence[Pairing]) -> Dict[str, List[Decided]]:
 
 
 def best_setting(rows: Dict[str, Dict]) -> Optional[str]:
-    """The setting with the most right choices among those within the limits (None: none)."""
+    """Return the setting with the most right among those within the limits (None: none)."""
     allowed = [name for name, row in rows.items() if within_goal(row)]
     return max(allowed, key=lambda name: (rows[name]['right'], -rows[name]['midas']),
                default=None)
