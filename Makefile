@@ -18,8 +18,9 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml eye_bc
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
+# The console scripts, as a user runs them: their start-up keeps a Ctrl-C quiet (ros/startup.py).
 demo: $(STAMP)
-	$(PY) -m eye_bci_ros2.experiments.demo $(ARGS)
+	$(VENV)/bin/demo $(ARGS)
 
 # Two workers (pytest-xdist), one test file each: most tests wait on ROS 2 graphs and LSL.
 test: $(STAMP)
@@ -35,7 +36,7 @@ soak: $(STAMP)
 	$(PY) -m bench.soak $(ARGS)
 
 accuracy: $(STAMP)
-	$(PY) -m eye_bci_ros2.experiments.accuracy_test $(ARGS)
+	$(VENV)/bin/accuracy_test $(ARGS)
 
 lint: $(STAMP)
 	$(PY) -m pytest test/lint

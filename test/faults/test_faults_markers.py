@@ -310,6 +310,8 @@ def test_a_hundred_thousand_markers_in_one_array(graph, capfd, fault):
         rig.offer([Marker(action=Marker.DELETEALL)] + room_markers(), expect=ROOM_LABELS,
                   timeout=patience)
         rig.choose('kitchen')
+    captured = capfd.readouterr()
+    assert 'Traceback' not in captured.out + captured.err
 
 
 def test_marker_arrays_in_quick_succession_are_all_applied(graph, capfd, fault):
