@@ -171,6 +171,7 @@ def launcher(module: str) -> Callable[[], object]:
         prepare_process()
         return importlib.import_module(module).main()
     start.__qualname__ = start.__name__ = module.rsplit('.', 1)[-1]
+    start.executable_module = module    # what it runs (a check imports it without running)
     return start
 
 

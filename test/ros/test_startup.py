@@ -106,6 +106,6 @@ def test_every_console_script_enters_through_the_start_up():
     for entry, executable in zip(console_scripts(), EXECUTABLES):
         name, target = (part.strip() for part in entry.split('='))
         assert target == f'eye_bci_ros2.ros.startup:{executable.name}'
-        assert callable(getattr(startup, name))
+        assert getattr(startup, name).executable_module == executable.module
     with pytest.raises(AttributeError, match='no_such_executable'):
         startup.no_such_executable
