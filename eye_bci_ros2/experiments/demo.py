@@ -98,6 +98,7 @@ from eye_bci_ros2.ros.feedback_markers import option_label, OptionMarkers
 from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.ros.runner import make_executor, spin_until as _spin_until
 from eye_bci_ros2.ros.ssvep_messages import msg_to_stimulus_map
+from eye_bci_ros2.ros.startup import quiet_liblsl
 from eye_bci_ros2.ros.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC,
                                      GAZE_QOS, GAZE_SAMPLES_TOPIC, GOAL_POSE_TOPIC, GOAL_QOS,
                                      LATCHED_QOS, MAP_QOS, MAP_TOPIC, MENU_ANSWER_TOPIC,
@@ -1186,6 +1187,7 @@ def options_from_args(args: argparse.Namespace) -> DemoOptions:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run the demo; return 0 when it finished, 1 when something failed."""
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     parser = build_parser()
     args = parser.parse_args(argv)
     options = options_from_args(args)
