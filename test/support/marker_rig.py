@@ -52,11 +52,15 @@ class MarkerInlet:
         #: (marker as parsed, its LSL stamp), in arrival order.
         self.markers: List[Tuple[Dict[str, Any], float]] = []
         self.texts: List[str] = []
+        #: The LSL clock when each marker was taken, s.
+        self.arrived: List[float] = []
 
     def pull(self) -> List[Tuple[Dict[str, Any], float]]:
         """Take what has arrived (no wait); return all markers so far."""
         samples, stamps = self.inlet.pull_chunk(timeout=0.0)
+        now = pylsl.local_clock()
         for sample, stamp in zip(samples, stamps):
+            self.arrived.append(now)
             self.texts.append(sample[0])
             self.markers.append((parse_marker(sample[0]), stamp))
         return self.markers
@@ -88,8 +92,14 @@ REST = (960.0, 900.0)
 HALF_PX = 100.0
 
 
+#: The rig's tracker stamps each sample this long before it pushes it (a real tracker's
+#: acquisition-to-send latency), s: a marker stamped on its sample is at least this old
+#: when it arrives, one stamped on arrival is not.
+TRACKER_LAG_S = 0.05
+
+
 class GazePusher(threading.Thread):
-    """A tracker application: each sample pushed as due, stamped with its LSL due time."""
+    """A tracker application: each sample pushed as due, stamped TRACKER_LAG_S earlier."""
 
     def __init__(self, outlet, rate_hz: float, rng: np.random.Generator):
         super().__init__(daemon=True)
@@ -101,8 +111,8 @@ class GazePusher(threading.Thread):
 
     def stamp_near(self, stamp: float) -> float:
         """Return the pushed sample's stamp nearest ``stamp`` (LSL s)."""
-        index = max(0, round((stamp - self.start_stamp) * self.rate_hz))
-        return self.start_stamp + index / self.rate_hz
+        first = self.start_stamp - TRACKER_LAG_S
+        return first + max(0, round((stamp - first) * self.rate_hz)) / self.rate_hz
 
     def run(self):
         try:
@@ -112,7 +122,7 @@ class GazePusher(threading.Thread):
                 due = int((pylsl.local_clock() - start) * self.rate_hz) + 1
                 if due > pushed:
                     xy = np.asarray(self.target) + self.rng.normal(0.0, 3.0, (due - pushed, 2))
-                    stamps = start + np.arange(pushed, due) / self.rate_hz
+                    stamps = start + np.arange(pushed, due) / self.rate_hz - TRACKER_LAG_S
                     for sample, stamp in zip(sample_for('xy_pixels', xy), stamps):
                         self.outlet.push_sample(sample.tolist(), float(stamp))
                     pushed = due
