@@ -48,7 +48,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from eye_bci_ros2.navigation.occupancy import yaw_of
 from eye_bci_ros2.recordings.session_markers import (
     answer_event, CHOICE, GOAL, marker_text, NO_CHOICE, OUTCOME, progress_event, QUESTION,
-    question_fields, ros_to_lsl, STATE, stream_identity, STIMULUS_ONSET, VALIDATION)
+    question_fields, ros_to_lsl, STATE, STIMULUS_ONSET, stream_identity, VALIDATION)
 from eye_bci_ros2.ros.conversions import marker_array_to_regions, stamp_to_ns
 from eye_bci_ros2.ros.log_throttle import KeyedWarnings
 from eye_bci_ros2.ros.marker_outlet import MarkerOutlet
@@ -104,7 +104,7 @@ class SessionMarkers(Node):
 
     @property
     def outlet(self) -> Optional[MarkerOutlet]:
-        """Return the LSL outlet (None when ``enabled`` is false)."""
+        """Give the LSL outlet in use (None when ``enabled`` is false)."""
         return self._outlet
 
     def _open(self) -> None:

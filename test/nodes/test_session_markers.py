@@ -1,4 +1,4 @@
-"""session_markers: each event on the LSL marker stream, read by a real pylsl inlet, rightly stamped."""
+"""session_markers: each event on its LSL marker stream, read by a real pylsl inlet, stamped."""
 
 import json
 import time
@@ -36,7 +36,7 @@ GRID_TOLERANCE_S = 0.00025
 
 
 def ros_to_lsl_here(stamp_ns: int) -> float:
-    """The test's own mapping of a ROS stamp to the LSL clock (system time read between)."""
+    """Map a ROS stamp to the LSL clock with the test's own clock pair (system time between)."""
     before = pylsl.local_clock()
     now_ns = time.time_ns()
     after = pylsl.local_clock()

@@ -1,6 +1,8 @@
 """
-The real LabRecorder records the tracker's gaze and the session's markers while the real
-nodes choose; in the XDF (pyxdf, as a lab loads it) each choice lies on the gaze it was made on.
+LabRecorder's XDF of a session: each choice lies on the gaze sample it was made on.
+
+The real LabRecorder records the tracker's gaze and the session's markers while the
+real nodes choose; pyxdf loads the file as a lab does.
 """
 
 from marker_rig import ChoosingRig, MarkerInlet, OPTIONS

@@ -105,7 +105,7 @@ def test_a_no_choice_without_samples_and_an_ssvep_choice_are_stamped_when_decide
 
 
 def info(kind, name, source_id):
-    """A resolved stream's properties, as pylsl.StreamInfo gives them."""
+    """Describe a resolved stream as pylsl.StreamInfo does (type, name, source_id)."""
     return SimpleNamespace(type=lambda: kind, name=lambda: name, source_id=lambda: source_id)
 
 
