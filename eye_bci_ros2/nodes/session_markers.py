@@ -25,8 +25,9 @@ It listens to the pipeline's topics and never publishes:
   -> ``state``;
 * ``validation/result`` -> ``validation`` (its JSON's fields);
 * ``ssvep/stimuli`` -> ``stimulus_onset`` at the stimulus epoch (frame 0 of every
-  option's flicker: TRCA epochs are phase-locked to it), with labels,
-  frequencies and phases.
+  option's flicker), with labels, frequencies and phases; then each question
+  -> ``trial_onset`` at the first frame at or after it (``refresh_hz``), with
+  its frame number: the trial's EEG epoch, phase-locked to the stimuli (TRCA).
 
 Stamps (module doc of :mod:`~eye_bci_ros2.recordings.session_markers`): an event whose
 topic carries the moment it is about (a decision's last gaze sample, a stimulus
@@ -48,7 +49,9 @@ from visualization_msgs.msg import Marker, MarkerArray
 from eye_bci_ros2.navigation.occupancy import yaw_of
 from eye_bci_ros2.recordings.session_markers import (
     answer_event, CHOICE, GOAL, marker_text, NO_CHOICE, OUTCOME, progress_event, QUESTION,
-    question_fields, ros_to_lsl, STATE, STIMULUS_ONSET, stream_identity, VALIDATION)
+    question_fields, ros_to_lsl, STATE, STIMULUS_ONSET, stream_identity, trial_frame,
+    TRIAL_ONSET, VALIDATION)
+from eye_bci_ros2.nodes.ssvep_stimulus import PARAMETERS as STIMULUS_PARAMETERS
 from eye_bci_ros2.ros.conversions import marker_array_to_regions, stamp_to_ns
 from eye_bci_ros2.ros.log_throttle import KeyedWarnings
 from eye_bci_ros2.ros.marker_outlet import MarkerOutlet
@@ -66,6 +69,11 @@ PARAMETERS = (
     ParamSpec('enabled', True,
               "publish the session's events on an LSL stream of type Markers (one JSON "
               'object per event, for LabRecorder); false = no stream'),
+    ParamSpec('refresh_hz', next(p.default for p in STIMULUS_PARAMETERS
+                                 if p.name == 'refresh_hz'),
+              "the SSVEP stimulus display's refresh rate, Hz (as ssvep_stimulus's): a "
+              "trial's onset is the first frame at or after its question",
+              value_range=(1.0, 1000.0)),
     ParamSpec('stream_name', '',
               "the marker stream's name; '' = eye_bci_markers and the node's namespace",
               read_only=True),
@@ -87,6 +95,8 @@ class SessionMarkers(Node):
         self._open()
         #: The options on the screen now: (labels, polygons (R, K, 2) px, namespaces).
         self._regions = ([], np.zeros((0, 3, 2)), [])
+        #: Frame 0 of the stimuli flickering now, ns on the ROS clock (None: no stimuli).
+        self._epoch_ns: Optional[int] = None
         self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
         self.create_subscription(String, CHOICE_DETAIL_TOPIC, self._on_detail, EVENT_QOS)
@@ -159,8 +169,14 @@ class SessionMarkers(Node):
         self._guard(REGIONS_TOPIC, take)
 
     def _on_request(self, msg: Empty) -> None:
-        self._guard(REQUEST_TOPIC, lambda: self._push(QUESTION, **question_fields(
-            *self._regions)))
+        def take():
+            now_ns = self._time.ns()
+            self._push(QUESTION, now_ns, **question_fields(*self._regions))
+            if self._epoch_ns is not None:
+                frame, stamp_ns = trial_frame(now_ns, self._epoch_ns, self._params['refresh_hz'])
+                self._push(TRIAL_ONSET, stamp_ns, frame=frame,
+                           refresh_hz=self._params['refresh_hz'])
+        self._guard(REQUEST_TOPIC, take)
 
     def _on_detail(self, msg: String) -> None:
         def take():
@@ -198,7 +214,9 @@ class SessionMarkers(Node):
     def _on_stimuli(self, msg: JointState) -> None:
         def take():
             stimuli = msg_to_stimulus_map(msg)
-            self._push(STIMULUS_ONSET, stamp_to_ns(msg.header.stamp), frame=0,
+            # Zero: frame 0 at arrival (topics: ssvep/stimuli).
+            self._epoch_ns = stamp_to_ns(msg.header.stamp) or self._time.ns()
+            self._push(STIMULUS_ONSET, self._epoch_ns, frame=0,
                        labels=list(stimuli.labels), frequencies_hz=list(stimuli.frequencies),
                        phases_rad=list(stimuli.phases))
         self._guard(SSVEP_STIMULI_TOPIC, take)

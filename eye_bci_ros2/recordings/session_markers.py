@@ -54,8 +54,9 @@ FAILED = 'failed'              # choice_menu/progress: the drive failed (any oth
 STATE = 'state'                # choice_menu/state: what the menu waits for
 VALIDATION = 'validation'      # validation/result: the outcome of a gaze validation
 STIMULUS_ONSET = 'stimulus_onset'  # ssvep/stimuli: frame 0 of a stimulus set
+TRIAL_ONSET = 'trial_onset'    # a question while stimuli flicker: the first frame of its trial
 EVENTS = (QUESTION, CHOICE, NO_CHOICE, ANSWER, GO, STOP, OUTCOME, GOAL, DRIVING, ARRIVED,
-          STOPPED, FAILED, STATE, VALIDATION, STIMULUS_ONSET)
+          STOPPED, FAILED, STATE, VALIDATION, STIMULUS_ONSET, TRIAL_ONSET)
 
 #: The menu's answers that are events of their own (task.menu.GO_LABEL, STOP_LABEL).
 ANSWER_EVENTS = {'go': GO, 'stop': STOP}
@@ -132,6 +133,22 @@ def stream_identity(namespace: str, hostname: str) -> tuple:
     namespace = '/' + namespace.strip('/') if namespace.strip('/') else ''
     name = f'{STREAM_PREFIX} {namespace}' if namespace else STREAM_PREFIX
     return name, f'{STREAM_PREFIX}@{hostname}{namespace or "/"}'
+
+
+def trial_frame(question_ns: int, epoch_ns: int, refresh_hz: float) -> tuple:
+    """
+    Return the first stimulus frame of the trial a question starts: ``(frame, its stamp ns)``.
+
+    Every option's flicker shows frame k at ``epoch + k / refresh``
+    (:mod:`eye_bci_ros2.ssvep.stimuli`); the trial's EEG epoch starts at the first frame
+    at or after the question (frame 0 for a question before the epoch), so epochs are
+    phase-locked to the stimuli, as TRCA needs.
+
+    :param question_ns: the question, ns on the ROS clock; :param epoch_ns: frame 0, ns.
+    :param refresh_hz: the stimulus display's refresh rate, Hz.
+    """
+    frame = max(0, math.ceil((question_ns - epoch_ns) * 1e-9 * refresh_hz - 1e-9))
+    return frame, epoch_ns + int(round(frame * 1e9 / refresh_hz))
 
 
 def progress_event(text: str) -> str:

@@ -229,3 +229,21 @@ def test_real_choices_are_stamped_on_the_gaze_sample_they_were_made_on(graph):
         assert at - stamp >= TRACKER_LAG_S
     # Each choice after its question.
     assert all(q[1] < c[1] for q, c in zip(questions, choices))
+
+
+def test_each_question_while_stimuli_flicker_marks_its_trial_at_a_stimulus_frame(graph, rig):
+    node, inlet, topics, _ = rig
+    refresh = node.get_parameter('refresh_hz').value
+    epoch_ns = time.time_ns() - 1_000_000_000     # the stimuli started a second ago
+    stimuli = JointState(name=['left', 'right'], position=[13.0, 15.0], velocity=[0.0, 1.5])
+    stimuli.header.stamp = ns_to_stamp(epoch_ns)
+    received(graph, inlet, lambda: topics.stimuli.publish(stimuli), 'stimulus_onset')
+    body, stamp, _, _ = received(graph, inlet, lambda: topics.request.publish(Empty()),
+                                 'trial_onset')
+    question = inlet.of('question')[-1][1]
+    frame = body['frame']
+    assert frame >= refresh and body['refresh_hz'] == refresh
+    # On the stimulus frame grid, the first frame at or after the question.
+    assert abs(stamp - ros_to_lsl_here(epoch_ns + round(frame * 1e9 / refresh))) \
+        < PAIR_TOLERANCE_S
+    assert question - 1e-6 <= stamp < question + 1.0 / refresh

@@ -12,7 +12,7 @@ from eye_bci_ros2.decision.evidence import Decision
 from eye_bci_ros2.recordings.lab_recorder import select_session_streams
 from eye_bci_ros2.recordings.session_markers import (
     answer_event, decision_detail, EVENTS, marker_text, parse_marker, progress_event,
-    question_fields, ros_to_lsl, stream_identity)
+    question_fields, ros_to_lsl, stream_identity, trial_frame)
 from eye_bci_ros2.streams.lsl_connection import acquisition_stamps_ns
 
 
@@ -119,3 +119,13 @@ def test_the_sessions_streams_are_its_gaze_eeg_and_its_own_markers():
         ('Gaze', 'tracker-2'), ('EEG', 'amp'), ('Markers', 'm@pc/left')]
     assert [s.source_id() for s in select_session_streams(streams, '/', markers=False)] == [
         'tracker-1', 'tracker-2', 'amp']
+
+
+def test_a_trial_starts_at_the_first_stimulus_frame_at_or_after_its_question():
+    epoch = 10**18
+    assert trial_frame(epoch - 5 * 10**8, epoch, 60.0) == (0, epoch)     # before the epoch
+    assert trial_frame(epoch, epoch, 60.0) == (0, epoch)
+    frame, stamp = trial_frame(epoch + 1_000_000_001, epoch, 60.0)
+    assert frame == 61 and stamp == epoch + round(61e9 / 60)
+    frame, stamp = trial_frame(epoch + 500_000_000, epoch, 144.0)     # exactly on frame 72
+    assert (frame, stamp) == (72, epoch + 500_000_000)
