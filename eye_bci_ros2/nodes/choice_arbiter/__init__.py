@@ -55,7 +55,7 @@ from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.decision.evidence import Decision
-from eye_bci_ros2.decision.fusion import FusionOutcome
+from eye_bci_ros2.decision.fusion import FusionOutcome, HYBRID
 from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings, RoundScheduler
 from eye_bci_ros2.nodes.choice_arbiter.feedback import FEEDBACK_PARAMETERS, FeedbackPublisher
@@ -112,10 +112,12 @@ class ChoiceArbiter(Node):
         self._rounds = RoundScheduler(self._decision.settings, self._publish, self._log)
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
         self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
-        # Each outcome in full for the session's markers (topics.CHOICE_DETAIL_TOPIC); the
-        # gaze decision being handed to the input modes, whose outcome it may be.
+        # Each outcome in full for the session's markers (topics.CHOICE_DETAIL_TOPIC): the
+        # gaze decision being handed to the input modes, whose outcome it may be, and the
+        # round's last gaze decision with a label (hybrid: the candidate SSVEP may confirm).
         self._detail_publisher = self.create_publisher(String, CHOICE_DETAIL_TOPIC, EVENT_QOS)
         self._deciding: Optional[Decision] = None
+        self._gaze_choice: Optional[Decision] = None
         # When the open round's decision can next come, for the bridge's batching
         # (topics.DECISION_DUE_TOPIC): (round start, due) last announced.
         self._due_publisher = self.create_publisher(Time, DECISION_DUE_TOPIC, LATCHED_QOS)
@@ -226,6 +228,7 @@ class ChoiceArbiter(Node):
         self._fusion.offered(labels)
 
     def _on_request(self, msg: Empty) -> None:
+        self._gaze_choice = None
         self._fusion.new_round()
         try:
             self._rounds.request(self._now())
@@ -257,6 +260,8 @@ class ChoiceArbiter(Node):
     def _publish(self, decision: Decision) -> None:
         """Hand a round's gaze decision to the input modes (they choose, or end the round)."""
         self._deciding = decision
+        if decision.label is not None:
+            self._gaze_choice = decision
         try:
             self._fusion.gaze(decision)
         finally:
@@ -264,9 +269,13 @@ class ChoiceArbiter(Node):
 
     def _on_outcome(self, outcome: FusionOutcome) -> None:
         """Publish what the input modes decided: ``choice``, or why none (``choice/none``)."""
+        mode = self._fusion.parameters.settings.input_mode
+        decision = self._deciding
+        if decision is None and mode == HYBRID and self._gaze_choice is not None \
+                and self._gaze_choice.label == outcome.choice:
+            decision = self._gaze_choice      # SSVEP confirmed this gaze candidate
         self._detail_publisher.publish(String(data=decision_detail(
-            self._deciding, outcome.choice, outcome.no_choice,
-            self._fusion.parameters.settings.input_mode, self.settings.method,
+            decision, outcome.choice, outcome.no_choice, mode, self.settings.method,
             self._time.ns())))
         if outcome.choice is not None:
             self._publisher.publish(String(data=outcome.choice))
