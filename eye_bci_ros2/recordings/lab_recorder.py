@@ -14,8 +14,8 @@ included; ``pyxdf.load_xdf`` reads it.  Typical use::
     print(recording.streams)      # what was recorded
 
 Which streams (:func:`select_session_streams`): the marker stream of the pipeline
-in ``namespace`` (by its name, :func:`~eye_bci_ros2.recordings.session_markers.
-stream_identity`), every stream of a gaze type (:data:`~eye_bci_ros2.recordings.xdf.
+in ``namespace`` (by its name and, unless ``host=''``, this machine in its source_id,
+:func:`~eye_bci_ros2.recordings.session_markers.stream_identity`), every stream of a gaze type (:data:`~eye_bci_ros2.recordings.xdf.
 GAZE_TYPES`) and of type EEG; ``gaze_source_id`` / ``eeg_source_id`` narrow them to one
 device when several send (several people's streams on one network).
 
@@ -24,6 +24,7 @@ is part of the pure core (it loads neither on import).
 """
 
 from pathlib import Path
+import socket
 from typing import Any, List, Optional, Sequence, Union
 
 from eye_bci_ros2.recordings.session_markers import MARKER_TYPE, stream_identity
@@ -40,7 +41,8 @@ def _wanted(source_id: str, wanted: str) -> bool:
 
 
 def select_session_streams(infos: Sequence[Any], namespace: str = '/', gaze_source_id: str = '',
-                           eeg_source_id: str = '', markers: bool = True) -> List[Any]:
+                           eeg_source_id: str = '', markers: bool = True,
+                           host: str = '') -> List[Any]:
     """
     Pick the session's streams out of resolved ones (module doc).
 
@@ -50,14 +52,17 @@ def select_session_streams(infos: Sequence[Any], namespace: str = '/', gaze_sour
     :param gaze_source_id: take only the gaze stream of this source ('' = every one).
     :param eeg_source_id: take only the EEG stream of this source ('' = every one).
     :param markers: take the pipeline's marker stream.
+    :param host: the machine the pipeline runs on (its marker stream's source_id says it);
+        '' = any (then two machines' pipelines of one namespace are both taken).
     :returns: the chosen ones, in the order given.
     """
-    marker_name = stream_identity(namespace, '')[0]
+    marker_name, marker_source = stream_identity(namespace, host)
     chosen = []
     for info in infos:
         kind = info.type().lower()
         if kind == MARKER_TYPE.lower():
-            take = markers and info.name() == marker_name
+            take = markers and info.name() == marker_name and (
+                not host or info.source_id() == marker_source)
         elif kind in GAZE_TYPES:
             take = _wanted(info.source_id(), gaze_source_id)
         elif kind == EEG_TYPE:
@@ -117,16 +122,22 @@ class LabRecording:
 
 def resolve_session_streams(namespace: str = '/', gaze_source_id: str = '',
                             eeg_source_id: str = '', wait_s: float = RESOLVE_S,
-                            markers: bool = True) -> List[Any]:
-    """Resolve the LSL streams on the network and pick the session's (module doc)."""
+                            markers: bool = True, host: Optional[str] = None) -> List[Any]:
+    """
+    Resolve the LSL streams on the network and pick the session's (module doc).
+
+    :param host: the pipeline's machine (None: this one; '' any): see
+        :func:`select_session_streams`.
+    """
     import pylsl   # noqa: I100 - liblsl, loaded only to record
-    return select_session_streams(pylsl.resolve_streams(wait_s), namespace, gaze_source_id,
-                                  eeg_source_id, markers)
+    return select_session_streams(
+        pylsl.resolve_streams(wait_s), namespace, gaze_source_id, eeg_source_id, markers,
+        socket.gethostname() if host is None else host)
 
 
 def record_session(path: Union[str, Path], namespace: str = '/', gaze_source_id: str = '',
                    eeg_source_id: str = '', wait_s: float = RESOLVE_S,
-                   markers: bool = True) -> LabRecording:
+                   markers: bool = True, host: Optional[str] = None) -> LabRecording:
     """Find the session's streams and start recording them into ``path`` (module doc)."""
     return LabRecording(path, resolve_session_streams(namespace, gaze_source_id,
-                                                      eeg_source_id, wait_s, markers))
+                                                      eeg_source_id, wait_s, markers, host))

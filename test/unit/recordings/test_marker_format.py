@@ -112,11 +112,13 @@ def info(kind, name, source_id):
 def test_the_sessions_streams_are_its_gaze_eeg_and_its_own_markers():
     streams = [info('Gaze', 'tobii', 'tracker-1'), info('Gaze', 'tobii', 'tracker-2'),
                info('EEG', 'obci_eeg1', 'amp'), info('Markers', 'eye_bci_markers', 'm@pc/'),
-               info('Markers', 'eye_bci_markers /left', 'm@pc/left'),
+               info('Markers', 'eye_bci_markers /left', 'eye_bci_markers@pc/left'),
+               info('Markers', 'eye_bci_markers /left', 'eye_bci_markers@other/left'),
                info('Markers', 'psychopy', 'p'), info('Audio', 'mic', 'mic')]
-    chosen = select_session_streams(streams, '/left', gaze_source_id='tracker-2')
+    chosen = select_session_streams(streams, '/left', gaze_source_id='tracker-2', host='pc')
     assert [(s.type(), s.source_id()) for s in chosen] == [
-        ('Gaze', 'tracker-2'), ('EEG', 'amp'), ('Markers', 'm@pc/left')]
+        ('Gaze', 'tracker-2'), ('EEG', 'amp'), ('Markers', 'eye_bci_markers@pc/left')]
+    assert len(select_session_streams(streams, '/left')) == 5     # any host: both pipelines
     assert [s.source_id() for s in select_session_streams(streams, '/', markers=False)] == [
         'tracker-1', 'tracker-2', 'amp']
 
