@@ -12,8 +12,11 @@ the fields).  The stream's name and source_id say which pipeline
 
 It listens to the pipeline's topics and never publishes:
 
-* ``choice/request`` -> ``question``: the options of the last ``choices/regions``
-  (labels, screen px outlines, the menu's step from the markers' namespace);
+* ``choices/regions`` -> ``options`` when the set of options changes (labels,
+  screen px outlines, the menu's step from the markers' namespace), at the
+  regions' stamp; ``choice/request`` -> ``question`` with the options on the
+  screen then (the projector may show a new set just after the question: its
+  ``options`` marker follows);
 * ``choice/detail`` (the arbiter's JSON of each ``choice`` and ``choice/none``)
   -> ``choice`` (label, rule, evidence) and ``no_choice`` (reason), stamped at the
   last gaze sample the decision used;
@@ -48,7 +51,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.navigation.occupancy import yaw_of
 from eye_bci_ros2.recordings.session_markers import (
-    answer_event, CHOICE, GOAL, marker_text, NO_CHOICE, OUTCOME, progress_event, QUESTION,
+    answer_event, CHOICE, GOAL, marker_text, NO_CHOICE, OPTIONS, OUTCOME, progress_event,
+    QUESTION,
     question_fields, ros_to_lsl, STATE, STIMULUS_ONSET, stream_identity, trial_frame,
     TRIAL_ONSET, VALIDATION)
 from eye_bci_ros2.nodes.ssvep_stimulus import PARAMETERS as STIMULUS_PARAMETERS
@@ -117,6 +121,11 @@ class SessionMarkers(Node):
         """Give the LSL outlet in use (None when ``enabled`` is false)."""
         return self._outlet
 
+    @property
+    def regions(self) -> tuple:
+        """Give the options on the screen now: (labels, polygons (R, K, 2) px, namespaces)."""
+        return self._regions
+
     def _open(self) -> None:
         if self._params['enabled'] and self._outlet is None:
             self._outlet = MarkerOutlet(self.stream_name, self.source_id,
@@ -165,7 +174,11 @@ class SessionMarkers(Node):
             labels, polygons = marker_array_to_regions(msg)
             steps = [m.ns for m in msg.markers
                      if m.type == Marker.LINE_STRIP and m.action == Marker.ADD]
+            new = set(labels) != set(self._regions[0])
             self._regions = (labels, polygons, steps)
+            if new:   # a moved view (same labels) is not news; new options are
+                stamp = stamp_to_ns(msg.markers[0].header.stamp) if msg.markers else 0
+                self._push(OPTIONS, stamp, **question_fields(labels, polygons, steps))
         self._guard(REGIONS_TOPIC, take)
 
     def _on_request(self, msg: Empty) -> None:

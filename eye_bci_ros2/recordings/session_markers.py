@@ -39,6 +39,7 @@ STREAM_PREFIX = 'eye_bci_markers'
 FORMAT_VERSION = 1
 
 #: Every event, in the order a session meets them (docs/hardware.md, "LabRecorder").
+OPTIONS = 'options'            # choices/regions: a new set of options on the screen
 QUESTION = 'question'          # choice/request: the options and their screen regions
 CHOICE = 'choice'              # the arbiter's choice: label, rule, evidence
 NO_CHOICE = 'no_choice'        # a round that ended without a choice, and why
@@ -55,7 +56,7 @@ STATE = 'state'                # choice_menu/state: what the menu waits for
 VALIDATION = 'validation'      # validation/result: the outcome of a gaze validation
 STIMULUS_ONSET = 'stimulus_onset'  # ssvep/stimuli: frame 0 of a stimulus set
 TRIAL_ONSET = 'trial_onset'    # a question while stimuli flicker: the first frame of its trial
-EVENTS = (QUESTION, CHOICE, NO_CHOICE, ANSWER, GO, STOP, OUTCOME, GOAL, DRIVING, ARRIVED,
+EVENTS = (OPTIONS, QUESTION, CHOICE, NO_CHOICE, ANSWER, GO, STOP, OUTCOME, GOAL, DRIVING, ARRIVED,
           STOPPED, FAILED, STATE, VALIDATION, STIMULUS_ONSET, TRIAL_ONSET)
 
 #: The menu's answers that are events of their own (task.menu.GO_LABEL, STOP_LABEL).

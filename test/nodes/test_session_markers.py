@@ -99,18 +99,25 @@ def test_the_stream_says_which_pipeline(rig):
 
 
 def test_a_question_carries_the_options_and_their_regions(graph, rig):
-    _, inlet, topics, _ = rig
+    node, inlet, topics, _ = rig
     polygons = np.stack([square(*OPTIONS[label], 100.0) for label in OPTIONS])
     sources = [Marker(ns='tables', id=index, text=label) for index, label in enumerate(OPTIONS)]
-    topics.regions.publish(regions_to_marker_array(polygons, sources,
-                                                   topics.node.get_clock().now().to_msg()))
-    graph.spin_for(0.5)
+    shown_ns = time.time_ns() - 200_000_000       # the screen showed them 0.2 s ago
+    body, stamp, _, _ = received(graph, inlet, lambda: topics.regions.publish(
+        regions_to_marker_array(polygons, sources, ns_to_stamp(shown_ns))), 'options')
+    assert abs(stamp - ros_to_lsl_here(shown_ns)) < PAIR_TOLERANCE_S
+    assert [option['label'] for option in body['options']] == list(OPTIONS)
+    # The same options seen from a moved view: no news.
+    topics.regions.publish(regions_to_marker_array(polygons + 5.0, sources,
+                                                   ns_to_stamp(time.time_ns())))
+    assert graph.spin_until(lambda: node.regions[1][0, 0, 0] == polygons[0, 0, 0] + 5.0)
     body, stamp, before, after = received(graph, inlet,
                                           lambda: topics.request.publish(Empty()), 'question')
     assert before <= stamp <= after
     assert body['step'] == ['tables']
     assert [option['label'] for option in body['options']] == list(OPTIONS)
-    np.testing.assert_allclose(body['options'][0]['region'], polygons[0])
+    np.testing.assert_allclose(body['options'][0]['region'], polygons[0] + 5.0)
+    assert len(inlet.of('options')) == 1
 
 
 def test_a_choice_and_a_no_choice_are_stamped_at_their_last_gaze_sample(graph, rig):
