@@ -15,9 +15,10 @@ included; ``pyxdf.load_xdf`` reads it.  Typical use::
 
 Which streams (:func:`select_session_streams`): the marker stream of the pipeline
 in ``namespace`` (by its name and, unless ``host=''``, this machine in its source_id,
-:func:`~eye_bci_ros2.recordings.session_markers.stream_identity`), every stream of a gaze type (:data:`~eye_bci_ros2.recordings.xdf.
-GAZE_TYPES`) and of type EEG; ``gaze_source_id`` / ``eeg_source_id`` narrow them to one
-device when several send (several people's streams on one network).
+:func:`~eye_bci_ros2.recordings.session_markers.stream_identity`), every stream of a
+gaze type (:data:`~eye_bci_ros2.recordings.xdf.GAZE_TYPES`) and of type EEG;
+``gaze_source_id`` / ``eeg_source_id`` narrow them to one device when several send
+(several people's streams on one network).
 
 ``pylsl`` and ``labrecorder`` are imported only when a recording starts: the module
 is part of the pure core (it loads neither on import).
