@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from eye_bci_ros2.decision.evidence import Decision
-from eye_bci_ros2.recordings.lab_recorder import select_session_streams
+from eye_bci_ros2.recordings.lab_recorder import LabRecording, select_session_streams
 from eye_bci_ros2.recordings.session_markers import (
     answer_event, decision_detail, EVENTS, marker_text, parse_marker, progress_event,
     question_fields, ros_to_lsl, stream_identity, trial_frame)
@@ -131,3 +131,15 @@ def test_a_trial_starts_at_the_first_stimulus_frame_at_or_after_its_question():
     assert frame == 61 and stamp == epoch + round(61e9 / 60)
     frame, stamp = trial_frame(epoch + 500_000_000, epoch, 144.0)     # exactly on frame 72
     assert (frame, stamp) == (72, epoch + 500_000_000)
+
+
+def test_a_recording_refuses_nothing_to_record_an_unresolved_stream_and_a_bad_path(tmp_path):
+    with pytest.raises(ValueError, match='nothing to record'):
+        LabRecording(tmp_path / 'a.xdf', [])
+    made_by_hand = SimpleNamespace(type=lambda: 'EEG', name=lambda: 'amp', uid=lambda: '',
+                                   source_id=lambda: 'amp-1')
+    with pytest.raises(ValueError, match="cannot record 'amp' .*not a resolved stream"):
+        LabRecording(tmp_path / 'a.xdf', [made_by_hand])
+    resolved = SimpleNamespace(uid=lambda: 'u-1')
+    with pytest.raises(OSError, match='is not a folder'):
+        LabRecording(tmp_path / 'missing' / 'a.xdf', [resolved])
