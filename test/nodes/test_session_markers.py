@@ -145,13 +145,16 @@ def test_the_menu_events_confirmation_go_stop_arrival_and_failure(graph, rig):
         body, stamp, before, after = received(
             graph, inlet, lambda: topics.answer.publish(String(data=label)), event)
         assert body['label'] == label and before <= stamp <= after
+    assert inlet.of('go')[0][0]['goal'] == 'kitchen/table_2'    # what 'go' confirmed
     body, *_ = received(graph, inlet, lambda: topics.result.publish(
         String(data='kitchen/table_2')), 'outcome')
     assert body['label'] == 'kitchen/table_2'
     for text, event in (("driving to 'kitchen/table_2': 3.1 m left", 'driving'),
                         ("arrived at 'kitchen/table_2'", 'arrived'),
                         ("stopped on the way to 'kitchen/table_2'", 'stopped'),
-                        ("the robot did not move toward 'kitchen/table_2' within 10 s", 'failed')):
+                        ("the robot did not move toward 'kitchen/table_2' within 10 s (3.5 m "
+                         'left, no nearer): choose again', 'failed'),
+                        ("sending the robot to 'kitchen/table_2'", 'robot')):
         body, stamp, before, after = received(
             graph, inlet, lambda: topics.progress.publish(String(data=text)), event)
         assert body['text'] == text and before <= stamp <= after

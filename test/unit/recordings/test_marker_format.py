@@ -63,8 +63,19 @@ def test_menu_lines_become_their_events():
     assert progress_event("driving to 'kitchen/table_2': 3.1 m left") == 'driving'
     assert progress_event("arrived at 'kitchen/table_2'") == 'arrived'
     assert progress_event("stopped on the way to 'kitchen/table_2'") == 'stopped'
-    assert progress_event("the robot did not move toward 'kitchen/table_2'") == 'failed'
-    assert progress_event('') == 'failed'
+    assert progress_event("the robot did not move toward 'kitchen/table_2' within 10 s "
+                          '(3.5 m left, no nearer): choose again') == 'failed'
+    # The NavigateToPose menu's lines.
+    assert progress_event("the robot refused the goal to 'k/t': unreachable: choose "
+                          'again') == 'failed'
+    assert progress_event("the robot did not reach 'k/t': 103 (no valid path): choose "
+                          'again') == 'failed'
+    assert progress_event('the robot stopped') == 'stopped'
+    for line in ("sending the robot to 'k/t'", "stopping on the way to 'k/t'",
+                 "no feedback from the robot for 3 s on the way to 'k/t': 'stop' is still "
+                 'offered', "the robot refused the stop on the way to 'k/t' (busy): choose "
+                 "'stop' again", ''):
+        assert progress_event(line) == 'robot', line
 
 
 def test_a_question_lists_each_option_with_its_region_without_padding():
