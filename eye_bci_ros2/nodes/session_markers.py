@@ -54,9 +54,9 @@ from visualization_msgs.msg import Marker, MarkerArray
 from eye_bci_ros2.navigation.occupancy import yaw_of
 from eye_bci_ros2.nodes.ssvep_stimulus import PARAMETERS as STIMULUS_PARAMETERS
 from eye_bci_ros2.recordings.session_markers import (
-    ANSWER, answer_event, CHOICE, GO, GOAL, marker_text, NO_CHOICE, OPTIONS, OUTCOME, progress_event,
-    QUESTION, question_fields, ros_to_lsl, STATE, STIMULUS_ONSET, stream_identity,
-    trial_frame, TRIAL_ONSET, VALIDATION)
+    ANSWER, answer_event, CHOICE, GO, GOAL, marker_text, NO_CHOICE, OPTIONS, OUTCOME,
+    progress_event, QUESTION, question_fields, ros_to_lsl, STATE, STIMULUS_ONSET,
+    stream_identity, trial_frame, TRIAL_ONSET, VALIDATION)
 from eye_bci_ros2.ros.conversions import marker_array_to_regions, stamp_to_ns
 from eye_bci_ros2.ros.log_throttle import KeyedWarnings
 from eye_bci_ros2.ros.marker_outlet import MarkerOutlet
