@@ -23,6 +23,7 @@ from eye_bci_ros2.ros.topics import (CHOICE_DETAIL_TOPIC, EVENT_QOS, GOAL_POSE_T
                                      LATCHED_QOS, MENU_ANSWER_TOPIC, MENU_PROGRESS_TOPIC,
                                      MENU_RESULT_TOPIC, MENU_STATE_TOPIC, REGIONS_TOPIC,
                                      REQUEST_TOPIC, SSVEP_STIMULI_TOPIC, VALIDATION_RESULT_TOPIC)
+from eye_bci_ros2.streams.lsl_connection import clock_pair
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 
@@ -36,11 +37,9 @@ GRID_TOLERANCE_S = 0.00025
 
 
 def ros_to_lsl_here(stamp_ns: int) -> float:
-    """Map a ROS stamp to the LSL clock with the test's own clock pair (system time between)."""
-    before = pylsl.local_clock()
-    now_ns = time.time_ns()
-    after = pylsl.local_clock()
-    return 0.5 * (before + after) + (stamp_ns - now_ns) * 1e-9
+    """Map a ROS stamp to the LSL clock with the test's own clock pair (the narrowest read)."""
+    now_ns, lsl_now = clock_pair(time.time_ns, pylsl.local_clock)
+    return lsl_now + (stamp_ns - now_ns) * 1e-9
 
 
 class Topics:
