@@ -130,14 +130,38 @@ def log_info(logger, text: str) -> None:
     message and log file.  A logger that is not rclpy's (a test's) gets
     ``info``.
     """
+    _emit(logger, LoggingSeverity.INFO, text, sys._getframe(1))
+
+
+def log_at(logger, warning: bool, text: str) -> None:
+    """
+    Log ``text`` at WARN when ``warning``, else at INFO, from one line of the caller's.
+
+    rclpy's logger keeps a context per call site (file, function, line) and
+    raises ``ValueError('Logger severity cannot be changed between calls.')``
+    when one site logs at another severity than the first time (rclpy's
+    ``RcutilsLogger.log``), so ``(log.warning if bad else log.info)(text)``
+    fails on its second kind of line, after the first has passed every test
+    that saw only one kind.  This hands the line to rcutils as :func:`log_info`
+    does, with no per-site context: any severity, any order.
+    """
+    severity = LoggingSeverity.WARN if warning else LoggingSeverity.INFO
+    _emit(logger, severity, text, sys._getframe(1))
+
+
+def _emit(logger, severity: LoggingSeverity, text: str, caller) -> None:
+    """Hand ``text`` to rcutils at ``severity`` as from ``caller`` (a frame)."""
     emit = _RCUTILS_LOG
     if emit is None or not isinstance(logger, RcutilsLogger):
-        logger.info(text)
+        # One call site per severity: an rclpy logger refuses a site whose severity changes.
+        if severity == LoggingSeverity.WARN:
+            logger.warning(text)
+        else:
+            logger.info(text)
         return
-    if logger.is_enabled_for(LoggingSeverity.INFO):
-        caller = sys._getframe(1)
+    if logger.is_enabled_for(severity):
         code = caller.f_code
-        emit(LoggingSeverity.INFO, logger.name, text, code.co_name,
+        emit(severity, logger.name, text, code.co_name,
              os.path.abspath(code.co_filename), caller.f_lineno)
 
 
