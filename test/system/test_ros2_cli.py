@@ -163,8 +163,13 @@ def test_param_set_get_dump_and_the_dump_as_params_file(ros2, env, tmp_path):
             status, out = run_param([str(ros2), 'param', 'set', *daemonless, '/marker_projector',
                                     'image_widht', '1920'], env, domain)
             assert 'Setting parameter failed' in out, out
+            # The answer itself says which name was meant (not only the node's log).
+            assert "did you mean 'image_width'?" in out, out
             assert node.wait_for(r"unknown parameter 'image_widht'.*'image_width'"), \
                 node.output()
+            status, out = run_param([str(ros2), 'param', 'set', *daemonless, '/marker_projector',
+                                    'profile', 'tobii_pro'], env, domain)
+            assert 'it is a parameter of lsl_gaze_bridge, not of this node' in out, out
             status, dumped = run_param([str(ros2), 'param', 'dump', *daemonless,
                                        '/marker_projector'], env, domain)
             assert status == 0, dumped
