@@ -66,7 +66,7 @@ class QuietRepeats:
     While the person does not choose, the arbiter and the menu go round and
     round ("round 7 (request) ...", "no choice ...: asking again"): several
     lines a second that bury everything else.  A line whose text differs from
-    the previous one only in its numbers is a repeat: the first is logged,
+    a line of the run only in its numbers and quoted names is a repeat: the first is logged,
     the repeats go to DEBUG, and once per ``period_s`` one line says how many
     were held back.  A different line ends the run.
 
@@ -165,7 +165,10 @@ def _emit(logger, severity: LoggingSeverity, text: str, caller) -> None:
              os.path.abspath(code.co_filename), caller.f_lineno)
 
 
-#: Digits and decimal numbers, replaced to compare lines by their shape.
-_DIGITS = re.compile(r'-?\d+(\.\d+)?|nan|inf')
-#: A run is a cycle of at most this many kinds of line (round, no choice, asking again, ...).
-RUN_SHAPES = 6
+#: Digits, decimal numbers and quoted names (the option looked at), replaced to compare
+#: lines by their shape: "not clearly on one option ('kitchen' ...)" and "('bedroom' ...)"
+#: are one kind of line, or a person looking around made a new kind every round.
+_DIGITS = re.compile(r"-?\d+(\.\d+)?|nan|inf|'[^']*'")
+#: A run is a cycle of at most this many kinds of line (round, each reason for no choice,
+#: asking again, ...).
+RUN_SHAPES = 12
