@@ -491,7 +491,7 @@ class RoundScheduler:
 
     @property
     def newest_regions(self) -> Optional[RegionSet]:
-        """The newest region set (None before the first)."""
+        """Return the newest region set (None before the first)."""
         return self._history[-1] if self._history else None
 
     @property

@@ -22,6 +22,8 @@ from eye_bci_ros2.streams.lsl_connection import StreamDescription
 
 #: The profile that assumes nothing about the layout.
 CUSTOM = 'custom'
+
+
 def not_gaze(stream: StreamDescription) -> Optional[str]:
     """Say why a stream is no eye tracker's whatever the parameters (None: it may be one)."""
     return not_gaze_type(stream.stream_type)

@@ -33,6 +33,7 @@ from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, ScreenGeometry
 from eye_bci_ros2.recordings.gaze_recording import (GazeRecording, PathLike, RecordingError,
                                                     TargetSchedule)
 
+
 def _first(value, default=''):
     """Return a pyxdf header value: they are one-element lists (or None)."""
     if isinstance(value, list):

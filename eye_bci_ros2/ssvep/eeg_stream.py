@@ -56,7 +56,7 @@ class EegStreamProfile:
                 and (self.source_id in ('', ANY) or stream.source_id == self.source_id))
 
     def misfit(self, stream: StreamDescription) -> Optional[str]:
-        """A numeric stream that matches is taken unless it is no EEG (its type says so)."""
+        """Say why a matching stream is no EEG (its type; None: it is taken, channels later)."""
         return not_eeg(stream.stream_type)
 
     def unusable(self, stream: StreamDescription) -> Optional[str]:

@@ -78,7 +78,7 @@ def test_a_second_projector_showing_another_view_never_moves_the_first_arbiters_
                         [(-1.0, 0.0, 0.4), (1.5, 1.0, 0.4), (0.5, 2.5, 0.4)], start=1)])
     choices.publish(tables)
     camera.publish(pose_of(KITCHEN_VIEW))
-    first = graph.add(MarkerProjector)
+    graph.add(MarkerProjector)                 # the first pipeline's projector
     arbiter = graph.add(ChoiceArbiter)
     kitchen = pose_view(pose_of(KITCHEN_VIEW).pose)
 

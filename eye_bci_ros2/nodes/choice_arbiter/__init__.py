@@ -69,9 +69,9 @@ from eye_bci_ros2.ros.log_throttle import KeyedWarnings, QuietRepeats
 from eye_bci_ros2.ros.node_clock import NodeClock
 from eye_bci_ros2.ros.parameters import param_specs, SettingsParameters
 from eye_bci_ros2.ros.runner import spin_node
-from eye_bci_ros2.ros.topics import (CAMERA_POSE_TOPIC, CHOICE_TOPIC, DECISION_DUE_TOPIC, EVENT_QOS, GAZE_QOS,
-                                     GAZE_SAMPLES_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
-                                     REGIONS_TOPIC, REQUEST_TOPIC)
+from eye_bci_ros2.ros.topics import (CAMERA_POSE_TOPIC, CHOICE_TOPIC, DECISION_DUE_TOPIC,
+                                     EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                     NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC)
 
 #: Period of the timer that closes quiet rounds, releases held decisions and updates the
 #: feedback between gaze batches (the feedback module's doc), s: a round
