@@ -15,23 +15,26 @@ file when not empty.  The options to choose from are published on
 
 Nothing starts when ``params_file`` does not exist (one line says so).  Every
 node is required: when one ends (a bad parameter at start-up, a crash), the
-launch shuts the others down, so no half pipeline keeps running.
+launch shuts the others down, so no half pipeline keeps running; Ctrl-C, once
+or twice, is one quiet stop, status 0 (:mod:`eye_bci_ros2.ros.launch_stop`).
 """
 
 import os
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
+
+from eye_bci_ros2.ros.launch_stop import one_stop_per_ctrl_c, required
 
 PACKAGE = 'eye_bci_ros2'
 
 
 def _required(executable):
     """Return the action that ends the launch when ``executable`` ends (its ``on_exit``)."""
-    return Shutdown(reason=f'{executable} ended; a pipeline without it cannot choose')
+    return required(executable, 'a pipeline without it cannot choose')
 
 
 def _nodes(context):
@@ -65,6 +68,7 @@ def _nodes(context):
 def generate_launch_description():
     """Declare the arguments and the pipeline nodes."""
     return LaunchDescription([
+        one_stop_per_ctrl_c(),
         DeclareLaunchArgument(
             'params_file',
             default_value=PathJoinSubstitution([FindPackageShare(PACKAGE), 'config',

@@ -495,6 +495,11 @@ class RoundScheduler:
         return self._offered
 
     @property
+    def newest_regions(self) -> Optional[RegionSet]:
+        """Return the newest region set (None before the first)."""
+        return self._history[-1] if self._history else None
+
+    @property
     def round_open(self) -> bool:
         """Whether a round is collecting gaze (or holding a decision)."""
         return self._round is not None

@@ -28,12 +28,10 @@ import numpy as np
 
 from eye_bci_ros2.gaze.profiles import (build_config, convert, PROFILE_NAMES, resolve_mapping,
                                         stream_matches)
+from eye_bci_ros2.gaze.stream import is_gaze_type
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, ScreenGeometry
 from eye_bci_ros2.recordings.gaze_recording import (GazeRecording, PathLike, RecordingError,
                                                     TargetSchedule)
-
-#: Stream types (lower case) that carry gaze, besides those of the profiles.
-GAZE_TYPES = ('gaze', 'eyetracker', 'eye-tracker', 'eyetracking', 'eye_tracker')
 
 
 def _first(value, default=''):
@@ -95,7 +93,7 @@ def pick_gaze_stream(streams: Sequence[Dict], name: Optional[str] = None,
         if profile is not None and stream_matches(build_config({'profile': profile}),
                                                   stream_type, stream_name, ''):
             return True
-        return (stream_type.lower() in GAZE_TYPES
+        return (is_gaze_type(stream_type)
                 or profile_for(stream_type, stream_name) is not None)
 
     candidates = [stream for stream in streams if is_gaze(stream)]

@@ -21,4 +21,5 @@ Each module is one piece of the adapters' common ground, not a node:
 * ``graph_watch``: a second pipeline on the same graph, noticed;
 * ``package_files``: the installed files (ament index, else the source tree);
 * ``launch_arguments``: the launch files' boolean arguments, checked.
+* ``launch_stop``: how a launch stops: a node that ends stops it, Ctrl-C is one quiet stop.
 """

@@ -67,7 +67,6 @@ from rclpy.experimental import EventsExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
-from rclpy.utilities import remove_ros_args
 
 from eye_bci_ros2.ros.parameters import quote_param_rules, warn_unknown_overrides
 from eye_bci_ros2.ros.startup import ctrl_c_pending, quiet_liblsl
@@ -163,11 +162,24 @@ def spin_for(executor: Executor, seconds: float, step_s: float = 0.01) -> None:
 
 
 def non_ros_args(argv: List[str]) -> List[str]:
-    """Return ``argv`` without its ROS arguments (all of it if rcl cannot parse them)."""
-    try:
-        return remove_ros_args(argv)
-    except Exception:  # noqa: B902 - rclpy.init reports the reason in one line
-        return [argv[0]] if argv else []
+    """
+    Return ``argv`` without its ROS arguments: each ``--ros-args`` up to ``--`` or the end.
+
+    rcl's rule, applied here rather than by rclpy's ``remove_ros_args``: rcl
+    parses every argument outside ``--ros-args`` too and warns of each
+    ``name:=name`` there as a remap rule in a deprecated form, once per call (a
+    mistyped ``-p profile:=tobii_pro`` before ``--ros-args`` got three such lines
+    before the one that says what to do, :func:`command_line_problem`).
+    """
+    kept, ros = [], False
+    for arg in argv:
+        if ros:
+            ros = arg != '--'
+        elif arg == '--ros-args':
+            ros = True
+        else:
+            kept.append(arg)
+    return kept
 
 
 def _stop_on_signals(stop: threading.Event) -> None:

@@ -57,7 +57,6 @@ import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
-from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Bool, String
 from visualization_msgs.msg import Marker, MarkerArray
@@ -65,7 +64,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from eye_bci_ros2.projection.geometry import points_in_convex_polygons
 from eye_bci_ros2.ros.conversions import gaze_batch_arrays, marker_array_to_regions
 from eye_bci_ros2.ros.registry import menu, pipeline
-from eye_bci_ros2.ros.runner import make_executor
+from eye_bci_ros2.ros.runner import make_executor, non_ros_args
 from eye_bci_ros2.ros.topics import (CAMERA_POSE_TOPIC, CHOICE_TOPIC, CHOICES_QOS, CHOICES_TOPIC,
                                      EVENT_QOS, GAZE_ON_SCREEN_TOPIC, GAZE_SAMPLES_TOPIC,
                                      LATCHED_QOS, LISTENER_QOS, MENU_PROGRESS_TOPIC,
@@ -502,7 +501,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     are ignored once it stops, so a second Ctrl-C cannot break the clean-up.
     """
     argv = sys.argv if argv is None else argv
-    args = build_parser().parse_args(remove_ros_args(argv)[1:])
+    args = build_parser().parse_args(non_ros_args(argv)[1:])
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
