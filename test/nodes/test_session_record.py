@@ -1,0 +1,170 @@
+"""session_record: a real process records the session's topics into a bag rosbags reads back."""
+
+import os
+from pathlib import Path
+import shutil
+import subprocess
+
+from geometry_msgs.msg import PoseStamped
+import numpy as np
+import pytest
+from rosbags.highlevel import AnyReader
+from rosbags.interfaces import QosDurability
+from rosbags.typesys import get_typestore, Stores
+from sensor_msgs.msg import PointCloud2
+from std_msgs.msg import String
+import yaml
+
+from eye_bci_ros2.recordings.bag_writer import RESERVE_NAME
+from eye_bci_ros2.ros.topics import (CAMERA_POSE_TOPIC, CHOICE_TOPIC, EVENT_QOS, GAZE_QOS,
+                                     GAZE_SAMPLES_TOPIC, LATCHED_QOS)
+from package_commands import running
+from ros_harness import gaze_messages, ros_graph
+
+MODULE = 'tools.session_record'
+
+
+def read_bag(path: Path):
+    """Return {topic: [(log time ns, message)]} and the connections, read with rosbags."""
+    found = {}
+    with AnyReader([path], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
+        for connection, stamp, data in reader.messages():
+            found.setdefault(connection.topic, []).append(
+                (stamp, reader.deserialize(data, connection.msgtype)))
+        connections = {c.topic: c for c in reader.connections}
+    return found, connections
+
+
+def wait_recording(graph, process, topics, timeout=30.0):
+    """Spin until the recorder subscribed to every topic (its subscriptions on the graph)."""
+    helper = graph.node('probe')
+
+    def subscribed():
+        return all(helper.get_subscriptions_info_by_topic('/' + t) for t in topics)
+    assert graph.spin_until(subscribed, timeout), process.output()
+
+
+def test_ctrl_c_closes_a_bag_that_rosbags_reads_with_types_counts_and_latched_qos(tmp_path):
+    bag = tmp_path / 'session'
+    with ros_graph() as graph:
+        node = graph.node('session_publisher')
+        pose = node.create_publisher(PoseStamped, CAMERA_POSE_TOPIC, LATCHED_QOS)
+        gaze = node.create_publisher(PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)
+        choice = node.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
+        latched = PoseStamped()
+        latched.header.frame_id = 'map'
+        latched.pose.position.x = 1.5
+        pose.publish(latched)          # before the recorder exists: latched, must arrive
+        with running(MODULE, '-o', str(bag), log=tmp_path / 'record.log',
+                     domain=graph.domain) as process:
+            assert process.wait_for('recording into')
+            wait_recording(graph, process, [CAMERA_POSE_TOPIC, GAZE_SAMPLES_TOPIC,
+                                            CHOICE_TOPIC])
+            stamps = 100.0 + np.arange(240) / 1200.0
+            points = np.column_stack([np.linspace(0, 1919, 240), np.full(240, 540.0)])
+            messages = gaze_messages(points, stamps)
+            for message in messages:
+                gaze.publish(message)
+            choice.publish(String(data='kitchen'))
+            graph.spin_for(1.0)
+            process.interrupt()
+            assert process.finish() == 0, process.output()
+    assert 'closed: ' in process.output() and 'Traceback' not in process.output()
+    found, connections = read_bag(bag)
+    assert len(found['/gaze/samples']) == len(messages)
+    assert [m.data for _, m in found['/choice']] == ['kitchen']
+    (_, recorded_pose), = found['/camera/pose']
+    assert recorded_pose.pose.position.x == 1.5
+    assert connections['/gaze/samples'].msgtype == 'sensor_msgs/msg/PointCloud2'
+    assert connections['/camera/pose'].msgtype == 'geometry_msgs/msg/PoseStamped'
+    # The latched topic is stored with its publisher's offered transient local QoS.
+    qos = connections['/camera/pose'].ext.offered_qos_profiles
+    assert qos and qos[0].durability == QosDurability.TRANSIENT_LOCAL
+    assert connections['/choice'].ext.offered_qos_profiles[0].durability == \
+        QosDurability.VOLATILE
+    # rosbag2's metadata.yaml as Jazzy writes it: version 9, mcap, hashes, QoS lists.
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert meta['version'] == 9 and meta['storage_identifier'] == 'mcap'
+    topics = {t['topic_metadata']['name']: t for t in meta['topics_with_message_count']}
+    assert topics['/gaze/samples']['message_count'] == len(messages)
+    assert topics['/camera/pose']['topic_metadata']['type_description_hash'].startswith(
+        'RIHS01_')
+    assert topics['/camera/pose']['topic_metadata']['offered_qos_profiles'][0][
+        'durability'] == 'transient_local'
+    assert not (bag / RESERVE_NAME).exists()
+
+
+def test_an_unwritable_path_is_one_line_and_status_1(tmp_path):
+    blocker = tmp_path / 'a_file'
+    blocker.write_text('in the way')
+    with ros_graph() as graph:
+        with running(MODULE, '-o', str(blocker / 'bag'), log=tmp_path / 'record.log',
+                     domain=graph.domain) as process:
+            status = process.finish()
+    lines = process.output().strip().splitlines()
+    assert status == 1
+    assert lines == [f'session_record: cannot record into {blocker / "bag"}: Not a directory']
+
+
+def test_an_existing_bag_is_never_overwritten(tmp_path):
+    (tmp_path / 'bag').mkdir()
+    with ros_graph() as graph:
+        with running(MODULE, '-o', str(tmp_path / 'bag'), log=tmp_path / 'record.log',
+                     domain=graph.domain) as process:
+            status = process.finish()
+    assert status == 1
+    assert 'exists already' in process.output() and 'Traceback' not in process.output()
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A real 3 MiB file system (tmpfs), so that the disk fills mid-run as a real one does."""
+    mount = tmp_path / 'small_disk'
+    mount.mkdir()
+    if shutil.which('mount') is None or os.geteuid() != 0:
+        pytest.skip('mounting a small tmpfs needs root and mount(8)')
+    done = subprocess.run(['mount', '-t', 'tmpfs', '-o', 'size=3m', 'tmpfs', str(mount)],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        pytest.skip(f'cannot mount a tmpfs here: {done.stderr.strip()}')
+    try:
+        yield mount
+    finally:
+        subprocess.run(['umount', '-l', str(mount)], check=False)
+
+
+def test_a_full_disk_closes_the_bag_with_what_was_written(tmp_path, small_disk):
+    bag = small_disk / 'session'
+    with ros_graph() as graph:
+        node = graph.node('session_publisher')
+        gaze = node.create_publisher(PointCloud2, GAZE_SAMPLES_TOPIC, GAZE_QOS)
+        choice = node.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
+        with running(MODULE, '-o', str(bag), log=tmp_path / 'record.log',
+                     domain=graph.domain) as process:
+            assert process.wait_for('recording into')
+            wait_recording(graph, process, [GAZE_SAMPLES_TOPIC, CHOICE_TOPIC])
+            choice.publish(String(data='first'))
+            graph.spin_for(1.5)     # the choice is flushed to the file (FLUSH_PERIOD_S)
+            # 1200 Hz gaze in big batches until the 3 MiB disk (1 MiB reserved) is full.
+            points = np.random.default_rng(0).uniform(0, 1000, size=(2400, 2))
+            sent = 0
+            while process.process.poll() is None and sent < 3000:
+                for message in gaze_messages(points, 100.0 + np.arange(2400) / 1200.0,
+                                             chunk=2400):
+                    gaze.publish(message)
+                    sent += 1
+                graph.spin_for(0.05)
+            status = process.finish()
+    output = process.output()
+    assert status == 1, output
+    problem = [line for line in output.splitlines() if 'failed (No space left on device)' in line]
+    assert len(problem) == 1 and 'Traceback' not in output, output
+    found, _ = read_bag(bag)
+    assert [m.data for _, m in found['/choice']] == ['first']
+    assert len(found['/gaze/samples']) > 0
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    counts = {t['topic_metadata']['name']: t['message_count']
+              for t in meta['topics_with_message_count']}
+    assert counts['/gaze/samples'] == len(found['/gaze/samples'])
+    assert f"the bag is closed with the {sum(counts.values())} messages written before" in \
+        problem[0]
