@@ -206,6 +206,7 @@ class SessionBagWriter:
 
     @property
     def storage(self) -> _Ros2McapWriter:
+        """Return the MCAP file being written (rosbags' writer of it)."""
         return self._writer.storage
 
     def add_types(self, definitions: Dict[str, str]) -> None:

@@ -16,9 +16,10 @@ robot's drawing (``robot/marker``) and ``choice/due`` (the arbiter's
 schedule) are left out.
 """
 
+import importlib
 from typing import NamedTuple, Tuple
 
-from rclpy.qos import QoSProfile, qos_profile_action_status_default
+from rclpy.qos import qos_profile_action_status_default, QoSProfile
 
 from eye_bci_ros2.ros.topics import (CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC, CHOICE_TOPIC,
                                      CHOICES_QOS, CHOICES_TOPIC, CUE_TOPIC, EVENT_QOS,
@@ -51,7 +52,7 @@ class RecordedTopic(NamedTuple):
     """
 
     name: str
-    type: str
+    type: str   # noqa: A003 - the ROS word (ros2 topic type)
     qos: QoSProfile
 
 
@@ -105,3 +106,20 @@ def ros2_bag_record_command(namespace: str = '', output: str = 'session') -> str
     names = [topic.name if topic.name.startswith('/') else f'{prefix}/{topic.name}'
              for topic in RECORDED_TOPICS]
     return f'ros2 bag record -s mcap -o {output} ' + ' '.join(names)
+
+
+def message_class(type_name: str):
+    """
+    Import the rclpy class of ``pkg/msg/Type`` (or an action's ``pkg/action/X_FeedbackMessage``).
+
+    :raises ImportError: the package is not installed here.
+    """
+    package, kind, name = type_name.split('/')
+    module = importlib.import_module(f'{package}.{kind}')
+    if kind == 'action' and '_' in name:
+        action, part = name.split('_', 1)
+        return getattr(getattr(module, action).Impl, part)
+    found = getattr(module, name, None)
+    if found is None:
+        raise ImportError(f'{type_name} is not in {package}.{kind}')
+    return found

@@ -25,7 +25,8 @@ Usage::
 """
 
 import argparse
-import importlib
+import os
+import shutil
 import sys
 import time
 from typing import Dict, List, Optional, Sequence
@@ -40,27 +41,14 @@ from eye_bci_ros2.recordings.bag_writer import (BagError, FLUSH_PERIOD_S,
                                                 message_definition_from_class,
                                                 SessionBagWriter)
 from eye_bci_ros2.ros.runner import spin_nodes
-from eye_bci_ros2.ros.session_topics import RECORDED_TOPICS, RecordedTopic
+from eye_bci_ros2.ros.session_topics import message_class, RECORDED_TOPICS, RecordedTopic
+from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, GAZE_SAMPLES_TOPIC, REGIONS_TOPIC,
+                                     REQUEST_TOPIC)
 
 #: How often the graph is looked at for topics not yet recorded, s.
 DISCOVERY_PERIOD_S = 0.5
-
-
-def message_class(type_name: str):
-    """
-    Import the rclpy class of ``pkg/msg/Type`` (or an action's ``pkg/action/X_FeedbackMessage``).
-
-    :raises ImportError: the package is not installed here.
-    """
-    package, kind, name = type_name.split('/')
-    module = importlib.import_module(f'{package}.{kind}')
-    if kind == 'action' and '_' in name:
-        action, part = name.split('_', 1)
-        return getattr(getattr(module, action).Impl, part)
-    found = getattr(module, name, None)
-    if found is None:
-        raise ImportError(f'{type_name} is not in {package}.{kind}')
-    return found
+#: The topics without which a session's report has nothing (waited for by the demo).
+SESSION_CORE = (GAZE_SAMPLES_TOPIC, REQUEST_TOPIC, CHOICE_TOPIC, REGIONS_TOPIC)
 
 
 def _time(duration) -> QosTime:
@@ -174,6 +162,15 @@ class SessionRecorder(Node):
             self.get_logger().error(self.writer.problem)
             self.exit_status = 1
 
+    def recording_all(self, topics: Sequence[str] = SESSION_CORE) -> bool:
+        """Tell whether ``topics`` (relative names) are all being recorded."""
+        return all(self.resolve_topic_name(name) in self._recording for name in topics)
+
+    def has_seen(self, counts: Dict[str, int]) -> bool:
+        """Tell whether at least ``counts`` messages (by relative topic name) were recorded."""
+        return all(self.writer.counts.get(self.resolve_topic_name(name), 0) >= count
+                   for name, count in counts.items())
+
     @property
     def recorded(self) -> List[str]:
         """Return the topics being recorded."""
@@ -194,6 +191,19 @@ class SessionRecorder(Node):
                   f'messages on {sum(1 for n in counts.values() if n)} topics',
                   file=sys.stderr, flush=True)
         super().destroy_node()
+
+
+def open_session_bag(folder: str, name: str) -> SessionBagWriter:
+    """
+    Open a new bag ``folder/name``, replacing one of that name (the demo's own output).
+
+    :raises BagError: it cannot be made (one line).
+    """
+    path = os.path.join(folder, name)
+    if os.path.isfile(os.path.join(path, 'metadata.yaml')) or os.path.isdir(path):
+        shutil.rmtree(path)
+    os.makedirs(folder, exist_ok=True)
+    return SessionBagWriter(path)
 
 
 def default_folder() -> str:

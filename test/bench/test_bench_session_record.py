@@ -1,4 +1,4 @@
-"""bench.session_record, small: the recorder keeps every message at 1200 Hz and reports the target."""
+"""bench.session_record, small: every message kept at 1200 Hz, the reference and the target."""
 
 from bench import run_all, session_record
 

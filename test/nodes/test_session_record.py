@@ -7,7 +7,9 @@ import subprocess
 
 from geometry_msgs.msg import PoseStamped
 import numpy as np
+from package_commands import running
 import pytest
+from ros_harness import gaze_messages, ros_graph
 from rosbags.highlevel import AnyReader
 from rosbags.interfaces import QosDurability
 from rosbags.typesys import get_typestore, Stores
@@ -18,8 +20,6 @@ import yaml
 from eye_bci_ros2.recordings.bag_writer import RESERVE_NAME
 from eye_bci_ros2.ros.topics import (CAMERA_POSE_TOPIC, CHOICE_TOPIC, EVENT_QOS, GAZE_QOS,
                                      GAZE_SAMPLES_TOPIC, LATCHED_QOS)
-from package_commands import running
-from ros_harness import gaze_messages, ros_graph
 
 MODULE = 'tools.session_record'
 
@@ -103,7 +103,8 @@ def test_an_unwritable_path_is_one_line_and_status_1(tmp_path):
             status = process.finish()
     lines = process.output().strip().splitlines()
     assert status == 1
-    assert lines == [f'session_record: cannot record into {blocker / "bag"}: Not a directory']
+    path = blocker / 'bag'
+    assert lines == [f'session_record: cannot record into {path}: Not a directory']
 
 
 def test_an_existing_bag_is_never_overwritten(tmp_path):
@@ -118,7 +119,7 @@ def test_an_existing_bag_is_never_overwritten(tmp_path):
 
 @pytest.fixture
 def small_disk(tmp_path):
-    """A real 3 MiB file system (tmpfs), so that the disk fills mid-run as a real one does."""
+    """Mount a real 3 MiB file system (tmpfs): the disk fills mid-run as a real one does."""
     mount = tmp_path / 'small_disk'
     mount.mkdir()
     if shutil.which('mount') is None or os.geteuid() != 0:
@@ -166,5 +167,5 @@ def test_a_full_disk_closes_the_bag_with_what_was_written(tmp_path, small_disk):
     counts = {t['topic_metadata']['name']: t['message_count']
               for t in meta['topics_with_message_count']}
     assert counts['/gaze/samples'] == len(found['/gaze/samples'])
-    assert f"the bag is closed with the {sum(counts.values())} messages written before" in \
-        problem[0]
+    kept = sum(counts.values())
+    assert f'the bag is closed with the {kept} messages written before' in problem[0]
