@@ -1,5 +1,5 @@
 r"""
-The eye_bci_ros2 pipeline: gaze bridge, camera tracker, marker projector, choice arbiter.
+The eye_bci_ros2 pipeline: gaze bridge, camera tracker, marker projector, choice arbiter, markers.
 
     ros2 launch eye_bci_ros2 pipeline.launch.py
     ros2 launch eye_bci_ros2 pipeline.launch.py profile:=tobii_pro \
@@ -35,7 +35,7 @@ def _required(executable):
 
 
 def _nodes(context):
-    """Check the params file, then build the four nodes with the overrides given."""
+    """Check the params file, then build the pipeline's nodes with the overrides given."""
     params_file = LaunchConfiguration('params_file').perform(context)
     if not os.path.isfile(params_file):
         raise RuntimeError(f"params_file '{params_file}' does not exist: nothing started")
@@ -55,6 +55,10 @@ def _nodes(context):
              on_exit=_required('marker_projector')),
         Node(package=PACKAGE, executable='choice_arbiter', name='choice_arbiter',
              parameters=[params_file], output='screen', on_exit=_required('choice_arbiter')),
+        # The session's events on an LSL marker stream for LabRecorder (enabled: false in
+        # the params file turns the stream off).
+        Node(package=PACKAGE, executable='session_markers', name='session_markers',
+             parameters=[params_file], output='screen', on_exit=_required('session_markers')),
     ]
 
 

@@ -14,6 +14,7 @@ Each module is one piece of the adapters' common ground, not a node:
 * ``feedback_markers``: the ``choices/feedback`` halos as a MarkerArray;
 * ``marker_store``: RViz2's MarkerArray semantics, markers by (ns, id);
 * ``lsl_adapter``: liblsl (pylsl) behind the stream connection;
+* ``marker_outlet``: the session's LSL marker stream (pylsl);
 * ``node_clock``: a node's clock read as numbers;
 * ``log_throttle``: warnings a node may repeat, at most once per period;
 * ``graph_watch``: a second pipeline on the same graph, noticed;

@@ -67,6 +67,7 @@ EXECUTABLES: Tuple[Executable, ...] = (
     Executable('camera_tracker', _NODES + 'camera_tracker', 'CameraTracker', PIPELINE),
     Executable('marker_projector', _NODES + 'marker_projector', 'MarkerProjector', PIPELINE),
     Executable('choice_arbiter', _NODES + 'choice_arbiter', 'ChoiceArbiter', PIPELINE),
+    Executable('session_markers', _NODES + 'session_markers', 'SessionMarkers', PIPELINE),
     Executable('choice_menu', _NODES + 'choice_menu', 'ChoiceMenu', MENU),
     Executable('gaze_validation', _NODES + 'gaze_validation', 'GazeValidation'),
     Executable('ssvep_decoder', _NODES + 'ssvep_decoder', 'SsvepDecoder'),

@@ -158,6 +158,7 @@ GOOD_CHANGE = {
     'camera_tracker': ('eye', [1.0, -9.0, 11.0]),
     'marker_projector': ('screen_offset_x', 64),
     'choice_arbiter': ('window_s', 1.5),
+    'session_markers': ('enabled', False),
     'lsl_gaze_bridge': ('screen_width', 2560),
     'choice_menu': ('robot_radius_m', 0.25),
     'gaze_validation': ('target_s', 2.0),

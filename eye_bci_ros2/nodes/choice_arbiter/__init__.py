@@ -55,20 +55,21 @@ from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.decision.evidence import Decision
-from eye_bci_ros2.decision.fusion import FusionOutcome
+from eye_bci_ros2.decision.fusion import FusionOutcome, HYBRID
 from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings, RoundScheduler
 from eye_bci_ros2.nodes.choice_arbiter.feedback import FEEDBACK_PARAMETERS, FeedbackPublisher
 from eye_bci_ros2.nodes.choice_arbiter.fusion import FUSION_PARAMETERS, FusionInput
+from eye_bci_ros2.recordings.session_markers import decision_detail
 from eye_bci_ros2.ros.conversions import gaze_cdr, marker_array_to_regions, ns_to_stamp
 from eye_bci_ros2.ros.graph_watch import GraphWatch
 from eye_bci_ros2.ros.log_throttle import KeyedWarnings, QuietRepeats
 from eye_bci_ros2.ros.node_clock import NodeClock
 from eye_bci_ros2.ros.parameters import param_specs, SettingsParameters
 from eye_bci_ros2.ros.runner import spin_node
-from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, DECISION_DUE_TOPIC, EVENT_QOS, GAZE_QOS,
-                                     GAZE_SAMPLES_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
-                                     REGIONS_TOPIC, REQUEST_TOPIC)
+from eye_bci_ros2.ros.topics import (CHOICE_DETAIL_TOPIC, CHOICE_TOPIC, DECISION_DUE_TOPIC,
+                                     EVENT_QOS, GAZE_QOS, GAZE_SAMPLES_TOPIC, LATCHED_QOS,
+                                     NO_CHOICE_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC)
 
 #: Period of the timer that closes quiet rounds, releases held decisions and updates the
 #: feedback between gaze batches (the feedback module's doc), s: a round
@@ -111,6 +112,12 @@ class ChoiceArbiter(Node):
         self._rounds = RoundScheduler(self._decision.settings, self._publish, self._log)
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
         self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
+        # Each outcome in full for the session's markers (topics.CHOICE_DETAIL_TOPIC): the
+        # gaze decision being handed to the input modes, whose outcome it may be, and the
+        # round's last gaze decision with a label (hybrid: the candidate SSVEP may confirm).
+        self._detail_publisher = self.create_publisher(String, CHOICE_DETAIL_TOPIC, EVENT_QOS)
+        self._deciding: Optional[Decision] = None
+        self._gaze_choice: Optional[Decision] = None
         # When the open round's decision can next come, for the bridge's batching
         # (topics.DECISION_DUE_TOPIC): (round start, due) last announced.
         self._due_publisher = self.create_publisher(Time, DECISION_DUE_TOPIC, LATCHED_QOS)
@@ -221,6 +228,7 @@ class ChoiceArbiter(Node):
         self._fusion.offered(labels)
 
     def _on_request(self, msg: Empty) -> None:
+        self._gaze_choice = None
         self._fusion.new_round()
         try:
             self._rounds.request(self._now())
@@ -251,10 +259,24 @@ class ChoiceArbiter(Node):
 
     def _publish(self, decision: Decision) -> None:
         """Hand a round's gaze decision to the input modes (they choose, or end the round)."""
-        self._fusion.gaze(decision)
+        self._deciding = decision
+        if decision.label is not None:
+            self._gaze_choice = decision
+        try:
+            self._fusion.gaze(decision)
+        finally:
+            self._deciding = None
 
     def _on_outcome(self, outcome: FusionOutcome) -> None:
         """Publish what the input modes decided: ``choice``, or why none (``choice/none``)."""
+        mode = self._fusion.parameters.settings.input_mode
+        decision = self._deciding
+        if decision is None and mode == HYBRID and self._gaze_choice is not None \
+                and self._gaze_choice.label == outcome.choice:
+            decision = self._gaze_choice      # SSVEP confirmed this gaze candidate
+        self._detail_publisher.publish(String(data=decision_detail(
+            decision, outcome.choice, outcome.no_choice, mode, self.settings.method,
+            self._time.ns())))
         if outcome.choice is not None:
             self._publisher.publish(String(data=outcome.choice))
             self._feedback.confirm(outcome.choice, self._now())
