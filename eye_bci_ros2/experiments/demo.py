@@ -92,11 +92,13 @@ from eye_bci_ros2.projection.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PA
                                                   optical_pose_from_ogre, RVIZ_FOV_Y_DEG,
                                                   RvizCamera)
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
+from eye_bci_ros2.recordings.lab_recorder import describe, LabRecording
+from eye_bci_ros2.recordings.session_markers import STREAM_PREFIX as MARKER_STREAM_PREFIX
 from eye_bci_ros2.ros.conversions import (gaze_batch_arrays, marker_array_to_regions,
                                           pose_to_arrays)
 from eye_bci_ros2.ros.feedback_markers import option_label, OptionMarkers
 from eye_bci_ros2.ros.package_files import default_scene_path
-from eye_bci_ros2.ros.runner import make_executor, spin_until as _spin_until
+from eye_bci_ros2.ros.runner import make_executor, spin_for, spin_until as _spin_until
 from eye_bci_ros2.ros.ssvep_messages import msg_to_stimulus_map
 from eye_bci_ros2.ros.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC,
                                      GAZE_QOS, GAZE_SAMPLES_TOPIC, GOAL_POSE_TOPIC, GOAL_QOS,
@@ -139,8 +141,12 @@ STEPS_PER_ROUND = 4
 INPUTS = INPUT_MODES
 #: Gaze samples that must reach the pipeline before the experiment starts.
 WARMUP_SAMPLES = 20
-#: The session's bag in the output folder (``session_report`` reads it for the pictures).
+#: The session's bag in the output folder (``session_report`` reads it for the pictures),
+#: and its LSL streams (gaze, EEG, markers) as LabRecorder wrote them.
 BAG_NAME = 'session_bag'
+XDF_NAME = 'session.xdf'
+#: How long LabRecorder is given to take the last markers before it stops, s.
+LAB_DRAIN_S = 0.5
 
 
 class DemoError(RuntimeError):
@@ -842,8 +848,13 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
         executor = make_executor(context=context)
         nodes: List[Node] = []
         eeg = None
+        eeg_id = ''
+        lab = None
+        # The session's marker stream, named for this run (LabRecorder records it by name).
+        markers_name = f'{MARKER_STREAM_PREFIX} demo-{uuid.uuid4()}'
         try:
             nodes = make_pipeline_nodes(context, overrides={
+                'session_markers': {'stream_name': markers_name},
                 'lsl_gaze_bridge': {'source_id': source_id, 'stats_period_s': 0.0},
                 'marker_projector': {
                     'image_width': PANEL_SIZE[0], 'image_height': PANEL_SIZE[1],
@@ -889,6 +900,11 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                 raise DemoError(f'session_record did not find the session topics: recording '
                                 f"{', '.join(recorder.recorded) or 'nothing'}")
             streamer.start()
+            if options.output_dir:
+                lab = _lab_recording(os.path.join(options.output_dir, XDF_NAME),
+                                     [source_id, eeg_id], markers_name, options.stream_timeout_s)
+                log(f'LabRecorder records {", ".join(describe(s) for s in lab.streams)} into '
+                    f'{lab.path}')
             _experiment(executor, driver, streamer, named['lsl_gaze_bridge'], options, log)
             # Let the menu's last result arrive.
             _spin_until(executor, lambda: len(driver.outcomes) >= len(script), 2.0)
@@ -897,6 +913,11 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                     {MENU_PROGRESS_TOPIC: len(driver.progress),
                      MENU_RESULT_TOPIC: len(driver.outcomes)}), 2.0)
         finally:
+            if lab is not None:   # while the outlets still stream
+                # LabRecorder's inlets tell nothing of what they took: half a second for the
+                # last markers (the arrival) to reach them before the footers are written.
+                spin_for(executor, LAB_DRAIN_S)
+                lab.stop()
             executor.shutdown()
             for node in nodes:
                 node.destroy_node()
@@ -910,6 +931,22 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                 rclpy.logging.set_logger_level(name, level)
 
     return _summarise(options, person, source_id, script, driver, log)
+
+
+def _lab_recording(path: str, source_ids: Sequence[str], markers_name: str,
+                   timeout_s: float) -> LabRecording:
+    """Record the run's gaze (and EEG) outlets and its marker stream with LabRecorder."""
+    wanted = {source for source in source_ids if source}
+    end = time.monotonic() + timeout_s
+    while True:
+        found = [info for info in pylsl.resolve_streams(1.0)
+                 if info.source_id() in wanted or info.name() == markers_name]
+        if len(found) > len(wanted) or time.monotonic() > end:
+            break
+    if len(found) <= len(wanted):
+        raise DemoError(f'LabRecorder: the run\'s LSL streams were not all found within '
+                        f'{timeout_s:g} s (found: {", ".join(map(describe, found)) or "none"})')
+    return LabRecording(path, found)
 
 
 def _experiment(executor, driver: ExperimentDriver, streamer: GazeStreamer, bridge,

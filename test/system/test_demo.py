@@ -218,8 +218,8 @@ def test_demo_fails_cleanly_when_no_gaze_arrives(tmp_path, capsys):
     code = demo.main(['--quick', '--stream-timeout-s', '0.01', '--output-dir', str(tmp_path)])
     assert code == 1
     assert 'no gaze reached the pipeline within 0.01 s' in capsys.readouterr().err
-    # No pictures or summary of a run that did not happen; its recording is kept, whole.
-    assert os.listdir(tmp_path) == [demo.BAG_NAME]
+    # No pictures or summary of a run that did not happen; its recordings are kept, whole.
+    assert sorted(os.listdir(tmp_path)) == sorted([demo.BAG_NAME, demo.XDF_NAME])
     assert (tmp_path / demo.BAG_NAME / 'metadata.yaml').is_file()
 
 
@@ -259,3 +259,47 @@ def test_make_demo_confirms_every_table_and_the_robot_arrives(tmp_path):
         assert (later['step'], later['chosen']) == ('confirm', GO_LABEL)
         assert table['robot']['arrived'], table['robot']
     assert printed.count('arrived after') == 4
+
+
+@pytest.mark.ros
+@pytest.mark.lsl
+def test_the_demos_xdf_and_bag_hold_the_same_session_with_consistent_stamps(quick_run):
+    pyxdf = pytest.importorskip('pyxdf')
+    from eye_bci_ros2.experiments.session_bag import read_session
+    from eye_bci_ros2.recordings.session_markers import parse_marker
+
+    _, _, out, summary = quick_run
+    loaded, _ = pyxdf.load_xdf(str(out / demo.XDF_NAME))     # as a lab loads it
+    kinds = sorted(stream['info']['type'][0] for stream in loaded)
+    assert kinds == ['Gaze', 'Markers']
+    markers = next(s for s in loaded if s['info']['type'][0] == 'Markers')
+    gaze = next(s for s in loaded if s['info']['type'][0] == 'Gaze')
+    events = [(float(t), parse_marker(text[0]))
+              for t, text in zip(markers['time_stamps'], markers['time_series'])]
+
+    def of(kind):
+        return [(t, body) for t, body in events if body['event'] == kind]
+
+    session = read_session(out / demo.BAG_NAME)
+    # Every question, choice, round without one and drive is in both.
+    assert [body['label'] for _, body in of('choice')] == [text for _, text in session.choices]
+    assert len(of('question')) == len(session.requests)
+    assert len(of('no_choice')) == len(session.no_choices)
+    assert [[body['x'], body['y']] for _, body in of('goal')] == [
+        pytest.approx(goal[:2], abs=1e-3) for _, goal in session.goals]
+    assert len(of('arrived')) == 1 and session.progress[-1][1].startswith('arrived')
+    assert [s['chosen'] for s in summary['selections']] == \
+        [body['label'] for _, body in of('answer') + of('go')]
+    # Stamps: a question is marked when it is asked, on the LSL clock; the bag holds its
+    # reception on the ROS clock, in the same process: one offset between the clocks.
+    offsets = np.array([t_bag - t_xdf for (t_xdf, _), t_bag in zip(of('question'),
+                                                                   sorted(session.requests))])
+    assert np.ptp(offsets) < 0.05, offsets
+    offset = float(np.median(offsets))
+    period = np.median(np.diff(gaze['time_stamps']))
+    for (t_xdf, body), (t_bag, _) in zip(of('choice'), session.choices):
+        # The choice lies on its last gaze sample in the XDF (within one sample), and the
+        # bag received it after that sample, within the decision's latency.
+        assert np.min(np.abs(gaze['time_stamps'] - t_xdf)) <= period
+        assert np.min(np.abs(session.gaze_t - (t_xdf + offset))) <= period + 0.01
+        assert 0.0 <= t_bag - (t_xdf + offset) < 0.5
