@@ -1,10 +1,12 @@
 """
 The report of a recorded session: pictures and a summary, from its rosbag2.
 
-``session_report BAG [-o FOLDER]`` reads a session recorded by
+``session_report BAG [XDF] [-o FOLDER]`` reads a session recorded by
 ``session_record`` (or ``ros2 bag record`` of the same topics,
-:mod:`eye_bci_ros2.ros.session_topics`) and writes into FOLDER (default
-``BAG/report``):
+:mod:`eye_bci_ros2.ros.session_topics`), or LabRecorder's XDF of it alone
+(:mod:`eye_bci_ros2.experiments.session_xdf`: the pipeline's markers and the gaze; no
+cue, map or odometry), and writes into FOLDER (default ``BAG/report``, ``XDF``'s name
+without ``.xdf``, ``_report``):
 
 * ``question_NNN.png`` per question answered (``choice/request`` followed by a
   ``choice``): the person's screen, the options offered (``choices/regions``
@@ -17,6 +19,9 @@ The report of a recorded session: pictures and a summary, from its rosbag2.
   and the path driven (``odom``, else the action's feedback poses);
 * ``timeline.png``: questions, choices, rounds without a choice, drives and
   the gaze rate over the session;
+* with both, ``report.json``'s ``xdf`` compares them: the questions, choices, rounds
+  without a choice and goals each holds, the offset between their clocks and each
+  choice's lag from its last gaze sample (the XDF's stamp) to the bag's reception;
 * ``report.json`` and ``questions.csv``: each question (offered, chosen,
   intended, correct, time from the question to the choice, time from the
   options appearing to the choice), choices made with no question asked
@@ -30,7 +35,7 @@ says how a study records.
 
 import argparse
 import csv
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 import json
 import math
 import os
@@ -43,6 +48,7 @@ from eye_bci_ros2.decision.regions import classify_against_history, RegionSet
 from eye_bci_ros2.experiments import render
 from eye_bci_ros2.experiments.metrics import itr_bits_per_minute
 from eye_bci_ros2.experiments.session_bag import read_session, Session
+from eye_bci_ros2.experiments.session_xdf import cross_check, read_xdf_session, XDF_SUFFIXES
 from eye_bci_ros2.projection.camera_model import DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
 
@@ -138,6 +144,8 @@ class Report:
     mean_selection_s: float
     itr_bits_per_min: float
     files: List[str] = field(default_factory=list)
+    #: The comparison with the session's XDF (``session_xdf.cross_check``), when given.
+    xdf: Optional[dict] = None
 
 
 def _between(events, start: float, end: float):
@@ -343,6 +351,7 @@ def write_report(report: Report, folder: str, pictures: bool = True,
                        'over the cued questions answered (N = options offered), ITR = B * 60 / '
                        'T (T = mean time from the options appearing to the choice)',
         'validations': [{'time': t, 'result': text} for t, text in session.validations],
+        'xdf': report.xdf,
     }
     path = os.path.join(folder, 'report.json')
     with open(path, 'w', encoding='utf-8') as stream:
@@ -372,8 +381,8 @@ def summary_line(report: Report) -> str:
     return (f'{len(report.questions)} questions, {len(answered)} answered, '
             f'{len(report.unasked_choices)} choices with no question, '
             f'{len(report.drives)} drives; {accuracy}; mean {report.mean_decision_s:.2f} s '
-            f'question to choice, {report.mean_selection_s:.2f} s per selection; ITR '
-            f'{report.itr_bits_per_min:.1f} bits/min')
+            f'question to choice, {report.mean_selection_s:.2f} s per selection'
+            + (f'; ITR {report.itr_bits_per_min:.1f} bits/min' if report.cued else ''))
 
 
 def _pair(text: str, kind=int, count: int = 2, sep: str = 'x') -> Tuple:
@@ -390,9 +399,13 @@ def build_parser() -> argparse.ArgumentParser:
     """Return the command-line options of ``session_report``."""
     parser = argparse.ArgumentParser(prog='session_report',
                                      description=__doc__.strip().splitlines()[0])
-    parser.add_argument('bag', help='the session bag folder (session_record, ros2 bag record)')
+    parser.add_argument('paths', nargs='+', metavar='BAG|XDF',
+                        help='the session bag folder (session_record, ros2 bag record), '
+                             "LabRecorder's XDF file of it, or both")
     parser.add_argument('-o', '--output', default=None,
-                        help='where the report goes (default BAG/report)')
+                        help='where the report goes (default BAG/report, else XDF_report)')
+    parser.add_argument('--profile', default=None,
+                        help="the XDF gaze stream's tracker layout (default: from the stream)")
     parser.add_argument('--screen', type=_pair, default=SCREEN_SIZE,
                         help='the screen, WIDTHxHEIGHT px (default %dx%d)' % SCREEN_SIZE)
     parser.add_argument('--panel', type=lambda text: _pair(text, float, 4, ','),
@@ -404,13 +417,25 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Write the report of a bag; 1 with one line when it cannot be read."""
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    xdfs = [p for p in args.paths if p.lower().endswith(XDF_SUFFIXES)]
+    bags = [p for p in args.paths if p not in xdfs]
+    if len(xdfs) > 1 or len(bags) > 1:
+        parser.error('give one bag, one XDF file, or one of each')
     try:
-        report = build_report(read_session(args.bag))
+        xdf = (read_xdf_session(xdfs[0], args.profile,
+                                replace(DEFAULT_VIEWING, width_px=args.screen[0],
+                                        height_px=args.screen[1]))
+               if xdfs else None)
+        report = build_report(read_session(bags[0]) if bags else xdf)
     except ValueError as error:
         print(f'session_report: {error}', file=sys.stderr)
         return 1
-    folder = args.output or os.path.join(args.bag, 'report')
+    if bags and xdf is not None:
+        report.xdf = cross_check(report.session, xdf)
+    folder = args.output or (os.path.join(bags[0], 'report') if bags else
+                             os.path.splitext(xdfs[0])[0] + '_report')
     files = write_report(report, folder, pictures=not args.no_pictures,
                          screen_size=args.screen, panel=args.panel)
     print(f'session_report: {summary_line(report)}')

@@ -303,3 +303,27 @@ def test_the_demos_xdf_and_bag_hold_the_same_session_with_consistent_stamps(quic
         assert np.min(np.abs(gaze['time_stamps'] - t_xdf)) <= period
         assert np.min(np.abs(session.gaze_t - (t_xdf + offset))) <= period + 0.01
         assert 0.0 <= t_bag - (t_xdf + offset) < 0.5
+
+
+@pytest.mark.ros
+@pytest.mark.lsl
+def test_session_report_reads_the_xdf_alone_and_compares_it_with_the_bag(quick_run, tmp_path):
+    from eye_bci_ros2.experiments import session_report
+
+    _, _, out, summary = quick_run
+    chosen = [s['chosen'] for s in summary['selections']]
+    assert session_report.main([str(out / demo.XDF_NAME), '-o', str(tmp_path / 'xdf')]) == 0
+    alone = json.loads((tmp_path / 'xdf' / 'report.json').read_text())
+    assert [q['chosen'] for q in alone['questions'] if q['chosen']] == chosen
+    assert all(q['gaze_samples'] > 0 for q in alone['questions'])
+    assert alone['cued'] == 0 and alone['drives'][0]['goal'][:2] == pytest.approx(
+        summary['selections'][1]['robot']['goal'][:2], abs=1e-3)
+    assert session_report.main([str(out / demo.BAG_NAME), str(out / demo.XDF_NAME),
+                                '-o', str(tmp_path / 'both')]) == 0
+    both = json.loads((tmp_path / 'both' / 'report.json').read_text())['xdf']
+    assert both['same_choices'] is True
+    for kind in ('questions', 'choices', 'no_choice_rounds', 'goals'):
+        assert both[kind][0] == both[kind][1] > 0 or kind == 'no_choice_rounds', kind
+    # Each choice reached the bag after its last gaze sample, within the decision latency.
+    assert len(both['choice_lag_s']) == len(chosen)
+    assert all(0.0 <= lag < 0.5 for lag in both['choice_lag_s']), both['choice_lag_s']
