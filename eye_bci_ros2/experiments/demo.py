@@ -944,7 +944,7 @@ def _lab_recording(path: str, source_ids: Sequence[str], markers_name: str,
         if len(found) > len(wanted) or time.monotonic() > end:
             break
     if len(found) <= len(wanted):
-        raise DemoError(f'LabRecorder: the run\'s LSL streams were not all found within '
+        raise DemoError(f"LabRecorder: the run's LSL streams were not all found within "
                         f'{timeout_s:g} s (found: {", ".join(map(describe, found)) or "none"})')
     return LabRecording(path, found)
 

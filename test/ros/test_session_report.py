@@ -1,13 +1,13 @@
 """session_report: questions, unasked choices, cues and drives of a session; one-line errors."""
 
 import numpy as np
+from paths import REPO
 import pytest
 
 from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.experiments import session_report
 from eye_bci_ros2.experiments.session_bag import Session
 from eye_bci_ros2.ros.session_topics import RECORDED_TOPICS, ros2_bag_record_command
-from paths import REPO
 
 SQUARE = np.array([[0, 0], [100, 0], [100, 100], [0, 100]], dtype=float)
 
