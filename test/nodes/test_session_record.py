@@ -6,6 +6,7 @@ import shutil
 import subprocess
 
 from geometry_msgs.msg import PoseStamped
+from mcap.reader import make_reader
 import numpy as np
 from package_commands import running
 import pytest
@@ -92,6 +93,27 @@ def test_ctrl_c_closes_a_bag_that_rosbags_reads_with_types_counts_and_latched_qo
     assert topics['/camera/pose']['topic_metadata']['offered_qos_profiles'][0][
         'durability'] == 'transient_local'
     assert not (bag / RESERVE_NAME).exists()
+    # The MCAP file as the format's own reader sees it (CRCs checked): the ros2 profile,
+    # CDR messages, ros2msg schemas, each channel with its QoS and the type's RIHS01 hash
+    # (the publisher's, as rosbag2 on Jazzy stores it).
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    (mcap_file,) = bag.glob('*.mcap')
+    with open(mcap_file, 'rb') as stream:
+        reader = make_reader(stream, validate_crcs=True)
+        assert reader.get_header().profile == 'ros2'
+        summary = reader.get_summary()
+        channels = {c.topic: c for c in summary.channels.values()}
+        for topic, channel in channels.items():
+            schema = summary.schemas[channel.schema_id]
+            assert channel.message_encoding == 'cdr' and schema.encoding == 'ros2msg'
+            assert set(channel.metadata) == {'offered_qos_profiles', 'topic_type_hash'}
+            assert channel.metadata['topic_type_hash'] == typestore.hash_rihs01(schema.name)
+            assert topics[topic]['topic_metadata']['type_description_hash'] == \
+                channel.metadata['topic_type_hash']
+        assert 'durability: transient_local' in \
+            channels['/camera/pose'].metadata['offered_qos_profiles']
+        assert summary.statistics.message_count == sum(1 for _ in reader.iter_messages()) \
+            == meta['message_count']
 
 
 def test_an_unwritable_path_is_one_line_and_status_1(tmp_path):
