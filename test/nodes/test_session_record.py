@@ -11,6 +11,7 @@ import numpy as np
 from package_commands import running
 import pytest
 from ros_harness import gaze_messages, ros_graph
+from rclpy.node import Node
 from rosbags.highlevel import AnyReader
 from rosbags.interfaces import QosDurability
 from rosbags.typesys import get_typestore, Stores
@@ -191,3 +192,23 @@ def test_a_full_disk_closes_the_bag_with_what_was_written(tmp_path, small_disk):
     assert counts['/gaze/samples'] == len(found['/gaze/samples'])
     kept = sum(counts.values())
     assert f'the bag is closed with the {kept} messages written before' in problem[0]
+
+
+def test_a_namespace_moves_the_recorded_topics_with_it(tmp_path):
+    bag = tmp_path / 'left'
+    with ros_graph() as graph:
+        node = graph.add(Node, 'left_pipeline', namespace='/left')
+        choice = node.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
+        other = graph.node('other_pipeline').create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
+        with running(MODULE, '-o', str(bag), '--ros-args', '-r', '__ns:=/left',
+                     log=tmp_path / 'record.log', domain=graph.domain) as process:
+            assert process.wait_for('recording into')
+            wait_recording(graph, process, ['left/' + CHOICE_TOPIC])
+            choice.publish(String(data='left one'))
+            other.publish(String(data='not this pipeline'))
+            graph.spin_for(1.0)
+            process.interrupt()
+            assert process.finish() == 0, process.output()
+    found, _ = read_bag(bag)
+    assert [m.data for _, m in found['/left/choice']] == ['left one']
+    assert '/choice' not in found
