@@ -26,7 +26,7 @@ from eye_bci_ros2.navigation.occupancy import yaw_of
 from eye_bci_ros2.ros.conversions import (gaze_batch_arrays, marker_array_to_regions,
                                           pose_to_arrays, stamp_to_ns)
 from eye_bci_ros2.ros.feedback_markers import option_label
-from eye_bci_ros2.ros.session_topics import message_class
+from eye_bci_ros2.ros.message_types import message_class
 from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, CHOICES_TOPIC, CUE_TOPIC, GAZE_SAMPLES_TOPIC,
                                      GOAL_POSE_TOPIC, MAP_TOPIC, MENU_ANSWER_TOPIC,
                                      MENU_PROGRESS_TOPIC, MENU_RESULT_TOPIC, MENU_STATE_TOPIC,

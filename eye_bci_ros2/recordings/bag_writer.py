@@ -108,60 +108,13 @@ class _Writer(Writer):
     STORAGE_PLUGINS = {StoragePlugin.MCAP: _Ros2McapWriter}
 
 
-def message_definition_from_class(message_class) -> Dict[str, str]:
-    """
-    Return ``{type: .msg text}`` of an rclpy message class and every type it nests.
-
-    For types the rosbags store lacks (nav2_msgs' action feedback): the fields
-    rclpy generated the class from, in .msg syntax.
-    """
-    found: Dict[str, str] = {}
-    _collect(message_class, found)
-    return found
-
-
-_PRIMITIVES = {'boolean': 'bool', 'octet': 'byte'}
-
-
-def _msg_field_type(spec: str) -> str:
-    bound = ''
-    if spec.startswith('sequence<'):
-        inner = spec[len('sequence<'):-1]
-        if ',' in inner:
-            inner, size = (part.strip() for part in inner.split(','))
-            bound = f'[<={size}]'
-        else:
-            bound = '[]'
-        spec = inner
-    elif spec.endswith(']'):
-        spec, size = spec[:-1].split('[')
-        bound = f'[{size}]'
-    if spec.startswith('string<=') or spec.startswith('wstring<='):
-        pass
-    spec = _PRIMITIVES.get(spec, spec)
-    if '/' in spec and '/msg/' not in spec:
-        package, name = spec.split('/')
-        spec = f'{package}/msg/{name}'
-    return spec + bound
-
-
-def _collect(message_class, found: Dict[str, str]) -> None:
-    module = message_class.__module__.split('.')
-    name = f'{module[0]}/{module[1]}/{message_class.__name__}'
-    if name in found:
-        return
-    lines = []
-    for field, spec in message_class.get_fields_and_field_types().items():
-        ros_type = _msg_field_type(spec)
-        lines.append(f'{ros_type} {field}')
-        base = ros_type.split('[')[0]
-        if '/' in base:
-            package, kind, type_name = base.split('/')
-            nested = getattr(__import__(f'{package}.{kind}', fromlist=[type_name]), type_name,
-                             None)
-            if nested is not None:
-                _collect(nested, found)
-    found[name] = '\n'.join(lines) + '\n'
+def concatenated_definition(msgtype: str, definitions: Dict[str, str]) -> str:
+    """Return rosbag2's concatenated ``ros2msg`` schema: the type's fields, then each nested one."""
+    parts = [definitions[msgtype].rstrip('\n')]
+    for name, text in definitions.items():
+        if name != msgtype:
+            parts.append('=' * 80 + f'\nMSG: {name}\n' + text.rstrip('\n'))
+    return '\n'.join(parts) + '\n'
 
 
 class SessionBagWriter:
@@ -223,18 +176,25 @@ class SessionBagWriter:
         return msgtype in self._typestore.fielddefs
 
     def add_topic(self, topic: str, msgtype: str, offered_qos: Sequence[Qos],
-                  type_hash: str = '') -> None:
+                  type_hash: str = '', definitions: Optional[Dict[str, str]] = None) -> None:
         """
         Add a topic (once; a topic already added is left as it is).
 
         :param offered_qos: the publishers' QoS profiles (``rosbags.interfaces.Qos``).
         :param type_hash: the publishers' RIHS01 hash (``RIHS01_<hex>``); '' = the
             hash of the writer's definition.
+        :param definitions: ``{type: .msg text}`` of the type and what it nests (from its
+            class), for a schema rosbags cannot write itself (an action's feedback).
         """
         if topic in self._connections or self.problem or self.closed:
             return
         rihs01 = type_hash or self._typestore.hash_rihs01(msgtype)
-        msgdef, _ = self._typestore.generate_msgdef(msgtype, ros_version=2)
+        try:
+            msgdef, _ = self._typestore.generate_msgdef(msgtype, ros_version=2)
+        except (AssertionError, KeyError):   # rosbags writes msg/ types only
+            if not definitions or msgtype not in definitions:
+                raise
+            msgdef = concatenated_definition(msgtype, definitions)
         self._connections[topic] = self._writer.add_connection(
             topic, msgtype, msgdef=msgdef, rihs01=rihs01, offered_qos_profiles=offered_qos)
         self.counts[topic] += 0

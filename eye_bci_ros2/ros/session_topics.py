@@ -16,7 +16,6 @@ robot's drawing (``robot/marker``) and ``choice/due`` (the arbiter's
 schedule) are left out.
 """
 
-import importlib
 from typing import NamedTuple, Tuple
 
 from rclpy.qos import qos_profile_action_status_default, QoSProfile
@@ -106,20 +105,3 @@ def ros2_bag_record_command(namespace: str = '', output: str = 'session') -> str
     names = [topic.name if topic.name.startswith('/') else f'{prefix}/{topic.name}'
              for topic in RECORDED_TOPICS]
     return f'ros2 bag record -s mcap -o {output} ' + ' '.join(names)
-
-
-def message_class(type_name: str):
-    """
-    Import the rclpy class of ``pkg/msg/Type`` (or an action's ``pkg/action/X_FeedbackMessage``).
-
-    :raises ImportError: the package is not installed here.
-    """
-    package, kind, name = type_name.split('/')
-    module = importlib.import_module(f'{package}.{kind}')
-    if kind == 'action' and '_' in name:
-        action, part = name.split('_', 1)
-        return getattr(getattr(module, action).Impl, part)
-    found = getattr(module, name, None)
-    if found is None:
-        raise ImportError(f'{type_name} is not in {package}.{kind}')
-    return found

@@ -37,11 +37,10 @@ from rclpy.utilities import remove_ros_args
 from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
                                 QosTime)
 
-from eye_bci_ros2.recordings.bag_writer import (BagError, FLUSH_PERIOD_S,
-                                                message_definition_from_class,
-                                                SessionBagWriter)
+from eye_bci_ros2.recordings.bag_writer import BagError, FLUSH_PERIOD_S, SessionBagWriter
+from eye_bci_ros2.ros.message_types import message_class, message_definition_from_class
 from eye_bci_ros2.ros.runner import spin_nodes
-from eye_bci_ros2.ros.session_topics import message_class, RECORDED_TOPICS, RecordedTopic
+from eye_bci_ros2.ros.session_topics import RECORDED_TOPICS, RecordedTopic
 from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, GAZE_SAMPLES_TOPIC, REGIONS_TOPIC,
                                      REQUEST_TOPIC)
 
@@ -141,12 +140,15 @@ class SessionRecorder(Node):
             self.get_logger().warning(f'{name} ({type_name}) not recorded: its type is not '
                                       f'installed here ({error})')
             return
+        definitions = None
         if not self.writer.knows(type_name):
-            self.writer.add_types(message_definition_from_class(cls))
+            definitions = message_definition_from_class(cls)
+            self.writer.add_types(definitions)
         publishers = self.get_publishers_info_by_topic(name)
         offered = [p.qos_profile for p in publishers]
         type_hash = next((h for h in map(_rihs01, publishers) if h), '')
-        self.writer.add_topic(name, type_name, [bag_qos(q) for q in offered], type_hash)
+        self.writer.add_topic(name, type_name, [bag_qos(q) for q in offered], type_hash,
+                              definitions)
         self._recording[name] = self.create_subscription(
             cls, name, lambda data, name=name: self._on_message(name, data),
             subscription_qos(topic.qos, offered), raw=True)

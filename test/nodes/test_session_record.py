@@ -212,3 +212,41 @@ def test_a_namespace_moves_the_recorded_topics_with_it(tmp_path):
     found, _ = read_bag(bag)
     assert [m.data for _, m in found['/left/choice']] == ['left one']
     assert '/choice' not in found
+
+
+def test_the_actions_feedback_is_recorded_with_jazzys_type_and_hash(tmp_path):
+    action = pytest.importorskip('nav2_msgs.action', reason='nav2_msgs is built with colcon '
+                                 '(make .venv/.installed)')
+    feedback_type = action.NavigateToPose.Impl.FeedbackMessage
+    topic = 'navigate_to_pose/_action/feedback'
+    bag = tmp_path / 'drive'
+    with ros_graph() as graph:
+        node = graph.node('navigator')
+        publisher = node.create_publisher(feedback_type, topic, 10)
+        with running(MODULE, '-o', str(bag), log=tmp_path / 'record.log',
+                     domain=graph.domain) as process:
+            assert process.wait_for('recording into')
+            wait_recording(graph, process, [topic])
+            message = feedback_type()
+            message.feedback.current_pose.pose.position.x = 2.5
+            message.feedback.distance_remaining = 1.25
+            publisher.publish(message)
+            graph.spin_for(1.0)
+            process.interrupt()
+            assert process.finish() == 0, process.output()
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    (entry,) = meta['topics_with_message_count']
+    assert entry['topic_metadata']['type'] == 'nav2_msgs/action/NavigateToPose_FeedbackMessage'
+    # Jazzy's hash of nav2 1.3's NavigateToPose_FeedbackMessage (ros_interfaces.md).
+    assert entry['topic_metadata']['type_description_hash'] == (
+        'RIHS01_9d1f6fa2eb975ce733b419ac2e97b134d8ff92b6478b6559feed9a50bdfd82b3')
+    (mcap_file,) = bag.glob('*.mcap')
+    with open(mcap_file, 'rb') as stream:
+        reader = make_reader(stream, validate_crcs=True)
+        schema = next(iter(reader.get_summary().schemas.values()))
+        assert schema.name == 'nav2_msgs/action/NavigateToPose_FeedbackMessage'
+        assert b'MSG: nav2_msgs/action/NavigateToPose_Feedback' in schema.data
+    found, _ = read_bag(bag)
+    (_, recorded), = found['/' + topic]
+    assert recorded.feedback.current_pose.pose.position.x == 2.5
+    assert recorded.feedback.distance_remaining == 1.25
