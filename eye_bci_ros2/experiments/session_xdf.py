@@ -14,7 +14,6 @@ accuracy and draws each drive without its map.
 """
 
 import json
-import logging
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence
 
@@ -27,7 +26,7 @@ from eye_bci_ros2.recordings.gaze_recording import RecordingError
 from eye_bci_ros2.recordings.session_markers import (
     ANSWER, ARRIVED, CHOICE, DRIVING, FAILED, GO, GOAL, MARKER_TYPE, NO_CHOICE, OUTCOME,
     parse_marker, QUESTION, STATE, STOP, STOPPED, STREAM_PREFIX, VALIDATION)
-from eye_bci_ros2.recordings.xdf import gaze_from_stream, pick_gaze_stream
+from eye_bci_ros2.recordings.xdf import gaze_from_stream, load_xdf_streams, pick_gaze_stream
 
 #: Suffixes of an XDF file.
 XDF_SUFFIXES = ('.xdf', '.xdfz')
@@ -92,16 +91,7 @@ def read_xdf_session(path, profile: Optional[str] = None,
     :raises ValueError: unreadable, or without the pipeline's marker stream (one line).
     """
     path = Path(path)
-    import pyxdf   # noqa: I100 - loaded only to read an XDF file
-    log = logging.getLogger('pyxdf')
-    level = log.level
-    log.setLevel(logging.ERROR)
-    try:
-        streams, _ = pyxdf.load_xdf(str(path), dejitter_timestamps=False)
-    except Exception as error:  # noqa: B902 - pyxdf raises anything on a bad file
-        raise ValueError(f'{path} is not a readable XDF file ({error})') from None
-    finally:
-        log.setLevel(level)
+    streams = load_xdf_streams(path)     # RecordingError is a ValueError
     found = marker_streams(streams)
     if len(found) != 1:
         names = ', '.join(_first(s['info'].get('name')) for s in streams) or 'none'
