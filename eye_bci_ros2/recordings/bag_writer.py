@@ -109,7 +109,7 @@ class _Writer(Writer):
 
 
 def concatenated_definition(msgtype: str, definitions: Dict[str, str]) -> str:
-    """Return rosbag2's concatenated ``ros2msg`` schema: the type's fields, then each nested one."""
+    """Return rosbag2's concatenated ``ros2msg`` schema: the type's fields, then each nested."""
     parts = [definitions[msgtype].rstrip('\n')]
     for name, text in definitions.items():
         if name != msgtype:

@@ -10,8 +10,8 @@ from mcap.reader import make_reader
 import numpy as np
 from package_commands import running
 import pytest
-from ros_harness import gaze_messages, ros_graph
 from rclpy.node import Node
+from ros_harness import gaze_messages, ros_graph
 from rosbags.highlevel import AnyReader
 from rosbags.interfaces import QosDurability
 from rosbags.typesys import get_typestore, Stores
