@@ -12,17 +12,22 @@ the fields).  The stream's name and source_id say which pipeline
 
 It listens to the pipeline's topics and never publishes:
 
-* ``choice/request`` -> ``question``: the options of the last ``choices/regions``
-  (labels, screen px outlines, the menu's step from the markers' namespace);
+* ``choices/regions`` -> ``options`` when the set of options changes (labels,
+  screen px outlines, the menu's step from the markers' namespace), at the
+  regions' stamp; ``choice/request`` -> ``question`` with the options on the
+  screen then (the projector may show a new set just after the question: its
+  ``options`` marker follows);
 * ``choice/detail`` (the arbiter's JSON of each ``choice`` and ``choice/none``)
   -> ``choice`` (label, rule, evidence) and ``no_choice`` (reason), stamped at the
   last gaze sample the decision used;
 * ``choice_menu/answer`` -> ``answer`` (a room, a table, back), ``go`` (the
-  confirmation), ``stop``; ``choice_menu/result`` -> ``outcome``;
-  ``goal_pose`` -> ``goal`` (frame, x, y, yaw);
-* ``choice_menu/progress`` -> by its first word ``driving``, ``arrived``,
-  ``stopped``, any other line ``failed`` (the text kept); ``choice_menu/state``
-  -> ``state``;
+  confirmation, with ``goal``: the table answered before it), ``stop``;
+  ``choice_menu/result`` -> ``outcome``; ``goal_pose`` (when something publishes it:
+  RViz's "2D Goal Pose", a topic-mode menu) -> ``goal`` (frame, x, y, yaw);
+* ``choice_menu/progress`` -> ``driving``, ``arrived``, ``stopped``, ``failed``
+  (a line that asks to choose again), else ``robot``, the text kept
+  (:func:`~eye_bci_ros2.recordings.session_markers.progress_event`);
+  ``choice_menu/state`` -> ``state``;
 * ``validation/result`` -> ``validation`` (its JSON's fields);
 * ``ssvep/stimuli`` -> ``stimulus_onset`` at the stimulus epoch (frame 0 of every
   option's flicker), with labels, frequencies and phases; then each question
@@ -47,11 +52,11 @@ from std_msgs.msg import Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.navigation.occupancy import yaw_of
-from eye_bci_ros2.recordings.session_markers import (
-    answer_event, CHOICE, GOAL, marker_text, NO_CHOICE, OUTCOME, progress_event, QUESTION,
-    question_fields, ros_to_lsl, STATE, STIMULUS_ONSET, stream_identity, trial_frame,
-    TRIAL_ONSET, VALIDATION)
 from eye_bci_ros2.nodes.ssvep_stimulus import PARAMETERS as STIMULUS_PARAMETERS
+from eye_bci_ros2.recordings.session_markers import (
+    ANSWER, answer_event, CHOICE, GO, GOAL, marker_text, NO_CHOICE, OPTIONS, OUTCOME,
+    progress_event, QUESTION, question_fields, ros_to_lsl, STATE, STIMULUS_ONSET,
+    stream_identity, trial_frame, TRIAL_ONSET, VALIDATION)
 from eye_bci_ros2.ros.conversions import marker_array_to_regions, stamp_to_ns
 from eye_bci_ros2.ros.log_throttle import KeyedWarnings
 from eye_bci_ros2.ros.marker_outlet import MarkerOutlet
@@ -95,6 +100,8 @@ class SessionMarkers(Node):
         self._open()
         #: The options on the screen now: (labels, polygons (R, K, 2) px, namespaces).
         self._regions = ([], np.zeros((0, 3, 2)), [])
+        #: The menu's last answer that was not go or stop (the table 'go' confirms).
+        self._answered: Optional[str] = None
         #: Frame 0 of the stimuli flickering now, ns on the ROS clock (None: no stimuli).
         self._epoch_ns: Optional[int] = None
         self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
@@ -116,6 +123,11 @@ class SessionMarkers(Node):
     def outlet(self) -> Optional[MarkerOutlet]:
         """Give the LSL outlet in use (None when ``enabled`` is false)."""
         return self._outlet
+
+    @property
+    def regions(self) -> tuple:
+        """Give the options on the screen now: (labels, polygons (R, K, 2) px, namespaces)."""
+        return self._regions
 
     def _open(self) -> None:
         if self._params['enabled'] and self._outlet is None:
@@ -165,7 +177,11 @@ class SessionMarkers(Node):
             labels, polygons = marker_array_to_regions(msg)
             steps = [m.ns for m in msg.markers
                      if m.type == Marker.LINE_STRIP and m.action == Marker.ADD]
+            new = set(labels) != set(self._regions[0])
             self._regions = (labels, polygons, steps)
+            if new:   # a moved view (same labels) is not news; new options are
+                stamp = stamp_to_ns(msg.markers[0].header.stamp) if msg.markers else 0
+                self._push(OPTIONS, stamp, **question_fields(labels, polygons, steps))
         self._guard(REGIONS_TOPIC, take)
 
     def _on_request(self, msg: Empty) -> None:
@@ -187,8 +203,15 @@ class SessionMarkers(Node):
         self._guard(CHOICE_DETAIL_TOPIC, take)
 
     def _on_answer(self, msg: String) -> None:
-        self._guard(MENU_ANSWER_TOPIC,
-                    lambda: self._push(answer_event(msg.data), label=msg.data))
+        def take():
+            event = answer_event(msg.data)
+            if event == GO:     # the confirmation: of the table answered just before it
+                self._push(GO, label=msg.data, goal=self._answered)
+            else:
+                self._push(event, label=msg.data)
+            if event == ANSWER:
+                self._answered = msg.data
+        self._guard(MENU_ANSWER_TOPIC, take)
 
     def _on_result(self, msg: String) -> None:
         self._guard(MENU_RESULT_TOPIC, lambda: self._push(OUTCOME, label=msg.data))

@@ -15,9 +15,10 @@ included; ``pyxdf.load_xdf`` reads it.  Typical use::
 
 Which streams (:func:`select_session_streams`): the marker stream of the pipeline
 in ``namespace`` (by its name and, unless ``host=''``, this machine in its source_id,
-:func:`~eye_bci_ros2.recordings.session_markers.stream_identity`), every stream of a gaze type (:data:`~eye_bci_ros2.recordings.xdf.
-GAZE_TYPES`) and of type EEG; ``gaze_source_id`` / ``eeg_source_id`` narrow them to one
-device when several send (several people's streams on one network).
+:func:`~eye_bci_ros2.recordings.session_markers.stream_identity`), every stream of a
+gaze type (:data:`~eye_bci_ros2.recordings.xdf.GAZE_TYPES`) and of type EEG;
+``gaze_source_id`` / ``eeg_source_id`` narrow them to one device when several send
+(several people's streams on one network).
 
 ``pylsl`` and ``labrecorder`` are imported only when a recording starts: the module
 is part of the pure core (it loads neither on import).
@@ -85,7 +86,9 @@ class LabRecording:
 
     :param path: the XDF file to write (its folder must exist).
     :param streams: the streams (``pylsl.StreamInfo``) to record.
-    :raises ValueError: no streams.
+    :raises ValueError: no streams, or a stream that was not resolved (LabRecorder
+        needs a stream's uid and host: what ``pylsl.resolve_streams`` or an outlet's
+        ``get_info()`` gives; an info made by hand would crash it).
     :raises OSError: the file cannot be written.
     """
 
@@ -93,6 +96,10 @@ class LabRecording:
         """Start recording at once (LabRecorder connects to each stream in the background)."""
         if not streams:
             raise ValueError('nothing to record: no gaze, EEG or marker stream found')
+        for info in streams:
+            if not info.uid():
+                raise ValueError(f'cannot record {describe(info)}: not a resolved stream (no '
+                                 'uid); pass what pylsl.resolve_streams gives')
         self.path = Path(path)
         if not self.path.parent.is_dir():
             raise OSError(f'cannot write {self.path}: {self.path.parent} is not a folder')

@@ -39,6 +39,7 @@ STREAM_PREFIX = 'eye_bci_markers'
 FORMAT_VERSION = 1
 
 #: Every event, in the order a session meets them (docs/hardware.md, "LabRecorder").
+OPTIONS = 'options'            # choices/regions: a new set of options on the screen
 QUESTION = 'question'          # choice/request: the options and their screen regions
 CHOICE = 'choice'              # the arbiter's choice: label, rule, evidence
 NO_CHOICE = 'no_choice'        # a round that ended without a choice, and why
@@ -49,19 +50,22 @@ OUTCOME = 'outcome'            # the menu's outcome (the table), with the robot:
 GOAL = 'goal'                  # the robot goal the menu published (map frame)
 DRIVING = 'driving'            # choice_menu/progress: on the way (distance left)
 ARRIVED = 'arrived'            # choice_menu/progress: the robot arrived
-STOPPED = 'stopped'            # choice_menu/progress: the robot was stopped or held
-FAILED = 'failed'              # choice_menu/progress: the drive failed (any other line)
+STOPPED = 'stopped'            # choice_menu/progress: the robot stopped (the person's stop)
+FAILED = 'failed'              # choice_menu/progress: the drive failed (choose again)
+ROBOT = 'robot'                # choice_menu/progress: any other line (sending, stopping, ...)
 STATE = 'state'                # choice_menu/state: what the menu waits for
 VALIDATION = 'validation'      # validation/result: the outcome of a gaze validation
 STIMULUS_ONSET = 'stimulus_onset'  # ssvep/stimuli: frame 0 of a stimulus set
 TRIAL_ONSET = 'trial_onset'    # a question while stimuli flicker: the first frame of its trial
-EVENTS = (QUESTION, CHOICE, NO_CHOICE, ANSWER, GO, STOP, OUTCOME, GOAL, DRIVING, ARRIVED,
-          STOPPED, FAILED, STATE, VALIDATION, STIMULUS_ONSET, TRIAL_ONSET)
+EVENTS = (OPTIONS, QUESTION, CHOICE, NO_CHOICE, ANSWER, GO, STOP, OUTCOME, GOAL, DRIVING, ARRIVED,
+          STOPPED, FAILED, ROBOT, STATE, VALIDATION, STIMULUS_ONSET, TRIAL_ONSET)
 
 #: The menu's answers that are events of their own (task.menu.GO_LABEL, STOP_LABEL).
 ANSWER_EVENTS = {'go': GO, 'stop': STOP}
-#: choice_menu/progress lines by their first word (task.menu.Progress); any other is a failure.
+#: choice_menu/progress lines (task.menu.Progress) by their first word, and the words every
+#: failed drive's line ends with (the person is asked to choose again).
 PROGRESS_EVENTS = {'driving': DRIVING, 'arrived': ARRIVED, 'stopped': STOPPED}
+FAILED_WORDS = 'choose again'
 
 #: Decimals kept of screen px and other measured floats (a marker is read by people too).
 DECIMALS = 3
@@ -152,9 +156,19 @@ def trial_frame(question_ns: int, epoch_ns: int, refresh_hz: float) -> tuple:
 
 
 def progress_event(text: str) -> str:
-    """Return the event of a ``choice_menu/progress`` line: its first word, else a failure."""
+    """
+    Return the event of a ``choice_menu/progress`` line.
+
+    ``driving``, ``arrived``, ``stopped`` by its first word (``the robot stopped`` too);
+    ``failed`` when it asks the person to choose again (a refused, aborted or unanswered
+    goal); ``robot`` for any other line (sending, stopping, no feedback yet, ...).
+    """
     word = re.match(r'\s*(\w*)', text).group(1).lower()
-    return PROGRESS_EVENTS.get(word, FAILED)
+    if word in PROGRESS_EVENTS:
+        return PROGRESS_EVENTS[word]
+    if text.strip().lower() == 'the robot stopped':
+        return STOPPED
+    return FAILED if FAILED_WORDS in text else ROBOT
 
 
 def answer_event(label: str) -> str:

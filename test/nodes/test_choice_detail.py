@@ -31,8 +31,8 @@ class Rig(ArbiterRig):
 
     def offer(self):
         """Offer two 200 px squares; return the round's start, s."""
-        sources = [Marker(ns='choices', id=0, text='left'), Marker(ns='choices', id=1,
-                                                                    text='right')]
+        sources = [Marker(ns='choices', id=index, text=label)
+                   for index, label in enumerate(('left', 'right'))]
         polygons = np.array([[[x - 100, y - 100], [x + 100, y - 100], [x + 100, y + 100],
                               [x - 100, y + 100]] for x, y in (LEFT, RIGHT)])
         rounds = self.arbiter.rounds_started

@@ -23,6 +23,7 @@ from eye_bci_ros2.ros.topics import (CHOICE_DETAIL_TOPIC, EVENT_QOS, GOAL_POSE_T
                                      LATCHED_QOS, MENU_ANSWER_TOPIC, MENU_PROGRESS_TOPIC,
                                      MENU_RESULT_TOPIC, MENU_STATE_TOPIC, REGIONS_TOPIC,
                                      REQUEST_TOPIC, SSVEP_STIMULI_TOPIC, VALIDATION_RESULT_TOPIC)
+from eye_bci_ros2.streams.lsl_connection import clock_pair
 
 pytestmark = [pytest.mark.ros, pytest.mark.lsl]
 
@@ -36,11 +37,9 @@ GRID_TOLERANCE_S = 0.00025
 
 
 def ros_to_lsl_here(stamp_ns: int) -> float:
-    """Map a ROS stamp to the LSL clock with the test's own clock pair (system time between)."""
-    before = pylsl.local_clock()
-    now_ns = time.time_ns()
-    after = pylsl.local_clock()
-    return 0.5 * (before + after) + (stamp_ns - now_ns) * 1e-9
+    """Map a ROS stamp to the LSL clock with the test's own clock pair (the narrowest read)."""
+    now_ns, lsl_now = clock_pair(time.time_ns, pylsl.local_clock)
+    return lsl_now + (stamp_ns - now_ns) * 1e-9
 
 
 class Topics:
@@ -99,18 +98,25 @@ def test_the_stream_says_which_pipeline(rig):
 
 
 def test_a_question_carries_the_options_and_their_regions(graph, rig):
-    _, inlet, topics, _ = rig
+    node, inlet, topics, _ = rig
     polygons = np.stack([square(*OPTIONS[label], 100.0) for label in OPTIONS])
     sources = [Marker(ns='tables', id=index, text=label) for index, label in enumerate(OPTIONS)]
-    topics.regions.publish(regions_to_marker_array(polygons, sources,
-                                                   topics.node.get_clock().now().to_msg()))
-    graph.spin_for(0.5)
+    shown_ns = time.time_ns() - 200_000_000       # the screen showed them 0.2 s ago
+    body, stamp, _, _ = received(graph, inlet, lambda: topics.regions.publish(
+        regions_to_marker_array(polygons, sources, ns_to_stamp(shown_ns))), 'options')
+    assert abs(stamp - ros_to_lsl_here(shown_ns)) < PAIR_TOLERANCE_S
+    assert [option['label'] for option in body['options']] == list(OPTIONS)
+    # The same options seen from a moved view: no news.
+    topics.regions.publish(regions_to_marker_array(polygons + 5.0, sources,
+                                                   ns_to_stamp(time.time_ns())))
+    assert graph.spin_until(lambda: node.regions[1][0, 0, 0] == polygons[0, 0, 0] + 5.0)
     body, stamp, before, after = received(graph, inlet,
                                           lambda: topics.request.publish(Empty()), 'question')
     assert before <= stamp <= after
     assert body['step'] == ['tables']
     assert [option['label'] for option in body['options']] == list(OPTIONS)
-    np.testing.assert_allclose(body['options'][0]['region'], polygons[0])
+    np.testing.assert_allclose(body['options'][0]['region'], polygons[0] + 5.0)
+    assert len(inlet.of('options')) == 1
 
 
 def test_a_choice_and_a_no_choice_are_stamped_at_their_last_gaze_sample(graph, rig):
@@ -138,13 +144,16 @@ def test_the_menu_events_confirmation_go_stop_arrival_and_failure(graph, rig):
         body, stamp, before, after = received(
             graph, inlet, lambda: topics.answer.publish(String(data=label)), event)
         assert body['label'] == label and before <= stamp <= after
+    assert inlet.of('go')[0][0]['goal'] == 'kitchen/table_2'    # what 'go' confirmed
     body, *_ = received(graph, inlet, lambda: topics.result.publish(
         String(data='kitchen/table_2')), 'outcome')
     assert body['label'] == 'kitchen/table_2'
     for text, event in (("driving to 'kitchen/table_2': 3.1 m left", 'driving'),
                         ("arrived at 'kitchen/table_2'", 'arrived'),
                         ("stopped on the way to 'kitchen/table_2'", 'stopped'),
-                        ("the robot did not move toward 'kitchen/table_2' within 10 s", 'failed')):
+                        ("the robot did not move toward 'kitchen/table_2' within 10 s (3.5 m "
+                         'left, no nearer): choose again', 'failed'),
+                        ("sending the robot to 'kitchen/table_2'", 'robot')):
         body, stamp, before, after = received(
             graph, inlet, lambda: topics.progress.publish(String(data=text)), event)
         assert body['text'] == text and before <= stamp <= after

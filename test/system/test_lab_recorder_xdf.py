@@ -5,14 +5,18 @@ The real LabRecorder records the tracker's gaze and the session's markers while 
 real nodes choose; pyxdf loads the file as a lab does.
 """
 
+from lsl_outlets import unique_id
 from marker_rig import ChoosingRig, MarkerInlet, OPTIONS
 import numpy as np
+import pylsl
 import pytest
 
 from eye_bci_ros2.gaze.profiles import PROFILES
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
 from eye_bci_ros2.recordings.lab_recorder import LabRecording, select_session_streams
 from eye_bci_ros2.recordings.session_markers import parse_marker
+from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
+from eye_bci_ros2.sim.eeg_outlet import EegStreamer
 
 pyxdf = pytest.importorskip('pyxdf')
 pytest.importorskip('labrecorder')
@@ -27,11 +31,16 @@ def stream_of(streams, kind):
 
 def test_each_choice_in_the_xdf_lies_within_a_sample_of_its_gaze(graph, tmp_path):
     rig = ChoosingRig(graph, rate_hz=600.0)
+    # The amplifier: simulated EEG on a real LSL outlet.
+    amplifier = EegStreamer(EegSimulator(SUBJECTS[0], seed=1), source_id=unique_id('amp'))
+    amplifier.start()
+    eeg_info, = pylsl.resolve_byprop('source_id', amplifier.info.source_id(), 1, 10.0)
     # The session's streams as the module picks them (the rig's namespace, this tracker).
     inlet = MarkerInlet(rig.markers_node.source_id)     # resolves the marker stream
-    streams = select_session_streams([rig.gaze_info, inlet.info], rig.namespace,
-                                     gaze_source_id=rig.gaze_info.source_id())
-    assert [s.type() for s in streams] == ['Gaze', 'Markers']
+    streams = select_session_streams([rig.gaze_info, eeg_info, inlet.info],
+                                     rig.namespace, gaze_source_id=rig.gaze_info.source_id(),
+                                     eeg_source_id=amplifier.info.source_id())
+    assert [s.type() for s in streams] == ['Gaze', 'EEG', 'Markers']
     asked = ['right', 'left', 'right', 'left']
     path = tmp_path / 'session.xdf'
     recording = LabRecording(path, streams)
@@ -45,11 +54,13 @@ def test_each_choice_in_the_xdf_lies_within_a_sample_of_its_gaze(graph, tmp_path
     finally:
         rig.close()
         recording.stop()
+        amplifier.stop()
         inlet.close()
 
     # As a lab loads it: pyxdf's defaults (clock offsets applied, stamps de-jittered).
     loaded, _ = pyxdf.load_xdf(str(path))
     gaze, markers = stream_of(loaded, 'Gaze'), stream_of(loaded, 'Markers')
+    eeg = stream_of(loaded, 'EEG')['time_stamps']
     assert markers['info']['name'][0] == f'eye_bci_markers {rig.namespace}'
     events = [parse_marker(text[0]) for text in markers['time_series']]
     choices = [(body, stamp) for body, stamp in zip(events, markers['time_stamps'])
@@ -72,3 +83,5 @@ def test_each_choice_in_the_xdf_lies_within_a_sample_of_its_gaze(graph, tmp_path
     print(f'choice marker to its gaze sample in the XDF: max {max(errors) * 1e3:.3f} ms, '
           f'one sample = {period * 1e3:.3f} ms')
     assert max(errors) < period
+    # The EEG of the same session spans every choice (one clock for all three streams).
+    assert all(eeg[0] < stamp < eeg[-1] for _, stamp in choices)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from eye_bci_ros2.decision.evidence import Decision
-from eye_bci_ros2.recordings.lab_recorder import select_session_streams
+from eye_bci_ros2.recordings.lab_recorder import LabRecording, select_session_streams
 from eye_bci_ros2.recordings.session_markers import (
     answer_event, decision_detail, EVENTS, marker_text, parse_marker, progress_event,
     question_fields, ros_to_lsl, stream_identity, trial_frame)
@@ -63,8 +63,19 @@ def test_menu_lines_become_their_events():
     assert progress_event("driving to 'kitchen/table_2': 3.1 m left") == 'driving'
     assert progress_event("arrived at 'kitchen/table_2'") == 'arrived'
     assert progress_event("stopped on the way to 'kitchen/table_2'") == 'stopped'
-    assert progress_event("the robot did not move toward 'kitchen/table_2'") == 'failed'
-    assert progress_event('') == 'failed'
+    assert progress_event("the robot did not move toward 'kitchen/table_2' within 10 s "
+                          '(3.5 m left, no nearer): choose again') == 'failed'
+    # The NavigateToPose menu's lines.
+    assert progress_event("the robot refused the goal to 'k/t': unreachable: choose "
+                          'again') == 'failed'
+    assert progress_event("the robot did not reach 'k/t': 103 (no valid path): choose "
+                          'again') == 'failed'
+    assert progress_event('the robot stopped') == 'stopped'
+    for line in ("sending the robot to 'k/t'", "stopping on the way to 'k/t'",
+                 "no feedback from the robot for 3 s on the way to 'k/t': 'stop' is still "
+                 'offered', "the robot refused the stop on the way to 'k/t' (busy): choose "
+                 "'stop' again", ''):
+        assert progress_event(line) == 'robot', line
 
 
 def test_a_question_lists_each_option_with_its_region_without_padding():
@@ -131,3 +142,15 @@ def test_a_trial_starts_at_the_first_stimulus_frame_at_or_after_its_question():
     assert frame == 61 and stamp == epoch + round(61e9 / 60)
     frame, stamp = trial_frame(epoch + 500_000_000, epoch, 144.0)     # exactly on frame 72
     assert (frame, stamp) == (72, epoch + 500_000_000)
+
+
+def test_a_recording_refuses_nothing_to_record_an_unresolved_stream_and_a_bad_path(tmp_path):
+    with pytest.raises(ValueError, match='nothing to record'):
+        LabRecording(tmp_path / 'a.xdf', [])
+    made_by_hand = SimpleNamespace(type=lambda: 'EEG', name=lambda: 'amp', uid=lambda: '',
+                                   source_id=lambda: 'amp-1')
+    with pytest.raises(ValueError, match="cannot record 'amp' .*not a resolved stream"):
+        LabRecording(tmp_path / 'a.xdf', [made_by_hand])
+    resolved = SimpleNamespace(uid=lambda: 'u-1')
+    with pytest.raises(OSError, match='is not a folder'):
+        LabRecording(tmp_path / 'missing' / 'a.xdf', [resolved])
