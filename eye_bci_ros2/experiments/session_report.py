@@ -355,7 +355,9 @@ def write_report(report: Report, folder: str, pictures: bool = True,
     }
     path = os.path.join(folder, 'report.json')
     with open(path, 'w', encoding='utf-8') as stream:
-        json.dump(summary, stream, indent=2, default=render.json_default)
+        # Strict JSON (a lab's parser in any language): what is unknown is null, not NaN.
+        json.dump(_json_safe(json.loads(json.dumps(summary, default=render.json_default))),
+                  stream, indent=2, allow_nan=False)
     files.append(path)
     path = os.path.join(folder, 'questions.csv')
     columns = ['index', 'asked', 'ended', 'offered', 'chosen', 'reason', 'intended', 'correct',
@@ -371,6 +373,17 @@ def write_report(report: Report, folder: str, pictures: bool = True,
     files.append(path)
     report.files = files
     return files
+
+
+def _json_safe(value):
+    """Return ``value`` with every NaN or infinity replaced by None."""
+    if isinstance(value, dict):
+        return {key: _json_safe(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_json_safe(item) for item in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def summary_line(report: Report) -> str:

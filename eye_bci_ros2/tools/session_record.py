@@ -202,7 +202,7 @@ def open_session_bag(folder: str, name: str) -> SessionBagWriter:
     :raises BagError: it cannot be made (one line).
     """
     path = os.path.join(folder, name)
-    if os.path.isfile(os.path.join(path, 'metadata.yaml')) or os.path.isdir(path):
+    if os.path.isdir(path):
         shutil.rmtree(path)
     os.makedirs(folder, exist_ok=True)
     return SessionBagWriter(path)
