@@ -67,6 +67,7 @@ REGISTRY: Dict[str, str] = {
     'ssvep_real': 'bench.ssvep_real',
     'real_hybrid': 'bench.real_hybrid',
     'robot': 'bench.robot',
+    'session_record': 'bench.session_record',
 }
 
 #: The default run of a section: ``(keyword arguments of run(), what that leaves out of

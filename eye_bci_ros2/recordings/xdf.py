@@ -145,21 +145,12 @@ def gaze_from_stream(stream: Dict, profile: Optional[str] = None,
     return points
 
 
-def load_xdf_gaze(path: PathLike, stream_name: Optional[str] = None,
-                  profile: Optional[str] = None, screen: ScreenGeometry = DEFAULT_VIEWING,
-                  source_size: Optional[Sequence[int]] = None) -> GazeRecording:
+def load_xdf_streams(path: PathLike) -> List[Dict]:
     """
-    Load the gaze stream of an XDF file (module doc).
+    Load every stream of an XDF file as recorded (``pyxdf.load_xdf``, stamps not de-jittered).
 
-    :param path: the ``.xdf`` (or ``.xdfz``) file.
-    :param stream_name: the gaze stream's name, when the file has several.
-    :param profile: the tracker application's layout (default: from the stream).
-    :param screen: the person's screen.
-    :param source_size: the sender's screen, px, for pixel layouts.
-    :raises RecordingError: an unreadable file, no or several gaze streams,
-        a layout the stream does not have, a stream without samples.
+    :raises RecordingError: pyxdf missing, or a file it cannot read (one line).
     """
-    path = Path(path)
     try:
         import pyxdf
     except ImportError:
@@ -175,7 +166,25 @@ def load_xdf_gaze(path: PathLike, stream_name: Optional[str] = None,
         raise RecordingError(f'{path}: not a readable XDF file ({error})') from None
     finally:
         pyxdf_log.setLevel(level)
-    stream = pick_gaze_stream(streams, stream_name, profile)
+    return streams
+
+
+def load_xdf_gaze(path: PathLike, stream_name: Optional[str] = None,
+                  profile: Optional[str] = None, screen: ScreenGeometry = DEFAULT_VIEWING,
+                  source_size: Optional[Sequence[int]] = None) -> GazeRecording:
+    """
+    Load the gaze stream of an XDF file (module doc).
+
+    :param path: the ``.xdf`` (or ``.xdfz``) file.
+    :param stream_name: the gaze stream's name, when the file has several.
+    :param profile: the tracker application's layout (default: from the stream).
+    :param screen: the person's screen.
+    :param source_size: the sender's screen, px, for pixel layouts.
+    :raises RecordingError: an unreadable file, no or several gaze streams,
+        a layout the stream does not have, a stream without samples.
+    """
+    path = Path(path)
+    stream = pick_gaze_stream(load_xdf_streams(path), stream_name, profile)
     stamps = np.asarray(stream['time_stamps'], dtype=float)
     if not len(stamps):
         raise RecordingError(f"{path}: stream '{_first(stream['info'].get('name'))}' has no "

@@ -10,6 +10,8 @@ Each module is one piece of the adapters' common ground, not a node:
 * ``screen_parameters``: the person's screen as one parameter table;
 * ``rviz_file``: the ``rviz_config`` parameter (a ``.rviz`` file read);
 * ``topics``: every topic name and QoS profile;
+* ``session_topics``: the topics a study records (``session_record``, ``ros2 bag record``);
+* ``message_types``: a message class by its type name, and its .msg definition;
 * ``conversions``: message <-> numpy at the node edges;
 * ``ssvep_messages``: SSVEP messages <-> the pure stimulus and score objects;
 * ``feedback_markers``: the ``choices/feedback`` halos as a MarkerArray;
