@@ -16,7 +16,7 @@ included; ``pyxdf.load_xdf`` reads it.  Typical use::
 Which streams (:func:`select_session_streams`): the marker stream of the pipeline
 in ``namespace`` (by its name and, unless ``host=''``, this machine in its source_id,
 :func:`~eye_bci_ros2.recordings.session_markers.stream_identity`), every stream of a
-gaze type (:data:`~eye_bci_ros2.recordings.xdf.GAZE_TYPES`) and of type EEG;
+gaze type (:func:`~eye_bci_ros2.streams.content_types.is_gaze_type`) and of type EEG;
 ``gaze_source_id`` / ``eeg_source_id`` narrow them to one device when several send
 (several people's streams on one network).
 
@@ -28,8 +28,8 @@ from pathlib import Path
 import socket
 from typing import Any, List, Optional, Sequence, Union
 
+from eye_bci_ros2.gaze.stream import is_gaze_type
 from eye_bci_ros2.recordings.session_markers import MARKER_TYPE, stream_identity
-from eye_bci_ros2.recordings.xdf import GAZE_TYPES
 
 #: The LSL type an amplifier's EEG stream has (the XDF and LSL convention).
 EEG_TYPE = 'eeg'
@@ -64,7 +64,7 @@ def select_session_streams(infos: Sequence[Any], namespace: str = '/', gaze_sour
         if kind == MARKER_TYPE.lower():
             take = markers and info.name() == marker_name and (
                 not host or info.source_id() == marker_source)
-        elif kind in GAZE_TYPES:
+        elif is_gaze_type(kind):
             take = _wanted(info.source_id(), gaze_source_id)
         elif kind == EEG_TYPE:
             take = _wanted(info.source_id(), eeg_source_id)
