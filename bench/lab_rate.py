@@ -104,7 +104,8 @@ from rclpy.context import Context
 from rclpy.parameter_client import AsyncParameterClient
 from std_msgs.msg import Empty, String
 
-from bench.latency import default_poll_period, Driver, encode_xy_pixels, make_outlet
+from bench.latency import (default_poll_period, Driver, encode_xy_pixels, make_outlet,
+                           region_count)
 from bench.timing import machine_info
 from eye_bci_ros2.ros.runner import (freeze_startup_objects, make_executor, spin_for,
                                      spin_until, STOP_POLL_S)
@@ -438,8 +439,8 @@ def measure(scenario: Scenario, seconds: float = SECONDS, log=sys.stderr) -> Dic
                     preexec_fn=(lambda: os.sched_setaffinity(0, {node_core}))
                     if busy else None)
             driver.publish_menu()
-            if not spin_until(executor, lambda: driver.regions is not None
-                              and len(driver.regions.markers) == 3, SETUP_TIMEOUT_S):
+            if not spin_until(executor, lambda: region_count(driver.regions) == 3,
+                              SETUP_TIMEOUT_S):
                 raise RuntimeError('marker_projector published no regions')
             targets = driver.targets()
             label = list(targets)[1]
@@ -629,8 +630,8 @@ def burst(samples: int = BURST_SAMPLES, log=sys.stderr) -> Dict[str, object]:
                                        env=dict(os.environ, ROS_DOMAIN_ID=str(domain)))
             client = AsyncParameterClient(driver, 'lsl_gaze_bridge')
             driver.publish_menu()
-            if not spin_until(executor, lambda: driver.regions is not None
-                              and len(driver.regions.markers) == 3, SETUP_TIMEOUT_S):
+            if not spin_until(executor, lambda: region_count(driver.regions) == 3,
+                              SETUP_TIMEOUT_S):
                 raise RuntimeError('marker_projector published no regions')
             targets = driver.targets()
             labels = list(targets)

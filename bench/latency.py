@@ -192,6 +192,11 @@ def view_nodes_loop(domain: int, stop) -> None:
         context.try_shutdown()
 
 
+def region_count(regions: Optional[MarkerArray]) -> int:
+    """Return how many option regions a ``choices/regions`` message holds (0: none yet)."""
+    return 0 if regions is None else len(marker_array_to_regions(regions)[0])
+
+
 class Driver(Node):
     """Publish the menu and round requests; timestamp every ``choice`` on arrival."""
 
@@ -283,8 +288,7 @@ def measure(rounds: int, poll_period_s: Optional[float] = None, rate: float = RA
                 node.get_logger().set_level(LoggingSeverity.WARN)
                 executor.add_node(node)
             driver.publish_menu()
-            if not spin_until(executor, lambda: driver.regions is not None
-                              and len(driver.regions.markers) == len(MARKERS),
+            if not spin_until(executor, lambda: region_count(driver.regions) == len(MARKERS),
                               SETUP_TIMEOUT_S):
                 raise RuntimeError('marker_projector published no regions for the menu')
             targets = driver.targets()

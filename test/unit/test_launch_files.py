@@ -28,8 +28,9 @@ REPO = Path(__file__).resolve().parents[2]
 PACKAGE = 'eye_bci_ros2'
 LAUNCH_FILES = sorted((REPO / 'launch').glob('*.launch.py'))
 ALLOWED_IMPORTS = ('launch', 'launch_ros', 'ament_index_python', 'os')
-#: The package's launch helper (its booleans); no other module of the package.
-HELPER = 'eye_bci_ros2.ros.launch_arguments'
+#: The package's launch helpers (its booleans; how a launch stops), stdlib only; no other
+#: module of the package.
+HELPERS = ('eye_bci_ros2.ros.launch_arguments', 'eye_bci_ros2.ros.launch_stop')
 #: Executables of other packages a launch file may start: package -> executables.
 EXTERNAL_EXECUTABLES = {'rviz2': {'rviz2'}}
 #: Files added apart (config/eye_bci.rviz): checked once they exist.
@@ -155,7 +156,7 @@ def test_only_launch_launch_ros_and_ament_index_are_imported(path):
             imported.append(node.module)
     assert imported
     for name in imported:
-        assert name.split('.')[0] in ALLOWED_IMPORTS or name == HELPER, \
+        assert name.split('.')[0] in ALLOWED_IMPORTS or name in HELPERS, \
             f'{path.name} imports {name}'
     assert any(isinstance(node, ast.FunctionDef) and node.name == 'generate_launch_description'
                for node in module.body)
