@@ -5,7 +5,8 @@ Every name is relative, so a namespace (``--ros-args -r __ns:=/left``) moves a
 whole pipeline.  docs/DESIGN.md ("Topics") says what each carries.
 """
 
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import (DurabilityPolicy, HistoryPolicy, qos_profile_action_status_default,
+                       QoSProfile, ReliabilityPolicy)
 
 #: Every gaze sample, batched: sensor_msgs/PointCloud2, one message per LSL chunk
 #: (see :mod:`eye_bci_ros2.ros.conversions`, "Gaze batches").
@@ -86,6 +87,13 @@ GOAL_POSE_TOPIC = 'goal_pose'
 #: rclpy's default action QoS): the menu is its client, sim_robot its server.  Its goal
 #: status is on ``navigate_to_pose/_action/status``.
 NAVIGATE_TO_POSE_ACTION = 'navigate_to_pose'
+#: Its hidden parts any node may use: the goals' status (action_msgs/GoalStatusArray,
+#: ACTION_STATUS_QOS; the menu sees a goal it did not send), the feedback
+#: (NavigateToPose.Impl.FeedbackMessage; the demo records the drive) and the cancel
+#: service (action_msgs/srv/CancelGoal; a zero goal id cancels every goal).
+NAVIGATE_TO_POSE_STATUS_TOPIC = NAVIGATE_TO_POSE_ACTION + '/_action/status'
+NAVIGATE_TO_POSE_FEEDBACK_TOPIC = NAVIGATE_TO_POSE_ACTION + '/_action/feedback'
+NAVIGATE_TO_POSE_CANCEL_SERVICE = NAVIGATE_TO_POSE_ACTION + '/_action/cancel_goal'
 #: TF (tf2_msgs/TFMessage; REP-105 frames map -> odom -> base_link): ``tf`` volatile,
 #: ``tf_static`` latched as tf2_ros's static broadcaster.
 TF_TOPIC = '/tf'
@@ -167,3 +175,9 @@ PLAN_QOS = LATCHED_QOS
 #: ``robot/marker``: reliable and volatile, like the feedback halos (what RViz's
 #: MarkerArray display asks for), a few messages deep.
 ROBOT_MARKER_QOS = FEEDBACK_QOS
+
+#: An action's status topic, as rclpy's and rclcpp's action servers publish it (reliable,
+#: transient local, depth 1: a client that starts later sees the goals at once).
+ACTION_STATUS_QOS = qos_profile_action_status_default
+#: An action's feedback topic, as rclpy's action servers publish it.
+ACTION_FEEDBACK_QOS = EVENT_QOS
