@@ -509,8 +509,12 @@ class ChoiceMenu(Node):
         except Exception as error:  # noqa: B902 - the server vanished
             accepted, reason = False, f'no answer ({error})'
         else:
-            accepted = response.return_code == CancelGoalService.Response.ERROR_NONE
-            reason = _CANCEL_WORDS.get(response.return_code, f'code {response.return_code}')
+            # rclpy's server answers a cancel its callback refused with no error and no goal.
+            accepted = response.return_code == CancelGoalService.Response.ERROR_NONE and \
+                len(response.goals_canceling) > 0
+            reason = _CANCEL_WORDS.get(response.return_code or
+                                       CancelGoalService.Response.ERROR_REJECTED,
+                                       f'code {response.return_code}')
         self._guard('the cancel response', lambda: self._protocol.on_cancel_response(
             accepted, reason, self._now()))
 
@@ -549,8 +553,9 @@ class ChoiceMenu(Node):
         finally:
             executor.remove_node(self)
             executor.shutdown()
-        if future.done() and future.result() is not None and \
-                future.result().return_code == CancelGoalService.Response.ERROR_NONE:
+        response = future.result() if future.done() else None
+        if response is not None and response.return_code == \
+                CancelGoalService.Response.ERROR_NONE and response.goals_canceling:
             self.get_logger().info('the robot goal is cancelled: the menu ends')
         else:
             self.get_logger().warning(f'the navigation server did not confirm the cancel '
