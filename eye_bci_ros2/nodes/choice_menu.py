@@ -130,7 +130,7 @@ from eye_bci_ros2.ros.topics import (ACTION_STATUS_QOS, CAMERA_GOAL_TOPIC, CAMER
                                      NAVIGATE_TO_POSE_STATUS_TOPIC, NO_CHOICE_TOPIC,
                                      REGIONS_TOPIC, REQUEST_TOPIC, VALIDATION_RESULT_TOPIC,
                                      VALIDATION_START_TOPIC, VIEW_QOS)
-from eye_bci_ros2.task.menu import (ABORTED, Action, Answer, CancelGoal, CANCELED, Log,
+from eye_bci_ros2.task.menu import (ABORTED, Action, Answer, CANCELED, CancelGoal, Log,
                                     MenuProtocol, Offer, Progress, ProtocolSettings, Request,
                                     Result, ROOMS_NS, SendGoal, SUCCEEDED, TABLES_NS, Validate)
 from eye_bci_ros2.task.scene import CubeMarker, load_scene, Scene, View
@@ -149,11 +149,10 @@ _OUTCOMES = {GoalStatus.STATUS_SUCCEEDED: SUCCEEDED, GoalStatus.STATUS_CANCELED:
 _ACTIVE = (GoalStatus.STATUS_ACCEPTED, GoalStatus.STATUS_EXECUTING,
            GoalStatus.STATUS_CANCELING)
 #: A cancel's return codes in words (action_msgs/srv/CancelGoal).
-_CANCEL_WORDS = {CancelGoalService.Response.ERROR_REJECTED: 'the server rejected it',
-                 CancelGoalService.Response.ERROR_UNKNOWN_GOAL_ID: 'the server does not know '
-                                                                  'the goal',
-                 CancelGoalService.Response.ERROR_GOAL_TERMINATED: 'the goal had already '
-                                                                   'ended'}
+_CANCEL_WORDS = {
+    CancelGoalService.Response.ERROR_REJECTED: 'the server rejected it',
+    CancelGoalService.Response.ERROR_UNKNOWN_GOAL_ID: 'the server does not know the goal',
+    CancelGoalService.Response.ERROR_GOAL_TERMINATED: 'the goal had already ended'}
 
 #: Protocol parameters: name -> (description, range); defaults from ProtocolSettings.
 _PROTOCOL_PARAMETERS = {
@@ -519,7 +518,7 @@ class ChoiceMenu(Node):
             accepted, reason, self._now()))
 
     def _on_goal_status(self, message: GoalStatusArray) -> None:
-        """Take the action's status: is a goal this menu did not send active?"""
+        """Take the action's status: whether a goal this menu did not send is active."""
         own = set(self._sent_ids)
         self._others_active = any(
             status.status in _ACTIVE and bytes(status.goal_info.goal_id.uuid) not in own

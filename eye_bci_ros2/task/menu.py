@@ -448,7 +448,7 @@ class _Drive:
     @property
     def name(self) -> str:
         """Say which goal this is, for the person."""
-        return "a goal this menu did not send" if self.other else f"'{self.label}'"
+        return 'a goal this menu did not send' if self.other else f"'{self.label}'"
 
 
 @dataclass
@@ -598,7 +598,7 @@ class MenuProtocol:
                                 f"{'accepted' if accepted else reason}")]
         if not accepted:
             self.drive = None
-            text = f"the robot refused the goal to {drive.name}: {reason}: choose again"
+            text = f'the robot refused the goal to {drive.name}: {reason}: choose again'
             return [Log('warning', text), Progress(text), *self._offer_tables(self.room, now)]
         drive.accepted, drive.heard_at, drive.silent = True, now, False
         actions: List[Action] = [Log('info', f'the robot accepted the goal to {drive.name}')]
@@ -652,7 +652,7 @@ class MenuProtocol:
         if accepted:
             return actions + [Log('info', f'the robot is stopping on the way to {drive.name}')]
         drive.stopping = False
-        text = (f"the robot refused the stop on the way to {drive.name} ({reason}): choose "
+        text = (f'the robot refused the stop on the way to {drive.name} ({reason}): choose '
                 "'stop' again")
         return actions + [Log('warning', text), Progress(text)]
 
@@ -852,7 +852,7 @@ class MenuProtocol:
         return actions
 
     def _heard(self, drive: _Drive, now: float) -> List[Action]:
-        """The robot spoke: the silence (if it was said) has ended."""
+        """Take a word from the robot: the silence (if it was said) has ended."""
         drive.heard_at = now
         if not drive.silent:
             return []

@@ -7,7 +7,7 @@ from eye_bci_ros2.projection.camera_model import look_at_pose, rviz_intrinsic
 from eye_bci_ros2.projection.geometry import project_points
 from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.task.menu import (ABORTED, Answer, ASKING, BACK_LABEL, back_marker,
-                                    CancelGoal, CANCELED, confirm_markers, DRIVING, FINISHED,
+                                    CANCELED, CancelGoal, confirm_markers, DRIVING, FINISHED,
                                     GO_LABEL, Log, LOOK_AWAY, MenuProtocol, Offer, PAUSED,
                                     Progress, ProtocolSettings, READY, Request, Result,
                                     SendGoal, STOP_LABEL, SUCCEEDED, VALIDATING,
