@@ -294,6 +294,16 @@ class ChoiceMenu(Node):
         return self._protocol.options
 
     @property
+    def driving(self) -> bool:
+        """Tell whether the menu follows a drive (from 'go' until the goal has ended)."""
+        return self._protocol.drive is not None
+
+    @property
+    def robot_goals(self) -> Dict[str, np.ndarray]:
+        """Return each table's robot goal: label -> x, y (m), yaw (rad) in the map frame."""
+        return dict(self._protocol.goals)
+
+    @property
     def state(self) -> str:
         """Return what the menu waits for (:attr:`eye_bci_ros2.task.menu.MenuProtocol.state`)."""
         return self._protocol.state

@@ -13,6 +13,7 @@ from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.experiments import demo
 from eye_bci_ros2.experiments.render import png_size
+from eye_bci_ros2.navigation.robot_settings import RobotSettings
 from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.task.menu import BACK_LABEL, GO_LABEL
 from eye_bci_ros2.task.scene import load_scene
@@ -137,7 +138,7 @@ def test_menu_goes_from_rooms_to_the_room_view_to_its_tables(quick_run):
     assert np.allclose(confirm['camera_eye'], SCENE.room(room).view.eye, atol=1e-3)
     robot = tables['robot']
     assert robot['arrived'] and len(robot['goal']) == 3
-    assert robot['drive_s'] > 0 and robot['path_m'] > 0
+    assert_drove_the_plan(robot)
     assert rooms['robot'] is None and confirm['robot'] is None
 
 
@@ -206,4 +207,34 @@ def test_make_demo_confirms_every_table_and_the_robot_arrives(tmp_path):
         later = summary['selections'][summary['selections'].index(table) + 1]
         assert (later['step'], later['chosen']) == ('confirm', GO_LABEL)
         assert table['robot']['arrived'], table['robot']
+        assert_drove_the_plan(table['robot'])
     assert printed.count('arrived after') == 4
+
+
+def assert_drove_the_plan(robot):
+    """The robot drove its plan at no more than its top speed, and nobody waited on it."""
+    # The robot's time (sim_robot's time_scale x the wall clock); 0.5 m/s at most.
+    assert robot['drive_s'] >= robot['path_m'] / RobotSettings().max_speed, robot
+    assert robot['plan_m'] > 0 and abs(robot['path_m'] - robot['plan_m']) <= \
+        0.1 * robot['plan_m'], robot
+    assert robot['silences'] == [], robot
+
+
+@pytest.mark.ros
+@pytest.mark.lsl
+def test_the_demo_at_real_speed_arrives_at_every_table(tmp_path):
+    """``demo --robot-time-scale 1 --rounds 2``: every drive at 0.5 m/s arrives, none held."""
+    stdout = io.StringIO()
+    with contextlib.redirect_stdout(stdout):
+        code = demo.main(['--robot-time-scale', '1', '--rounds', '2', '--seed', '1',
+                          '--output-dir', str(tmp_path), '--no-pictures'])
+    printed = stdout.getvalue()
+    assert code == 0, printed[-2000:]
+    summary = json.loads((tmp_path / 'summary.json').read_text())
+    drives = [s['robot'] for s in summary['selections'] if s['robot'] is not None]
+    assert len(drives) == 2 and summary['outcomes'] == summary['script']
+    for robot in drives:
+        assert robot['arrived'], robot
+        assert_drove_the_plan(robot)
+    # At real speed a drive across the scene takes longer than the old 10 s progress timeout.
+    assert max(robot['drive_s'] for robot in drives) > 10.0, drives
