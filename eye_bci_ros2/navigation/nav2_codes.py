@@ -40,7 +40,7 @@ NO_VALID_PATH = 208
 WORDS: Dict[int, str] = {
     NONE: 'no error',
     UNKNOWN: 'navigation failed for an unknown reason',
-    FAILED_TO_LOAD_BEHAVIOR_TREE: "the navigator could not load its behaviour tree",
+    FAILED_TO_LOAD_BEHAVIOR_TREE: 'the navigator could not load its behaviour tree',
     TF_ERROR: "the robot's position is unknown (no transform)",
     CONTROLLER_UNKNOWN: 'the controller failed for an unknown reason',
     INVALID_CONTROLLER: 'no such controller',
