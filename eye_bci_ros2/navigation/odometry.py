@@ -18,6 +18,7 @@ Poses ``[x, y, yaw]``, m, rad (:mod:`eye_bci_ros2.navigation.frames`).
 """
 
 import math
+from typing import Tuple
 
 import numpy as np
 
@@ -65,6 +66,10 @@ class DriftingOdometry:
         self.distance_m += length
         self._true = true_pose.copy()
         return self.pose
+
+    def twist(self, v: float, w: float) -> Tuple[float, float]:
+        """Return the speeds the odometry measures for true ones (v m/s, w rad/s)."""
+        return v * (1.0 + self.scale_error), w + self.yaw_drift_rad_per_m * abs(v)
 
     def relocate(self, true_pose: np.ndarray) -> None:
         """Put the robot at ``true_pose`` without moving the odometry (map -> odom jumps)."""
