@@ -10,6 +10,7 @@ Each module is one piece of the adapters' common ground, not a node:
 * ``rviz_file``: the ``rviz_config`` parameter (a ``.rviz`` file read);
 * ``topics``: every topic name and QoS profile;
 * ``conversions``: message <-> numpy at the node edges;
+* ``robot_messages``: planar poses <-> Pose, PoseStamped, TF transforms, Path;
 * ``ssvep_messages``: SSVEP messages <-> the pure stimulus and score objects;
 * ``feedback_markers``: the ``choices/feedback`` halos as a MarkerArray;
 * ``marker_store``: RViz2's MarkerArray semantics, markers by (ns, id);

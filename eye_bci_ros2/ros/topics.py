@@ -78,10 +78,12 @@ SSVEP_CHOICE_TOPIC = 'ssvep/choice'
 
 #: The robot (eye_bci_ros2.navigation, sim_robot; nav2's names): the goal
 #: (geometry_msgs/PoseStamped in the map frame, what nav2's bt_navigator and RViz's
-#: "2D Goal Pose" use; GOAL_QOS), the robot's odometry (nav_msgs/Odometry, pose in the map
-#: frame; ODOM_QOS), the map (nav_msgs/OccupancyGrid; MAP_QOS, as map_server), the planned
-#: path (nav_msgs/Path; PLAN_QOS) and the robot drawn for RViz (visualization_msgs/MarkerArray:
-#: its body and heading, and its footprint; ROBOT_MARKER_QOS).
+#: "2D Goal Pose" use: each one becomes a NavigateToPose goal; GOAL_QOS), the robot's
+#: odometry (nav_msgs/Odometry in frame ``odom``, child ``base_link``, REP-105; ODOM_QOS),
+#: the map (nav_msgs/OccupancyGrid; MAP_QOS, as map_server), the planned path (nav_msgs/Path,
+#: a heading on every pose; PLAN_QOS) and the robot drawn for RViz
+#: (visualization_msgs/MarkerArray in ``base_link``: its body and heading, and its footprint;
+#: ROBOT_MARKER_QOS).
 GOAL_POSE_TOPIC = 'goal_pose'
 #: nav2's NavigateToPose action (nav2_msgs/action/NavigateToPose, as bt_navigator serves it;
 #: rclpy's default action QoS): the menu is its client, sim_robot its server.  Its goal
@@ -98,6 +100,10 @@ NAVIGATE_TO_POSE_CANCEL_SERVICE = NAVIGATE_TO_POSE_ACTION + '/_action/cancel_goa
 #: ``tf_static`` latched as tf2_ros's static broadcaster.
 TF_TOPIC = '/tf'
 TF_STATIC_TOPIC = '/tf_static'
+#: ``/tf``: as tf2_ros's TransformBroadcaster publishes (reliable, volatile, depth 100).
+TF_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=100,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 ODOM_TOPIC = 'odom'
 MAP_TOPIC = 'map'
 PLAN_TOPIC = 'plan'
