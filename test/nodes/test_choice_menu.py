@@ -19,12 +19,14 @@ from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.navigation.approach import scene_goals
+from eye_bci_ros2.navigation.robot_settings import RobotSettings
 from eye_bci_ros2.nodes.choice_menu import ChoiceMenu
 from eye_bci_ros2.projection.camera_model import look_at_pose
 from eye_bci_ros2.ros.conversions import arrays_to_pose, pose_to_arrays, regions_to_marker_array
 from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.ros.topics import (EVENT_QOS, LATCHED_QOS, NAVIGATE_TO_POSE_ACTION,
                                      VIEW_QOS)
+from eye_bci_ros2.sim.robot import SimRobot
 from eye_bci_ros2.task.scene import load_scene
 
 pytestmark = pytest.mark.ros
@@ -591,3 +593,57 @@ def test_ctrl_c_mid_drive_cancels_the_goal(graph):
         if process.poll() is None:
             process.kill()
         process.wait()
+
+
+# -- the real menu and the real sim_robot, at real speed --------------------------------------
+
+def test_the_menu_drives_sim_robot_across_the_scene_at_real_speed(graph):
+    """'go' to a table two rooms away: the robot at 0.5 m/s, the menu says it all."""
+    robot = graph.add(SimRobot)
+    menu, probe = start(graph)
+    table = 'office/table_3'        # from (5, 5) through two doors: about 14 m
+    probe.ask_and_answer('office')
+    probe.wait_labels(['office/table_1', 'office/table_2', table, 'back'])
+    probe.ask_and_answer(table)
+    probe.wait_labels(CONFIRM)
+    assert graph.spin_until(lambda: menu._navigator.server_is_ready(), 10.0)
+    probe.ask_and_answer('go')
+    probe.wait_labels(['stop'])
+    probe.progress_is(f"driving to '{table}'...")
+    sent = len(probe.progress.messages)
+    # 0.5 m/s at most: 30 s or more; the menu follows the whole way.
+    probe.progress_is(f"arrived at '{table}'", timeout=120.0)
+    lines = [m.data for m in probe.progress.messages[sent - 1:]]
+    left = [float(line.split(': ')[1].split(' m')[0]) for line in lines
+            if line.startswith('driving to')]
+    assert left[0] > 10.0 and left[-1] < 1.0 and left == sorted(left, reverse=True), lines
+    assert not [line for line in lines if line.startswith(('no feedback', 'the robot did'))]
+    probe.wait_labels(ROOMS)
+    # The simulated robot stands at the menu's goal.
+    goal = menu.robot_goals[table]
+    pose = robot.drive.pose
+    assert math.hypot(*(pose[:2] - goal[:2])) <= RobotSettings().goal_tolerance_m
+
+
+def test_stop_stands_sim_robot_mid_drive(graph):
+    """'stop' while cruising: a cancel; the robot brakes and stands, nothing drives it back."""
+    robot = graph.add(SimRobot)
+    menu, probe = start(graph)
+    probe.ask_and_answer('living_room')
+    probe.wait_labels(['living_room/table_1', 'living_room/table_2', 'living_room/table_3',
+                       'back'])
+    probe.ask_and_answer('living_room/table_3')
+    probe.wait_labels(CONFIRM)
+    assert graph.spin_until(lambda: menu._navigator.server_is_ready(), 10.0)
+    probe.ask_and_answer('go')
+    probe.wait_labels(['stop'])
+    start_pose = np.array(robot.drive.pose)
+    assert graph.spin_until(lambda: math.hypot(*(robot.drive.pose[:2] - start_pose[:2]))
+                            > 2.0, 60.0)
+    probe.ask_and_answer('stop')
+    probe.progress_is("stopped on the way to 'living_room/table_3'", timeout=10.0)
+    stood = np.array(robot.drive.pose)
+    graph.spin_for(1.0)
+    assert np.allclose(robot.drive.pose, stood, atol=1e-6)      # standing still
+    assert math.hypot(*(stood[:2] - start_pose[:2])) > 2.0     # not driven back
+    probe.wait_labels(ROOMS)
