@@ -18,7 +18,8 @@ not a boolean (``rviz:=maybe``) is refused with the accepted ones
 (``map``, ``plan``, TF; the NavigateToPose action ``navigate_to_pose``);
 ``robot:=none`` starts no robot: a real one (nav2's bt_navigator) serves
 ``navigate_to_pose`` to the menu (README, "Robot").  Ctrl-C (launch's
-shutdown) cancels the menu's goal: the robot stops when the menu ends.  Another value is refused, naming the accepted ones.
+shutdown) cancels the menu's goal: the robot stops when the menu ends.
+Another value is refused, naming the accepted ones.
 
 Nothing starts when RViz2 is asked for but not installed, or ``params_file``
 does not exist (one line says which).  Every node is required: when one

@@ -549,8 +549,16 @@ class ChoiceMenu(Node):
         if not hasattr(self, '_protocol') or not self.context.ok():
             return
         self._cancelling = None
+        drive = self._protocol.drive
+        # A goal sent but not answered yet has no handle: cancelled by its id.
+        in_flight = self._goal_id if self._goal_handle is None else None
         self._perform(self._protocol.cancel_drive('the menu ends', self._now(), own_only=True))
         future, self._goal_id, self._goal_handle = self._cancelling, None, None
+        if future is None and in_flight is not None and drive is not None and \
+                not drive.other and self._cancel_all.service_is_ready():
+            request = CancelGoalService.Request()
+            request.goal_info.goal_id.uuid = list(in_flight)
+            future = self._cancel_all.call_async(request)
         if future is None:
             return
         # The executor that ran the node has stopped: a private one takes the answer, so
