@@ -212,7 +212,7 @@ def test_make_demo_confirms_every_table_and_the_robot_arrives(tmp_path):
 
 
 def assert_drove_the_plan(robot):
-    """Assert that the robot drove its plan, no faster than its top speed, and never fell silent."""
+    """Assert the robot drove its plan, no faster than its top speed, never silent."""
     # The robot's time (sim_robot's time_scale x the wall clock); 0.5 m/s at most.
     assert robot['drive_s'] >= robot['path_m'] / RobotSettings().max_speed, robot
     assert robot['plan_m'] > 0 and abs(robot['path_m'] - robot['plan_m']) <= \
