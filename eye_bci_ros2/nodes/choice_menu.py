@@ -145,6 +145,8 @@ CANCEL_WAIT_S = 2.0
 #: How a goal ended, by its GoalStatus (anything else is an abort).
 _OUTCOMES = {GoalStatus.STATUS_SUCCEEDED: SUCCEEDED, GoalStatus.STATUS_CANCELED: CANCELED,
              GoalStatus.STATUS_ABORTED: ABORTED}
+#: The goals whose status the menu keeps (the finished ones are forgotten beyond this).
+MAX_GOALS_KEPT = 200
 #: A goal whose status is one of these may move the robot.
 _ACTIVE = (GoalStatus.STATUS_ACCEPTED, GoalStatus.STATUS_EXECUTING,
            GoalStatus.STATUS_CANCELING)
@@ -264,6 +266,7 @@ class ChoiceMenu(Node):
         self._goal_handle = None
         self._sent_ids = deque(maxlen=100)
         self._others_active = False
+        self._goal_states: Dict[bytes, int] = {}    # goal id -> its last status
         self._cancelling = None             # the last cancel's future
         self.create_subscription(GoalStatusArray, NAVIGATE_TO_POSE_STATUS_TOPIC,
                                  self._on_goal_status, ACTION_STATUS_QOS)
@@ -367,6 +370,10 @@ class ChoiceMenu(Node):
             outcome.accepted, outcome.summary(), self._now()))
 
     def _on_tick(self) -> None:
+        if self._others_active and not self._navigator.server_is_ready():
+            # The server is gone (and every goal with it): no goal of its drives any more.
+            self._goal_states = {}
+            self._update_other_goals()
         if self._validation_due:
             if self._validation_pub.get_subscription_count() > 0:
                 self._validation_due = False
@@ -489,7 +496,11 @@ class ChoiceMenu(Node):
             outcome, reason = ABORTED, f'no result from {self._navigator_name()} ({error})'
         else:
             outcome = _OUTCOMES.get(response.status, ABORTED)
-            reason = nav2_codes.describe(response.result.error_code, response.result.error_msg)
+            code, message = response.result.error_code, response.result.error_msg
+            # nav2 aborts a goal that another goal preempts with an empty result.
+            reason = nav2_codes.describe(code, message) if code or message else \
+                'it ended without a reason (another goal may have taken its place)'
+
         self._guard('the navigation result', lambda: self._protocol.on_goal_result(
             outcome, reason, self._now()))
         # Another goal may still drive the robot (it preempted this one).
@@ -528,11 +539,23 @@ class ChoiceMenu(Node):
             accepted, reason, self._now()))
 
     def _on_goal_status(self, message: GoalStatusArray) -> None:
-        """Take the action's status: whether a goal this menu did not send is active."""
+        """
+        Take the action's status: whether a goal this menu did not send is active.
+
+        Each goal's last known status is kept: a message of another publisher on the
+        topic (a server gone but not yet seen gone) does not end a goal it does not list.
+        """
+        for status in message.status_list:
+            self._goal_states[bytes(status.goal_info.goal_id.uuid)] = status.status
+        if len(self._goal_states) > MAX_GOALS_KEPT:
+            self._goal_states = {goal: state for goal, state in self._goal_states.items()
+                                 if state in _ACTIVE}
+        self._update_other_goals()
+
+    def _update_other_goals(self) -> None:
         own = set(self._sent_ids)
-        self._others_active = any(
-            status.status in _ACTIVE and bytes(status.goal_info.goal_id.uuid) not in own
-            for status in message.status_list)
+        self._others_active = any(state in _ACTIVE and goal not in own
+                                  for goal, state in self._goal_states.items())
         self._guard('the goal status', lambda: self._protocol.on_other_goals(
             self._others_active, self._now()))
 

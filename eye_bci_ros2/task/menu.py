@@ -594,8 +594,10 @@ class MenuProtocol:
         """
         drive = self.drive
         if drive is None or drive.other or drive.accepted:
-            return [Log('info', f'an answer to a goal no longer followed ignored: '
-                                f"{'accepted' if accepted else reason}")]
+            if accepted:        # given up before the answer came: it must not drive
+                return [Log('warning', 'a goal the menu gave up was accepted late: '
+                                       'cancelling it'), CancelGoal()]
+            return [Log('info', f'a refusal of a goal no longer followed: {reason}')]
         if not accepted:
             self.drive = None
             text = f'the robot refused the goal to {drive.name}: {reason}: choose again'
@@ -771,12 +773,19 @@ class MenuProtocol:
         """Apply the timed rules (settle, look-away time, pause, drive); call it periodically."""
         actions: List[Action] = []
         drive = self.drive
+        if drive is not None and not drive.other and not drive.accepted and \
+                now - drive.heard_at >= self.settings.feedback_timeout_s:
+            # A server that is gone but not yet seen gone: the goal is given up (a late
+            # acceptance is cancelled, on_goal_response), the tables offered again.
+            self.drive = None
+            text = (f'no answer to the goal to {drive.name} in '
+                    f'{now - drive.heard_at:.0f} s: choose again')
+            return [Log('warning', text), Progress(text), *self._offer_tables(self.room, now)]
         if drive is not None and not drive.other and not drive.silent and \
                 now - drive.heard_at >= self.settings.feedback_timeout_s:
             drive.silent = True
-            what = 'no feedback' if drive.accepted else 'no answer to the goal'
-            text = (f'{what} from the robot for {now - drive.heard_at:.0f} s on the way to '
-                    f"{drive.name}: 'stop' is still offered")
+            text = (f'no feedback from the robot for {now - drive.heard_at:.0f} s on the way '
+                    f"to {drive.name}: 'stop' is still offered")
             actions += [Log('warning', text), Progress(text)]
         goal = self._goal
         if goal is not None and not goal.arrived and now - goal.last_move >= \

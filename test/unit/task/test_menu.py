@@ -441,8 +441,8 @@ def test_a_refused_goal_is_said_at_once():
     assert [a.text for a in kinds(actions, Log) if a.level == 'warning'] == [text]
     assert menu.options == TABLES and menu.drive is None
     assert not kinds(actions, (SendGoal, CancelGoal))
-    # A late answer to a goal no longer followed changes nothing.
-    assert not kinds(menu.on_goal_response(True, '', now + 1), (Offer, CancelGoal))
+    # A late refusal of a goal no longer followed changes nothing.
+    assert not kinds(menu.on_goal_response(False, 'gone', now + 1), (Offer, CancelGoal))
 
 
 def test_silence_is_said_and_never_ends_the_drive():
@@ -463,9 +463,15 @@ def test_silence_is_said_and_never_ends_the_drive():
     assert not kinds(menu.tick(t + 100.0), (SendGoal, CancelGoal, Offer))
     assert kinds(menu.on_feedback(1.0, t + 101.0), Log)[0].text.startswith(
         'the robot answers again')
-    # No answer to the goal either.
+    # No answer to the goal (a server gone but not yet seen gone): given up, the tables
+    # again; a late acceptance is cancelled.
     menu, actions, now = driving(accept=False, feedback_timeout_s=3.0)
-    assert kinds(menu.tick(now + 3.0), Progress)[0].text.startswith('no answer to the goal')
+    assert not kinds(menu.tick(now + 2.9), Log)
+    actions = menu.tick(now + 3.0)
+    assert kinds(actions, Progress)[0].text == (f"no answer to the goal to '{TABLE}' in 3 s: "
+                                                'choose again')
+    assert menu.drive is None and menu.options == TABLES
+    assert kinds(menu.on_goal_response(True, '', now + 4.0), CancelGoal) == [CancelGoal()]
     with pytest.raises(ValueError, match='feedback_timeout_s'):
         ProtocolSettings(feedback_timeout_s=float('nan'))
 
