@@ -79,7 +79,8 @@ Topics:
 counts at once and it asks only after an unusable choice or an unchanged offer.
 
 No feedback for ``feedback_timeout_s`` is said in one line and 'stop' stays
-offered: silence never ends a drive.  The menu reads no odometry: where the
+offered: silence never ends a drive (a goal never answered is given up then,
+and cancelled if accepted later).  The menu reads no odometry: where the
 robot is and whether it has arrived is the navigation server's word (nav2
 checks arrival with its own goal checker, in its own frames).  It never
 publishes ``goal_pose``: a goal on a topic cannot be cancelled, so a stop

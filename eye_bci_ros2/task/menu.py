@@ -82,9 +82,11 @@ the rooms, or finish), failed (nav2's reason in words; the tables again) or
 cancelled.  ``stop`` is a cancel and nothing else (:class:`CancelGoal`; no
 stop, hold or timeout is ever a goal): the stop stays offered until the robot
 reports the goal ended, a refused cancel is said and a second ``stop`` cancels
-again.  No word from the robot (no feedback, no answer to the goal) for
-``feedback_timeout_s`` is said in one line and 'stop' stays offered: silence
-never ends a drive, and progress is never called a failure.  Looking away
+again.  No feedback on an accepted goal for ``feedback_timeout_s`` is said in
+one line and 'stop' stays offered: silence never ends a drive, and progress is
+never called a failure.  A goal with no answer at all for as long (a server
+gone but not yet seen gone) is given up and the tables offered again; should
+it be accepted later, it is cancelled.  Looking away
 chooses nothing: the robot goes on, and it never starts without ``go``.  A
 new scene (``start``) while driving cancels the goal first.  A goal this menu
 did not send (:meth:`MenuProtocol.on_other_goals`: a menu restarted while its
