@@ -312,10 +312,12 @@ class SimRobot(Node):
         # A late tick (a loaded machine) moves the robot by what it missed, up to a second.
         self.drive.step(min(elapsed, 1.0) * self._time_scale)
         self.odometry.update(self.drive.pose)
-        self._serve()
-        self._publish_state()
+        # One stamp for the tick: feedback, odometry and TF describe the same instant.
+        stamp = self.get_clock().now()
+        self._serve(stamp)
+        self._publish_state(stamp.to_msg())
 
-    def _serve(self) -> None:
+    def _serve(self, now) -> None:
         """Take plans, follow cancels, end the goal when it is reached or the robot stands."""
         for outcome in self._worker.take():
             navigation = self._navigation
@@ -363,11 +365,10 @@ class SimRobot(Node):
                 self._end(navigation, 'succeed', NavigateToPose.Result())
                 return
         if navigation.state != 'planning':
-            self._publish_feedback(navigation)
+            self._publish_feedback(navigation, now)
 
-    def _publish_feedback(self, navigation: Navigation) -> None:
+    def _publish_feedback(self, navigation: Navigation, now) -> None:
         """Feedback once there is a plan: its distance left, as bt_navigator measures it."""
-        now = self.get_clock().now()
         distance = self.drive.distance_left() if navigation.state == 'driving' else (
             pose_error(self.drive.pose, navigation.goal))
         speed = abs(self.drive.v)
@@ -380,8 +381,8 @@ class SimRobot(Node):
             number_of_recoveries=0, distance_remaining=float(distance))
         navigation.handle.publish_feedback(feedback)
 
-    def _publish_state(self) -> None:
-        stamp = self.get_clock().now().to_msg()
+    def _publish_state(self, stamp=None) -> None:
+        stamp = stamp or self.get_clock().now().to_msg()
         v, w = self.odometry.twist(self.drive.v, self.drive.w)
         odom = Odometry()
         odom.header.stamp = stamp

@@ -182,7 +182,9 @@ def test_a_cross_room_goal_at_real_speed_with_feedback_tf_and_drifting_odometry(
     distance = np.array([f.distance_remaining for f in feedback])
     length = np.sum(np.hypot(*np.diff(poses[:, :2], axis=0).T))
     assert distance[0] == pytest.approx(length, abs=0.3) and distance[-1] < 0.3
-    assert np.all(distance[20::20] < distance[:-20:20])     # lower every second
+    # Never up (a few mm where the robot switches to a corner's next segment), and down by
+    # the path's length.
+    assert np.max(np.diff(distance)) <= 0.02, np.max(np.diff(distance))
     assert max(stamp_s(f.estimated_time_remaining) for f in feedback) > 10.0
     # TF: map -> odom -> base_link is the pose feedback reports, at the same instants.
     by_stamp = {stamp_s(f.current_pose.header.stamp): planar_pose(f.current_pose.pose)
