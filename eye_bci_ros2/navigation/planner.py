@@ -10,8 +10,8 @@ segment reaches over free cells only (checked every
 code (scipy.sparse.csgraph) on a graph built once per map: it finds a path as
 short as A*'s (``make bench``, section "robot", checks the lengths agree), and
 its time does not depend on how well a heuristic guides it: a plan across the
-shipped scene takes about 30 ms (the first on a new map about 75 ms, with the
-graph), about as long as A* in Python there.
+shipped scene takes about 12 ms (the first on a new map about 75 ms, with the
+graph; ``python -m bench.robot``), a few times faster than A* in Python there.
 
 A goal it cannot plan to raises :class:`NoPath` with the reason a user
 needs (off the map, in an obstacle, too close to one for the robot, not
