@@ -272,12 +272,13 @@ def drive_state(rig, state):
     if state == 'turning':
         # A goal behind the robot (it faces east): it turns on the spot first.
         sent = rig.send(3.0, 5.0, math.pi)
-        reached = lambda m: abs(m.twist.twist.angular.z) > 0.5 and m.twist.twist.linear.x == 0
     else:
         sent = rig.send(15.0, 8.5, 0.0)
-        reached = {'accelerating': lambda m: 0.1 < m.twist.twist.linear.x < 0.35,
-                   'cruising': lambda m: m.twist.twist.linear.x > 0.49,
-                   'preempted': lambda m: m.twist.twist.linear.x > 0.49}[state]
+    reached = {'turning': lambda m: abs(m.twist.twist.angular.z) > 0.5
+               and m.twist.twist.linear.x == 0,
+               'accelerating': lambda m: 0.1 < m.twist.twist.linear.x < 0.35,
+               'cruising': lambda m: m.twist.twist.linear.x > 0.49,
+               'preempted': lambda m: m.twist.twist.linear.x > 0.49}[state]
     assert rig.graph.spin_until(lambda: rig.odom.messages and reached(rig.odom.last), 60.0), \
         state
     if state == 'preempted':

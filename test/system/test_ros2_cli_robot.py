@@ -5,23 +5,27 @@ sim_robot with the real ``ros2`` command line, as a nav2 user tries a robot.
 shows a falling ``distance_remaining`` and SUCCEEDED; Ctrl-C on it mid-drive cancels the goal,
 which ends CANCELED with the robot standing within 1.5 s; ``ros2 topic echo /tf --once``
 shows map -> odom -> base_link.  The robot drives at real speed.  The command line is
-installed and the workspace built as in test_ros2_cli.py (skipped, with the reason, where the
-installer cannot download).
+installed as in test_ros2_cli.py (skipped, with the reason, where the installer cannot
+download); ``sim_robot`` is the venv's executable (``ros2 run`` of every executable is
+test_ros2_cli.py's).
 """
 
+import os
+from pathlib import Path
 import re
+import subprocess
+import sys
 import time
 
 from action_msgs.msg import GoalStatus, GoalStatusArray
-from colcon_workspace import PACKAGE
+from colcon_workspace import ros2_command, Unavailable
 from domain_coordinator import domain_id
 from nav_msgs.msg import Odometry
 import pytest
 import rclpy
 from rclpy.context import Context
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from test_ros2_cli import env, ros2, run, TRACEBACK  # noqa: F401 - fixtures
-from watched_process import Process
+from watched_process import Process, WAIT_S
 
 from eye_bci_ros2.navigation.frames import BASE_FRAME, MAP_FRAME, ODOM_FRAME
 from eye_bci_ros2.ros.runner import make_executor, spin_until
@@ -41,13 +45,40 @@ FAR = '{pose: {header: {frame_id: map}, pose: {position: {x: 15.0, y: 8.5}, ' \
 STAND_WITHIN_S = 1.5
 
 
+#: The lines that must never reach a user.
+TRACEBACK = re.compile(r'Traceback \(most recent call last\)|KeyboardInterrupt')
+
+
+@pytest.fixture(scope='module')
+def ros2():
+    """Return the path of the real ``ros2`` wrapper (skip when it cannot be installed)."""
+    try:
+        return ros2_command()
+    except Unavailable as reason:
+        pytest.skip(f'the real ros2 command line is not at hand: {reason}')
+
+
+@pytest.fixture
+def env():
+    """Return the environment of the commands: this one, discovery on this machine."""
+    return dict(os.environ, PYTHONUNBUFFERED='1', RCUTILS_COLORIZED_OUTPUT='0',
+                ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+
+
+def run(command, env, domain, timeout=WAIT_S):
+    """Run a short command; return (status, output)."""
+    result = subprocess.run(command, env=dict(env, ROS_DOMAIN_ID=str(domain)),
+                            capture_output=True, text=True, timeout=timeout)
+    return result.returncode, result.stdout + result.stderr
+
+
 def distances(output: str):
     return [float(value) for value in re.findall(r'distance_remaining: ([0-9.eE+-]+)', output)]
 
 
 def start_robot(ros2, env, domain, tmp_path, *rules):
-    robot = Process([str(ros2), 'run', PACKAGE, 'sim_robot', '--ros-args', *rules], env, domain,
-                    tmp_path / 'sim_robot.log')
+    robot = Process([str(Path(sys.executable).parent / 'sim_robot'), '--ros-args', *rules],
+                    env, domain, tmp_path / 'sim_robot.log')
     assert robot.wait_for('simulated robot'), robot.output()
     return robot
 
