@@ -170,8 +170,11 @@ class SimRobot(Node):
             goal_callback=lambda _goal: GoalResponse.ACCEPT,
             handle_accepted_callback=self._on_accepted,
             cancel_callback=self._on_cancel_request)
-        # goal_pose becomes an action goal, as bt_navigator's own client sends it.
-        self._self_client = ActionClient(self, NavigateToPose, NAVIGATE_TO_POSE_ACTION)
+        # goal_pose becomes an action goal, as bt_navigator's own client sends it.  The client
+        # is made at the first goal_pose: it takes every feedback message, a cost that an
+        # action client of its own (the menu) does not need.
+        self._self_client: Optional[ActionClient] = None
+        self._goal_pose: Optional[PoseStamped] = None
         self.create_subscription(PoseStamped, GOAL_POSE_TOPIC, self._on_goal_pose, GOAL_QOS)
         self._timer = self.create_timer(1.0 / self._rate_hz, self._on_timer)
         self._publish_state()
@@ -239,12 +242,17 @@ class SimRobot(Node):
 
     def _on_goal_pose(self, message: PoseStamped) -> None:
         """Send a goal_pose as a NavigateToPose goal to this server (bt_navigator's way)."""
-        if not self._self_client.server_is_ready():
-            self.get_logger().warning(
-                f'goal on {GOAL_POSE_TOPIC} dropped: the {NAVIGATE_TO_POSE_ACTION} action '
-                'server is not ready yet; send it again')
-            return
-        self._self_client.send_goal_async(NavigateToPose.Goal(pose=message))
+        if self._self_client is None:
+            self._self_client = ActionClient(self, NavigateToPose, NAVIGATE_TO_POSE_ACTION)
+        # Sent once the client has found the server (at once after the first goal_pose); a
+        # newer goal_pose replaces one not sent yet.
+        self._goal_pose = message
+        self._send_goal_pose()
+
+    def _send_goal_pose(self) -> None:
+        if self._goal_pose is not None and self._self_client.server_is_ready():
+            self._self_client.send_goal_async(NavigateToPose.Goal(pose=self._goal_pose))
+            self._goal_pose = None
 
     def _on_cancel_request(self, handle: ServerGoalHandle) -> CancelResponse:
         """Accept a cancel of an active goal (nav2's SimpleActionServer does the same)."""
@@ -321,6 +329,7 @@ class SimRobot(Node):
         self.odometry.update(self.drive.pose)
         # One stamp for the tick: feedback, odometry and TF describe the same instant.
         stamp = self.get_clock().now()
+        self._send_goal_pose()
         self._serve(stamp)
         self._publish_state(stamp.to_msg())
 
