@@ -109,10 +109,9 @@ def astar_length(free: np.ndarray, start: tuple, goal: tuple) -> float:
 
 def _cell_path_length(planner: Planner, start, goal) -> tuple:
     """Return the planner's shortest cell path length (before shortcutting), and the cells."""
-    cols = planner.grid.shape[1]
     a, b = (planner.grid.cells(np.array(p))[0][0] for p in (start, goal))
-    distance = dijkstra(planner._graph_of_free_cells(), indices=int(a[0] * cols + a[1]))
-    return float(distance[int(b[0] * cols + b[1])]), tuple(int(v) for v in a), tuple(
+    distance = dijkstra(planner._graph_of_free_cells(), indices=planner.node_of(a))
+    return float(distance[planner.node_of(b)]), tuple(int(v) for v in a), tuple(
         int(v) for v in b)
 
 
