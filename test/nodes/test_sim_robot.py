@@ -16,7 +16,6 @@ from nav2_msgs.action import NavigateToPose
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
 import numpy as np
 import pytest
-from rcl_interfaces.msg import Log
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -51,7 +50,12 @@ def stamp_s(stamp) -> float:
 
 
 class Rig:
-    """sim_robot and a client node: goals, feedback, results, odom, /tf, map, plan, logs."""
+    """
+    sim_robot and a client node: goals, feedback, results, odom, /tf, map, plan.
+
+    Its log lines are checked by test_ros2_cli_robot (a process's output is read whole;
+    /rosout in-process was seen to miss lines).
+    """
 
     def __init__(self, graph, time_scale: float = 1.0, **parameters):
         self.graph = graph
@@ -65,11 +69,6 @@ class Rig:
         self.map = Collector(node, OccupancyGrid, MAP_TOPIC, MAP_QOS)
         self.plan = Collector(node, Path, PLAN_TOPIC, PLAN_QOS)
         self.markers = Collector(node, MarkerArray, ROBOT_MARKER_TOPIC, ROBOT_MARKER_QOS)
-        self.logs = []
-        node.create_subscription(
-            Log, '/rosout', lambda m: self.logs.append(m) if m.name == 'sim_robot' else None,
-            QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self.client = ActionClient(node, NavigateToPose, NAVIGATE_TO_POSE_ACTION)
         self.goal_topic = node.create_publisher(PoseStamped, GOAL_POSE_TOPIC, GOAL_QOS)
         assert graph.spin_until(lambda: self.map.last is not None and self.tf.messages
@@ -124,9 +123,6 @@ class Rig:
         first = len(self.odom.messages)
         assert self.graph.spin_until(lambda: len(self.odom.messages) >= first + count, 30.0)
         return self.odom.messages[first:]
-
-    def lines(self, text):
-        return [m.msg for m in self.logs if text in m.msg]
 
     def free_cell_near(self, x, y, clearance):
         """Return the free cell centre nearest (x, y) with clearance m of free space."""
@@ -206,7 +202,6 @@ def test_a_cross_room_goal_at_real_speed_with_feedback_tf_and_drifting_odometry(
     assert odom_pose == pytest.approx(odom_base, abs=1e-6)
     # The robot is drawn in base_link, where TF puts it.
     assert {m.header.frame_id for m in rig.markers.last.markers} == {BASE_FRAME}
-    assert graph.spin_until(lambda: rig.lines('arrived at'), 10.0)
 
 
 @pytest.mark.parametrize('goal, frame, behavior_tree, code, text', [
@@ -316,7 +311,6 @@ def test_a_cancel_stands_the_robot_within_1_5_s_and_never_farther_than_braking_a
         abs(speed.angular.z), s.angular_accel, s.max_turn_rate) + math.radians(1)
     assert held == pytest.approx(rig.pose(), abs=1e-9)
     assert rig.plan.last.poses == []
-    assert graph.spin_until(lambda: rig.lines('cancelled'), 10.0)
 
 
 def test_a_new_goal_preempts_the_old_one_which_ends_aborted_without_an_error(graph):
