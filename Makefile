@@ -3,6 +3,10 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+# nav2_msgs, tf2_msgs and the RViz view controller's messages are not on PyPI: built with colcon
+# into the venv (interfaces/README.md).
+INTERFACES := $(wildcard interfaces/build.sh interfaces/cmake/*.cmake interfaces/*/package.xml \
+	interfaces/*/CMakeLists.txt interfaces/*/msg/*.msg interfaces/*/action/*.action)
 # Each test picks its own ROS domain; keep discovery on this machine.
 export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 export PYTHONDONTWRITEBYTECODE := 1
@@ -11,10 +15,11 @@ export OPENBLAS_NUM_THREADS ?= 1
 
 .PHONY: demo test bench soak accuracy lint build clean
 
-$(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
+$(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml $(INTERFACES)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -r requirements.txt -c constraints.txt
+	interfaces/build.sh $(VENV)
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 

@@ -15,10 +15,10 @@ A movement also sets the port's properties (``UpdateViewPose``): this bridge
 keeps "Pose Publish Enabled" and mouse control on, so camera_tracker keeps
 following the camera while it moves.
 
-The message package is not part of ROS 2 Jazzy's binaries: build
+The message package is not part of ROS 2 Jazzy's binaries: on a ROS machine build
 ``rviz_plugin_view_animated_msgs`` with colcon in a workspace (docs/hardware.md,
 "The camera in Jazzy") and source it first; without it the node refuses to start with that
-reason.
+reason.  The PyPI set-up (``make``) builds it into the venv (``interfaces/``).
 """
 
 import importlib

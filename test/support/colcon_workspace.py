@@ -9,6 +9,7 @@ is there; without the script, or where it cannot download, it raises
 :class:`Unavailable` (the tests then skip with the reason).
 """
 
+import fcntl
 import os
 from pathlib import Path
 import re
@@ -100,8 +101,12 @@ def ros2_command() -> Path:
     if installer is None or not installer.is_file():
         raise Unavailable('no ../shared/tools/ros2cli/install.sh beside the clone '
                           '(or $EYE_BCI_SHARED)')
-    result = subprocess.run(['bash', str(installer), sys.executable, str(ROS2CLI_DIR)],
-                            capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
+    # Two test files may ask at once (pytest-xdist workers): one installs, the other waits.
+    ROS2CLI_DIR.parent.mkdir(parents=True, exist_ok=True)
+    with open(ROS2CLI_DIR.parent / 'ros2cli.lock', 'w') as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        result = subprocess.run(['bash', str(installer), sys.executable, str(ROS2CLI_DIR)],
+                                capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
     if result.returncode == 0:
         return Path(result.stdout.strip().splitlines()[-1])
     # The installer sends pip's output to install.log in the folder it fills.
