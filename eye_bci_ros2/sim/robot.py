@@ -57,7 +57,6 @@ from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalRespons
 from rclpy.action.server import ServerGoalHandle
 from rclpy.duration import Duration
 from rclpy.node import Node
-from rclpy.task import Future
 from std_msgs.msg import ColorRGBA
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker, MarkerArray
@@ -75,7 +74,7 @@ from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.ros.parameters import declare_parameters, ParamSpec, SettingsParameters
 from eye_bci_ros2.ros.robot_messages import (
     path_message, planar_pose, pose_message, pose_stamped, transform_stamped)
-from eye_bci_ros2.ros.runner import spin_node
+from eye_bci_ros2.ros.runner import GOAL_EXECUTE_EVENT, spin_node
 from eye_bci_ros2.ros.topics import (
     GOAL_POSE_TOPIC, GOAL_QOS, MAP_QOS, MAP_TOPIC, NAVIGATE_TO_POSE_ACTION, ODOM_QOS,
     ODOM_TOPIC, PLAN_QOS, PLAN_TOPIC, ROBOT_MARKER_QOS, ROBOT_MARKER_TOPIC, TF_QOS, TF_TOPIC)
@@ -125,15 +124,13 @@ class Navigation:
     :ivar handle: its goal handle.
     :ivar goal: [x, y, yaw] in the map frame.
     :ivar started: when it was accepted (node clock).
-    :ivar result: completed with the result message when it ends.
-    :ivar key: its tag for the planning thread.
+    :ivar key: its tag for the planning worker.
     :ivar state: ``planning``, ``driving`` or ``stopping`` (cancelled, braking).
     """
 
     handle: ServerGoalHandle
     goal: np.ndarray
     started: Any
-    result: Future
     key: int
     state: str = 'planning'
 
@@ -164,12 +161,20 @@ class SimRobot(Node):
         self._navigation: Optional[Navigation] = None
         self._keys = itertools.count(1)
         self._last_tick = time.monotonic()
+        # Goals run from the timer: accepted, made EXECUTING and started in one callback,
+        # ended (state and result) by _end; no coroutine waits meanwhile (runner's
+        # GOAL_EXECUTE_EVENT says why).
         self._server = ActionServer(
-            self, NavigateToPose, NAVIGATE_TO_POSE_ACTION, execute_callback=self._execute,
+            self, NavigateToPose, NAVIGATE_TO_POSE_ACTION,
+            execute_callback=lambda _handle: NavigateToPose.Result(),  # replaced per goal
             goal_callback=lambda _goal: GoalResponse.ACCEPT,
+            handle_accepted_callback=self._on_accepted,
             cancel_callback=self._on_cancel_request)
-        # goal_pose becomes an action goal, as bt_navigator's own client sends it.
-        self._self_client = ActionClient(self, NavigateToPose, NAVIGATE_TO_POSE_ACTION)
+        # goal_pose becomes an action goal, as bt_navigator's own client sends it.  The client
+        # is made at the first goal_pose: it takes every feedback message, a cost that an
+        # action client of its own (the menu) does not need.
+        self._self_client: Optional[ActionClient] = None
+        self._goal_pose: Optional[PoseStamped] = None
         self.create_subscription(PoseStamped, GOAL_POSE_TOPIC, self._on_goal_pose, GOAL_QOS)
         self._timer = self.create_timer(1.0 / self._rate_hz, self._on_timer)
         self._publish_state()
@@ -237,38 +242,42 @@ class SimRobot(Node):
 
     def _on_goal_pose(self, message: PoseStamped) -> None:
         """Send a goal_pose as a NavigateToPose goal to this server (bt_navigator's way)."""
-        if not self._self_client.server_is_ready():
-            self.get_logger().warning(
-                f'goal on {GOAL_POSE_TOPIC} dropped: the {NAVIGATE_TO_POSE_ACTION} action '
-                'server is not ready yet; send it again')
-            return
-        self._self_client.send_goal_async(NavigateToPose.Goal(pose=message))
+        if self._self_client is None:
+            self._self_client = ActionClient(self, NavigateToPose, NAVIGATE_TO_POSE_ACTION)
+        # Sent once the client has found the server (at once after the first goal_pose); a
+        # newer goal_pose replaces one not sent yet.
+        self._goal_pose = message
+        self._send_goal_pose()
+
+    def _send_goal_pose(self) -> None:
+        if self._goal_pose is not None and self._self_client.server_is_ready():
+            self._self_client.send_goal_async(NavigateToPose.Goal(pose=self._goal_pose))
+            self._goal_pose = None
 
     def _on_cancel_request(self, handle: ServerGoalHandle) -> CancelResponse:
         """Accept a cancel of an active goal (nav2's SimpleActionServer does the same)."""
         return CancelResponse.ACCEPT if handle.is_active else CancelResponse.REJECT
 
-    async def _execute(self, handle: ServerGoalHandle) -> NavigateToPose.Result:
-        """Serve one goal: refuse it at once, or make it the one driven to and wait its end."""
-        request: NavigateToPose.Goal = handle.request
-        goal, code, reason = self._goal_in_map(request)
-        result: Future = Future()
+    def _on_accepted(self, handle: ServerGoalHandle) -> None:
+        """Start one goal: refuse it at once, or make it the one driven to."""
+        handle._update_state(GOAL_EXECUTE_EVENT)
+        goal, code, reason = self._goal_in_map(handle.request)
         if code != nav2_codes.NONE:
             # As bt_navigator: a goal it cannot take ends at once; one being driven to
             # goes on.
             self.get_logger().warning(f'goal aborted: {nav2_codes.describe(code, reason)}')
-            handle.abort()
-            return NavigateToPose.Result(error_code=code, error_msg=reason)
+            self._finish(handle, 'abort', NavigateToPose.Result(error_code=code,
+                                                                error_msg=reason))
+            return
         previous = self._navigation
         if previous is not None:
             # nav2's SimpleActionServer aborts the goal it preempts, with an empty result.
             self.get_logger().info(f'goal {_pose_text(previous.goal)} preempted by a new goal')
             self._end(previous, 'abort', NavigateToPose.Result())
         navigation = Navigation(handle=handle, goal=goal, started=self.get_clock().now(),
-                                result=result, key=next(self._keys))
+                                key=next(self._keys))
         self._navigation = navigation
         self._worker.request(navigation.key, self._planner, self.drive.pose, goal)
-        return await result
 
     def _goal_in_map(self, request) -> Tuple[np.ndarray, int, str]:
         """Return the goal in the map frame, and nav2's code and reason when it is refused."""
@@ -294,12 +303,18 @@ class SimRobot(Node):
                     f'the goal ({pose[0]:.2f}, {pose[1]:.2f}) is not a finite position')
         return compose(transforms[frame], pose), nav2_codes.NONE, ''
 
+    def _finish(self, handle: ServerGoalHandle, how: str,
+                result: NavigateToPose.Result) -> None:
+        """Put a goal in its final state (``how``: succeed, abort, canceled); send its result."""
+        if handle.is_active:
+            getattr(handle, how)()
+            # rclpy answers the result request when a goal's execute callback returns: this
+            # one returns the result at once.
+            self._server.notify_execute(handle, lambda _handle: result)
+
     def _end(self, navigation: Navigation, how: str, result: NavigateToPose.Result) -> None:
-        """End a goal: ``how`` is its handle's method (succeed, abort, canceled)."""
-        if navigation.handle.is_active:
-            getattr(navigation.handle, how)()
-        if not navigation.result.done():
-            navigation.result.set_result(result)
+        """End the goal driven to: its final state, its result, its plan request."""
+        self._finish(navigation.handle, how, result)
         self._worker.withdraw(navigation.key)
         if self._navigation is navigation:
             self._navigation = None
@@ -312,10 +327,13 @@ class SimRobot(Node):
         # A late tick (a loaded machine) moves the robot by what it missed, up to a second.
         self.drive.step(min(elapsed, 1.0) * self._time_scale)
         self.odometry.update(self.drive.pose)
-        self._serve()
-        self._publish_state()
+        # One stamp for the tick: feedback, odometry and TF describe the same instant.
+        stamp = self.get_clock().now()
+        self._send_goal_pose()
+        self._serve(stamp)
+        self._publish_state(stamp.to_msg())
 
-    def _serve(self) -> None:
+    def _serve(self, now) -> None:
         """Take plans, follow cancels, end the goal when it is reached or the robot stands."""
         for outcome in self._worker.take():
             navigation = self._navigation
@@ -363,11 +381,10 @@ class SimRobot(Node):
                 self._end(navigation, 'succeed', NavigateToPose.Result())
                 return
         if navigation.state != 'planning':
-            self._publish_feedback(navigation)
+            self._publish_feedback(navigation, now)
 
-    def _publish_feedback(self, navigation: Navigation) -> None:
+    def _publish_feedback(self, navigation: Navigation, now) -> None:
         """Feedback once there is a plan: its distance left, as bt_navigator measures it."""
-        now = self.get_clock().now()
         distance = self.drive.distance_left() if navigation.state == 'driving' else (
             pose_error(self.drive.pose, navigation.goal))
         speed = abs(self.drive.v)
@@ -380,8 +397,8 @@ class SimRobot(Node):
             number_of_recoveries=0, distance_remaining=float(distance))
         navigation.handle.publish_feedback(feedback)
 
-    def _publish_state(self) -> None:
-        stamp = self.get_clock().now().to_msg()
+    def _publish_state(self, stamp=None) -> None:
+        stamp = stamp or self.get_clock().now().to_msg()
         v, w = self.odometry.twist(self.drive.v, self.drive.w)
         odom = Odometry()
         odom.header.stamp = stamp

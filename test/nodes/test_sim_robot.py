@@ -16,7 +16,6 @@ from nav2_msgs.action import NavigateToPose
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
 import numpy as np
 import pytest
-from rcl_interfaces.msg import Log
 from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -51,7 +50,12 @@ def stamp_s(stamp) -> float:
 
 
 class Rig:
-    """sim_robot and a client node: goals, feedback, results, odom, /tf, map, plan, logs."""
+    """
+    sim_robot and a client node: goals, feedback, results, odom, /tf, map, plan.
+
+    Its log lines are checked by test_ros2_cli_robot (a process's output is read whole;
+    /rosout in-process was seen to miss lines).
+    """
 
     def __init__(self, graph, time_scale: float = 1.0, **parameters):
         self.graph = graph
@@ -65,11 +69,6 @@ class Rig:
         self.map = Collector(node, OccupancyGrid, MAP_TOPIC, MAP_QOS)
         self.plan = Collector(node, Path, PLAN_TOPIC, PLAN_QOS)
         self.markers = Collector(node, MarkerArray, ROBOT_MARKER_TOPIC, ROBOT_MARKER_QOS)
-        self.logs = []
-        node.create_subscription(
-            Log, '/rosout', lambda m: self.logs.append(m) if m.name == 'sim_robot' else None,
-            QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self.client = ActionClient(node, NavigateToPose, NAVIGATE_TO_POSE_ACTION)
         self.goal_topic = node.create_publisher(PoseStamped, GOAL_POSE_TOPIC, GOAL_QOS)
         assert graph.spin_until(lambda: self.map.last is not None and self.tf.messages
@@ -125,9 +124,6 @@ class Rig:
         assert self.graph.spin_until(lambda: len(self.odom.messages) >= first + count, 30.0)
         return self.odom.messages[first:]
 
-    def lines(self, text):
-        return [m.msg for m in self.logs if text in m.msg]
-
     def free_cell_near(self, x, y, clearance):
         """Return the free cell centre nearest (x, y) with clearance m of free space."""
         grid = self.map.last
@@ -182,7 +178,9 @@ def test_a_cross_room_goal_at_real_speed_with_feedback_tf_and_drifting_odometry(
     distance = np.array([f.distance_remaining for f in feedback])
     length = np.sum(np.hypot(*np.diff(poses[:, :2], axis=0).T))
     assert distance[0] == pytest.approx(length, abs=0.3) and distance[-1] < 0.3
-    assert np.all(distance[20::20] < distance[:-20:20])     # lower every second
+    # Never up (a few mm where the robot switches to a corner's next segment), and down by
+    # the path's length.
+    assert np.max(np.diff(distance)) <= 0.02, np.max(np.diff(distance))
     assert max(stamp_s(f.estimated_time_remaining) for f in feedback) > 10.0
     # TF: map -> odom -> base_link is the pose feedback reports, at the same instants.
     by_stamp = {stamp_s(f.current_pose.header.stamp): planar_pose(f.current_pose.pose)
@@ -204,28 +202,6 @@ def test_a_cross_room_goal_at_real_speed_with_feedback_tf_and_drifting_odometry(
     assert odom_pose == pytest.approx(odom_base, abs=1e-6)
     # The robot is drawn in base_link, where TF puts it.
     assert {m.header.frame_id for m in rig.markers.last.markers} == {BASE_FRAME}
-    assert graph.spin_until(lambda: rig.lines('arrived at'), 10.0)
-
-
-def unreachable_free_point(rig):
-    """Return a free point of the map the robot cannot reach (a pocket), or None."""
-    grid = rig.map.last
-    info = grid.info
-    cells = np.array(grid.data, dtype=np.int16).reshape(info.height, info.width)
-    # Where the robot's centre fits (as the planner inflates), in connected parts.
-    room = ndimage.distance_transform_edt(cells == 0) * info.resolution
-    fits = room > SETTINGS.radius_m + 0.1
-    labels, count = ndimage.label(fits, structure=np.ones((3, 3)))
-    start = rig.pose()
-    col, row = ((start[:2] - [info.origin.position.x, info.origin.position.y])
-                / info.resolution).astype(int)
-    for label in range(1, count + 1):
-        if label != labels[row, col]:
-            rows, cols = np.nonzero(labels == label)
-            middle = len(rows) // 2
-            return (np.array([cols[middle] + 0.5, rows[middle] + 0.5]) * info.resolution
-                    + [info.origin.position.x, info.origin.position.y])
-    return None
 
 
 @pytest.mark.parametrize('goal, frame, behavior_tree, code, text', [
@@ -241,12 +217,12 @@ def unreachable_free_point(rig):
 ])
 def test_a_goal_it_cannot_reach_ends_aborted_with_nav2s_code_and_it_stays(
         graph, goal, frame, behavior_tree, code, text):
-    rig = Rig(graph)
     if goal is None:
-        pocket = unreachable_free_point(rig)
-        if pocket is None:
-            pytest.skip('the shipped scene has no free pocket the robot cannot reach')
-        goal = (*pocket, 0.0)
+        # A robot 1 m wide does not pass the 0.9 m doors: the living room is out of reach.
+        rig = Rig(graph, radius_m=0.5)
+        goal = (*rig.free_cell_near(15.0, 8.0, clearance=0.9), 0.0)
+    else:
+        rig = Rig(graph)
     before = rig.pose()
     _, done, _ = rig.send(*goal, frame=frame, behavior_tree=behavior_tree)
     status, result = rig.result(done, 30.0)
@@ -271,17 +247,33 @@ def test_a_goal_in_odom_or_base_link_is_taken_through_tf(graph):
     assert within_tolerance(rig.pose(), map_odom)
 
 
+#: Longest a cancel takes from the client to the robot's next tick, s (three odometry periods).
+CANCEL_LATENCY_S = 0.15
+
+
+def braking_bound(speed, accel, top):
+    """
+    Return how far (m or rad) a robot at ``speed`` goes after a cancel is sent, at most.
+
+    While the cancel is on its way it may still speed up (``accel``, up to ``top``); then
+    it brakes at ``accel``: speed^2 / (2 accel) (RobotSettings.stop_distance_m from top speed).
+    """
+    reached = min(top, speed + accel * CANCEL_LATENCY_S)
+    return (speed + reached) / 2 * CANCEL_LATENCY_S + reached ** 2 / (2 * accel)
+
+
 def drive_state(rig, state):
     """Send a goal and spin until the robot is in ``state``; return the goal's parts."""
     if state == 'turning':
         # A goal behind the robot (it faces east): it turns on the spot first.
         sent = rig.send(3.0, 5.0, math.pi)
-        reached = lambda m: abs(m.twist.twist.angular.z) > 0.5 and m.twist.twist.linear.x == 0
     else:
         sent = rig.send(15.0, 8.5, 0.0)
-        reached = {'accelerating': lambda m: 0.1 < m.twist.twist.linear.x < 0.35,
-                   'cruising': lambda m: m.twist.twist.linear.x > 0.49,
-                   'preempted': lambda m: m.twist.twist.linear.x > 0.49}[state]
+    reached = {'turning': lambda m: abs(m.twist.twist.angular.z) > 0.5
+               and m.twist.twist.linear.x == 0,
+               'accelerating': lambda m: 0.1 < m.twist.twist.linear.x < 0.35,
+               'cruising': lambda m: m.twist.twist.linear.x > 0.49,
+               'preempted': lambda m: m.twist.twist.linear.x > 0.49}[state]
     assert rig.graph.spin_until(lambda: rig.odom.messages and reached(rig.odom.last), 60.0), \
         state
     if state == 'preempted':
@@ -310,17 +302,15 @@ def test_a_cancel_stands_the_robot_within_1_5_s_and_never_farther_than_braking_a
     assert stood_at - sent <= STAND_WITHIN_S
     held = rig.pose()
     assert all(rig.pose(m) == pytest.approx(held, abs=1e-9) for m in rig.tf.messages[-10:])
-    # Braking distance from the settings, plus what the robot drove while the cancel was
-    # on its way (two odometry periods at the speed it had).
-    latency = 2 / 20.0
-    v, w = abs(speed.linear.x), abs(speed.angular.z)
-    assert np.hypot(*(held[:2] - at_cancel[:2])) <= (
-        v ** 2 / (2 * SETTINGS.linear_accel) + v * latency + 0.02)
-    assert angle_between(held[2], at_cancel[2]) <= (
-        w ** 2 / (2 * SETTINGS.angular_accel) + w * latency + math.radians(2))
+    # Braking from the settings, after what the robot drove while the cancel was on its way
+    # (CANCEL_LATENCY_S, still speeding up at most at its acceleration).
+    s = SETTINGS
+    assert np.hypot(*(held[:2] - at_cancel[:2])) <= braking_bound(
+        abs(speed.linear.x), s.linear_accel, s.max_speed) + 0.01
+    assert angle_between(held[2], at_cancel[2]) <= braking_bound(
+        abs(speed.angular.z), s.angular_accel, s.max_turn_rate) + math.radians(1)
     assert held == pytest.approx(rig.pose(), abs=1e-9)
     assert rig.plan.last.poses == []
-    assert graph.spin_until(lambda: rig.lines('cancelled'), 10.0)
 
 
 def test_a_new_goal_preempts_the_old_one_which_ends_aborted_without_an_error(graph):

@@ -1,4 +1,9 @@
-"""The planning thread: the latest request is planned, outcomes are taken, a bad goal says why."""
+"""
+The planning worker: the latest request is planned, outcomes are taken, a bad goal says why.
+
+The queue's rules are tested in the thread (``separate_process=False``, where a test's own
+planner can hold it busy); the real planning process with real plans and refusals.
+"""
 
 import threading
 import time
@@ -28,12 +33,21 @@ def outcomes_of(worker, count, timeout=30.0):
 
 @pytest.fixture
 def worker():
+    worker = PlanWorker(separate_process=False)
+    yield worker
+    worker.close()
+
+
+@pytest.fixture(scope='module')
+def process_worker():
     worker = PlanWorker()
     yield worker
     worker.close()
 
 
-def test_a_plan_and_a_refusal_come_back_tagged(worker):
+def test_a_plan_and_a_refusal_come_back_tagged_from_the_planning_process(process_worker):
+    worker = process_worker
+    worker.warm(PLANNER)
     worker.request('a', PLANNER, np.array([2.0, 5.0]), np.array([18.0, 10.5]))
     (first,) = outcomes_of(worker, 1)
     assert first.key == 'a' and isinstance(first.result, Plan)
@@ -79,8 +93,15 @@ def test_a_bug_in_planning_is_an_outcome_not_a_dead_thread(worker):
     assert isinstance(outcomes_of(worker, 1)[0].result, Plan)
 
 
-def test_close_ends_the_thread():
+def test_the_process_plans_a_new_map_it_is_sent_and_close_ends_thread_and_process():
     worker = PlanWorker()
-    worker.warm(PLANNER)
+    child = worker._child._process
+    worker.request('a', PLANNER, np.array([2.0, 5.0]), np.array([18.0, 10.5]))
+    assert isinstance(outcomes_of(worker, 1)[0].result, Plan)
+    # A wider robot on the same map: the door it cannot pass says so.
+    wide = Planner(PLANNER.grid, 0.6)
+    worker.request('b', wide, np.array([2.0, 5.0]), np.array([18.0, 10.5]))
+    (outcome,) = outcomes_of(worker, 1)
+    assert isinstance(outcome.result, NoPath) and 'radius 0.6 m' in str(outcome.result)
     worker.close()
-    assert not worker._thread.is_alive()
+    assert not worker._thread.is_alive() and child.poll() is not None
