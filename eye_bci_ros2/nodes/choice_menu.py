@@ -566,6 +566,8 @@ class ChoiceMenu(Node):
             self._cancel_on_exit()
         except Exception as error:  # noqa: B902 - the node must still be destroyed
             self.get_logger().error(f'could not cancel the robot goal: {error}')
+        if hasattr(self, '_navigator'):
+            self._navigator.destroy()   # rclpy's destroy_node leaves an action client
         super().destroy_node()
 
     def _cancel_on_exit(self) -> None:

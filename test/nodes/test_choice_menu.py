@@ -7,14 +7,12 @@ import subprocess
 import sys
 
 from geometry_msgs.msg import PointStamped, PoseStamped
-from nav2_msgs.action import NavigateToPose
 import numpy as np
 from paths import REPO
 import pytest
-from rclpy.action import ActionClient
 from rclpy.parameter import Parameter
 from ros_harness import Collector
-from scripted_navigator import ScriptedNavigator
+from scripted_navigator import GoalSender, ScriptedNavigator
 from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -385,7 +383,7 @@ def confirming(graph, table=TABLE, **overrides):
 
 def driving(graph, **overrides):
     """Return a menu whose 'go' the scripted navigator accepted and executes, probe, navigator."""
-    navigator = ScriptedNavigator(graph)
+    navigator = graph.add(ScriptedNavigator)
     menu, probe = confirming(graph, **overrides)
     assert graph.spin_until(lambda: menu._navigator.server_is_ready(), 10.0)
     probe.ask_and_answer('go')
@@ -395,7 +393,7 @@ def driving(graph, **overrides):
 
 
 def test_go_sends_a_navigation_goal_and_its_success_offers_the_rooms(graph):
-    navigator = ScriptedNavigator(graph)
+    navigator = graph.add(ScriptedNavigator)
     menu, probe = confirming(graph)
     graph.spin_for(0.3)
     assert not navigator.goals and not probe.results.messages
@@ -433,7 +431,7 @@ def test_no_navigation_server_is_said_at_once(graph):
 
 
 def test_a_rejected_goal_is_said_at_once(graph):
-    navigator = ScriptedNavigator(graph, accept=False)
+    navigator = graph.add(ScriptedNavigator, accept=False)
     menu, probe = confirming(graph, feedback_timeout_s=600.0)
     assert graph.spin_until(lambda: menu._navigator.server_is_ready(), 10.0)
     probe.ask_and_answer('go')
@@ -501,13 +499,11 @@ def test_a_refused_stop_is_said_and_stop_cancels_again(graph):
 
 
 def test_a_menu_restarted_mid_drive_offers_stop_first(graph):
-    navigator = ScriptedNavigator(graph)
+    navigator = graph.add(ScriptedNavigator)
     # The goal of a menu that died without a word (SIGKILL): a client gone, its goal driving.
-    client = ActionClient(graph.node('dead_menu'), NavigateToPose, NAVIGATE_TO_POSE_ACTION)
-    assert graph.spin_until(client.server_is_ready, 10.0)
-    goal = NavigateToPose.Goal()
-    goal.pose.header.frame_id = 'map'
-    client.send_goal_async(goal)
+    dead_menu = graph.add(GoalSender)
+    assert graph.spin_until(dead_menu.client.server_is_ready, 10.0)
+    dead_menu.send()
     assert graph.spin_until(lambda: navigator.executing, 10.0)
     probe = Probe(graph)
     menu = graph.add(ChoiceMenu, parameter_overrides=[
@@ -523,11 +519,9 @@ def test_a_menu_restarted_mid_drive_offers_stop_first(graph):
 
 def test_a_goal_that_preempts_the_menus_is_met_with_stop(graph, capfd):
     menu, probe, navigator = driving(graph)
-    other = ActionClient(graph.node('rviz_user'), NavigateToPose, NAVIGATE_TO_POSE_ACTION)
-    assert graph.spin_until(other.server_is_ready, 10.0)
-    goal = NavigateToPose.Goal()
-    goal.pose.header.frame_id = 'map'
-    other.send_goal_async(goal)         # nav2 aborts the menu's goal, drives to this one
+    rviz_user = graph.add(GoalSender)
+    assert graph.spin_until(rviz_user.client.server_is_ready, 10.0)
+    rviz_user.send()                    # nav2 aborts the menu's goal, drives to this one
     probe.progress_is("the robot drives to a goal this menu did not send: 'stop' is offered "
                       'first')
     # Said in the log too (the latched progress topic may carry only the newer line).
@@ -541,7 +535,7 @@ def test_a_goal_that_preempts_the_menus_is_met_with_stop(graph, capfd):
 
 
 def test_looking_away_neither_sends_nor_stops(graph):
-    navigator = ScriptedNavigator(graph)
+    navigator = graph.add(ScriptedNavigator)
     menu, probe = confirming(graph)
     probe.on_screen.publish(Bool(data=False))         # the person looks away: no 'go'
     probe.wait_state('paused')
@@ -561,7 +555,7 @@ def test_looking_away_neither_sends_nor_stops(graph):
 
 
 def test_back_in_the_confirmation_sends_no_goal(graph):
-    navigator = ScriptedNavigator(graph)
+    navigator = graph.add(ScriptedNavigator)
     menu, probe = confirming(graph)
     probe.ask_and_answer('back')
     probe.wait_labels(KITCHEN_TABLES)
@@ -572,7 +566,7 @@ def test_back_in_the_confirmation_sends_no_goal(graph):
 
 
 def test_an_unanswered_confirmation_returns_to_the_tables_and_sends_nothing(graph):
-    navigator = ScriptedNavigator(graph)
+    navigator = graph.add(ScriptedNavigator)
     menu, probe = start(graph, confirm_rounds=2, min_answer_s=0.0)
     probe.ask_and_answer('kitchen')
     probe.wait_labels(KITCHEN_TABLES)
@@ -589,7 +583,7 @@ def test_an_unanswered_confirmation_returns_to_the_tables_and_sends_nothing(grap
 
 def test_ctrl_c_mid_drive_cancels_the_goal(graph):
     """The menu's process gets SIGINT (Ctrl-C, launch's shutdown): the server sees the cancel."""
-    navigator = ScriptedNavigator(graph)
+    navigator = graph.add(ScriptedNavigator)
     probe = Probe(graph)
     arguments = [f'{name}:={value}' for name, value in FAST.items()]
     env = dict(os.environ, ROS_DOMAIN_ID=str(graph.domain))

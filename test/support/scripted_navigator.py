@@ -12,7 +12,8 @@ from typing import List, Optional
 
 from geometry_msgs.msg import PoseStamped
 from nav2_msgs.action import NavigateToPose
-from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalResponse
+from rclpy.node import Node
 from rclpy.task import Future
 
 from eye_bci_ros2.ros.topics import NAVIGATE_TO_POSE_ACTION
@@ -21,9 +22,9 @@ from eye_bci_ros2.ros.topics import NAVIGATE_TO_POSE_ACTION
 CANCEL_POLL_S = 0.02
 
 
-class ScriptedNavigator:
+class ScriptedNavigator(Node):
     """
-    A NavigateToPose server whose answers the test chooses.
+    A NavigateToPose server whose answers the test chooses (``graph.add(ScriptedNavigator)``).
 
     :ivar accept: accept goals (False: reject them).
     :ivar accept_cancel: take cancels (False: refuse them).
@@ -32,25 +33,31 @@ class ScriptedNavigator:
     :ivar cancels: how many cancel requests came, one per goal they named.
     """
 
-    def __init__(self, graph, name: str = 'scripted_navigator', accept: bool = True):
-        self.node = graph.node(name)
+    def __init__(self, accept: bool = True, **kwargs):
+        """Serve ``navigate_to_pose``; ``kwargs`` go to :class:`rclpy.node.Node`."""
+        super().__init__('scripted_navigator', **kwargs)
         self.accept = accept
         self.accept_cancel = True
         self.end_cancelled = True
         self.goals: List[PoseStamped] = []
         self.cancels = 0
-        self.handle = None                  # the goal executing now
+        self.current = None                 # the goal executing now (its ServerGoalHandle)
         self._end: Optional[Future] = None
-        self.server = ActionServer(self.node, NavigateToPose, NAVIGATE_TO_POSE_ACTION,
+        self.server = ActionServer(self, NavigateToPose, NAVIGATE_TO_POSE_ACTION,
                                    execute_callback=self._execute,
                                    goal_callback=self._on_goal,
                                    cancel_callback=self._on_cancel)
-        self.node.create_timer(CANCEL_POLL_S, self._end_cancelled)
+        self.create_timer(CANCEL_POLL_S, self._end_cancelled)
+
+    def destroy_node(self) -> None:
+        """Destroy the action server too (rclpy's destroy_node leaves it, and the node)."""
+        self.server.destroy()
+        super().destroy_node()
 
     @property
     def executing(self) -> bool:
         """Tell whether a goal executes now."""
-        return self.handle is not None
+        return self.current is not None
 
     def _on_goal(self, goal) -> GoalResponse:
         self.goals.append(goal.pose)
@@ -61,26 +68,46 @@ class ScriptedNavigator:
         return CancelResponse.ACCEPT if self.accept_cancel else CancelResponse.REJECT
 
     async def _execute(self, handle):
-        if self.handle is not None:         # a new goal preempts the old one, as nav2
+        if self.current is not None:         # a new goal preempts the old one, as nav2
             self.finish('abort', 0)
-        self.handle, self._end = handle, Future()
+        self.current, self._end = handle, Future()
         return await self._end
 
     def feedback(self, distance_m: float) -> None:
         """Send feedback on the executing goal: the distance left, m."""
         message = NavigateToPose.Feedback()
         message.distance_remaining = float(distance_m)
-        if self.handle is not None:
-            message.current_pose.header.frame_id = self.handle.request.pose.header.frame_id
-        self.handle.publish_feedback(message)
+        if self.current is not None:
+            message.current_pose.header.frame_id = self.current.request.pose.header.frame_id
+        self.current.publish_feedback(message)
 
     def finish(self, how: str, error_code: int = 0, error_msg: str = '') -> None:
         """End the executing goal: ``succeed``, ``abort`` (with nav2's code) or ``canceled``."""
-        handle, end = self.handle, self._end
-        self.handle = self._end = None
+        handle, end = self.current, self._end
+        self.current = self._end = None
         getattr(handle, how)()
         end.set_result(NavigateToPose.Result(error_code=error_code, error_msg=error_msg))
 
     def _end_cancelled(self) -> None:
-        if self.end_cancelled and self.handle is not None and self.handle.is_cancel_requested:
+        if self.end_cancelled and self.current is not None and self.current.is_cancel_requested:
             self.finish('canceled')
+
+
+class GoalSender(Node):
+    """Another client of ``navigate_to_pose`` (a menu that died, RViz's goal tool)."""
+
+    def __init__(self, **kwargs):
+        """Make the client; ``kwargs`` go to :class:`rclpy.node.Node`."""
+        super().__init__('goal_sender', **kwargs)
+        self.client = ActionClient(self, NavigateToPose, NAVIGATE_TO_POSE_ACTION)
+
+    def send(self, frame_id: str = 'map') -> None:
+        """Send a goal at the map's origin and forget it."""
+        goal = NavigateToPose.Goal()
+        goal.pose.header.frame_id = frame_id
+        self.client.send_goal_async(goal)
+
+    def destroy_node(self) -> None:
+        """Destroy the action client too."""
+        self.client.destroy()
+        super().destroy_node()
