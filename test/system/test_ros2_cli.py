@@ -421,8 +421,12 @@ def test_ctrl_c_on_the_launch_mid_drive_stops_a_robot_of_its_own(ros2, env, tmp_
     with domain_id() as domain:
         robot = Process([str(ros2), 'run', PACKAGE, 'sim_robot'], env, domain,
                         tmp_path / 'robot.log')
+        # No tracker: the bridge must not take another run's gaze stream on this machine.
+        params = tmp_path / 'no_tracker.yaml'
+        params.write_text(yaml.safe_dump({'/lsl_gaze_bridge': {'ros__parameters': {
+            'source_id': f'no-tracker-{domain}-{time.monotonic_ns()}'}}}))
         experiment = launch(ros2, env, domain, tmp_path, 'experiment.launch.py', 'rviz:=false',
-                            'robot:=none', name='experiment')
+                            'robot:=none', f'params_file:={params}', name='experiment')
         context = Context()
         rclpy.init(context=context, domain_id=domain)
         executor = make_executor(context=context)
