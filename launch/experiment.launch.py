@@ -28,14 +28,14 @@ ends, or RViz2 is closed, the launch shuts the others down.
 
 from ament_index_python.packages import get_package_prefix, PackageNotFoundError
 from launch import LaunchDescription
-from launch.actions import (DeclareLaunchArgument, IncludeLaunchDescription, OpaqueFunction,
-                            Shutdown)
+from launch.actions import DeclareLaunchArgument, IncludeLaunchDescription, OpaqueFunction
 from launch.launch_description_sources import PythonLaunchDescriptionSource
 from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
 from eye_bci_ros2.ros.launch_arguments import boolean_arguments, is_true
+from eye_bci_ros2.ros.launch_stop import one_stop_per_ctrl_c, required
 
 PACKAGE = 'eye_bci_ros2'
 #: Accepted values of the robot:= argument: the simulated robot, or none (a real one).
@@ -70,7 +70,8 @@ def _robot(context):
         return []
     return [Node(package=PACKAGE, executable='sim_robot', name='sim_robot',
                  parameters=[LaunchConfiguration('params_file').perform(context)],
-                 output='screen', on_exit=Shutdown(reason='sim_robot ended'))]
+                 output='screen',
+                 on_exit=required('sim_robot', 'the robot is gone'))]
 
 
 def _menu_and_rviz(context):
@@ -78,11 +79,12 @@ def _menu_and_rviz(context):
     params_file = LaunchConfiguration('params_file').perform(context)
     actions = [Node(package=PACKAGE, executable='choice_menu', name='choice_menu',
                     parameters=[params_file], output='screen',
-                    on_exit=Shutdown(reason='choice_menu ended'))]
+                    on_exit=required('choice_menu', 'nothing offers the choices'))]
     if is_true(context, 'rviz'):
         actions.append(Node(package='rviz2', executable='rviz2', name='rviz2',
                             arguments=['-d', LaunchConfiguration('rviz_config')],
-                            output='screen', on_exit=Shutdown(reason='RViz2 closed')))
+                            output='screen',
+                            on_exit=required('rviz2', 'RViz2 closed')))
     return actions
 
 
@@ -91,6 +93,7 @@ def generate_launch_description():
     params_file = LaunchConfiguration('params_file')
     rviz_config = LaunchConfiguration('rviz_config')
     return LaunchDescription([
+        one_stop_per_ctrl_c(),
         DeclareLaunchArgument(
             'params_file',
             default_value=PathJoinSubstitution([FindPackageShare(PACKAGE), 'config',

@@ -1,5 +1,5 @@
 r"""
-The eye_bci_ros2 pipeline: gaze bridge, camera tracker, marker projector, choice arbiter.
+The eye_bci_ros2 pipeline: gaze bridge, camera tracker, marker projector, choice arbiter, markers.
 
     ros2 launch eye_bci_ros2 pipeline.launch.py
     ros2 launch eye_bci_ros2 pipeline.launch.py profile:=tobii_pro \
@@ -15,27 +15,30 @@ file when not empty.  The options to choose from are published on
 
 Nothing starts when ``params_file`` does not exist (one line says so).  Every
 node is required: when one ends (a bad parameter at start-up, a crash), the
-launch shuts the others down, so no half pipeline keeps running.
+launch shuts the others down, so no half pipeline keeps running; Ctrl-C, once
+or twice, is one quiet stop, status 0 (:mod:`eye_bci_ros2.ros.launch_stop`).
 """
 
 import os
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
+
+from eye_bci_ros2.ros.launch_stop import one_stop_per_ctrl_c, required
 
 PACKAGE = 'eye_bci_ros2'
 
 
 def _required(executable):
     """Return the action that ends the launch when ``executable`` ends (its ``on_exit``)."""
-    return Shutdown(reason=f'{executable} ended; a pipeline without it cannot choose')
+    return required(executable, 'a pipeline without it cannot choose')
 
 
 def _nodes(context):
-    """Check the params file, then build the four nodes with the overrides given."""
+    """Check the params file, then build the pipeline's nodes with the overrides given."""
     params_file = LaunchConfiguration('params_file').perform(context)
     if not os.path.isfile(params_file):
         raise RuntimeError(f"params_file '{params_file}' does not exist: nothing started")
@@ -55,12 +58,17 @@ def _nodes(context):
              on_exit=_required('marker_projector')),
         Node(package=PACKAGE, executable='choice_arbiter', name='choice_arbiter',
              parameters=[params_file], output='screen', on_exit=_required('choice_arbiter')),
+        # The session's events on an LSL marker stream for LabRecorder (enabled: false in
+        # the params file turns the stream off).
+        Node(package=PACKAGE, executable='session_markers', name='session_markers',
+             parameters=[params_file], output='screen', on_exit=_required('session_markers')),
     ]
 
 
 def generate_launch_description():
     """Declare the arguments and the pipeline nodes."""
     return LaunchDescription([
+        one_stop_per_ctrl_c(),
         DeclareLaunchArgument(
             'params_file',
             default_value=PathJoinSubstitution([FindPackageShare(PACKAGE), 'config',

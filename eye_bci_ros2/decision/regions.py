@@ -9,7 +9,7 @@ area centroid is nearest to it (the first listed on an exact tie).
 """
 
 import math
-from typing import Callable, Dict, Hashable, Sequence
+from typing import Callable, Dict, Hashable, Optional, Sequence
 
 import numpy as np
 
@@ -136,3 +136,31 @@ class RegionSet:
             distance[~inside[several]] = np.inf
             result[several] = distance.argmin(axis=1)
         return result
+
+
+def classify_against_history(stamps: np.ndarray, points: np.ndarray,
+                             history: Sequence[RegionSet],
+                             classifier: Optional[Callable[[RegionSet], RegionSet]] = None
+                             ) -> np.ndarray:
+    """
+    Tell which samples count for a region shown at their own time.
+
+    :param stamps: shape (N,), s, ascending.
+    :param points: shape (N, 2), screen px.
+    :param history: region sets in arrival order (stamps ascending).
+    :param classifier: the rule's classification of a set
+        (:meth:`ArbiterSettings.regions`); None: inside a region.
+    :returns: shape (N,) bool.
+    """
+    inside = np.zeros(len(stamps), dtype=bool)
+    if not len(stamps) or not history:
+        return inside
+    history_stamps = np.array([regions.stamp for regions in history])
+    shown = np.searchsorted(history_stamps, stamps, side='right') - 1
+    for index in np.unique(shown):
+        rows = shown == index
+        regions = history[max(int(index), 0)]
+        if classifier is not None:
+            regions = classifier(regions)
+        inside[rows] = regions.classify(points[rows]) >= 0
+    return inside

@@ -17,9 +17,10 @@ What runs (all real, nothing mocked but RViz and the person):
   room and offers its tables, the person looks at the scripted table, the
   arbiter decides again; the menu asks to confirm the table ('go' / 'back':
   the person looks at 'go' when the table chosen is the scripted one, else
-  at 'back'), sends the robot (``sim_robot``, the simulated nav2 robot on the
-  scene's map, driving ``robot_time_scale`` times faster than real time so
-  the demo stays quick) and offers 'stop' while it drives: the person looks
+  at 'back'; after 'go', at 'send', the second look that appears then),
+  sends the robot (``sim_robot``, the simulated nav2 robot on the scene's map,
+  driving ``robot_time_scale`` times faster than real time so the demo stays
+  quick) and offers 'stop' while it drives: the person looks
   away (at a corner of the screen, off the panel: that neither stops nor
   sends it), and the menu offers the rooms again when it has arrived.
 
@@ -61,7 +62,7 @@ import math
 import os
 import sys
 import time
-from typing import Callable, Dict, Iterator, List, Optional, Sequence, Tuple
+from typing import Dict, Iterator, List, Optional, Sequence, Tuple
 import uuid
 
 from domain_coordinator import domain_id
@@ -80,10 +81,11 @@ from visualization_msgs.msg import MarkerArray
 
 from eye_bci_ros2.decision.evidence import Decision
 from eye_bci_ros2.decision.fusion import GAZE, HYBRID, INPUT_MODES
-from eye_bci_ros2.decision.regions import RegionSet
+from eye_bci_ros2.decision.regions import classify_against_history, RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings, METHODS
 from eye_bci_ros2.experiments import render as demo_render
-from eye_bci_ros2.experiments.metrics import wolpaw_bits
+from eye_bci_ros2.experiments import session_report
+from eye_bci_ros2.experiments.metrics import itr_bits_per_minute
 from eye_bci_ros2.navigation.occupancy import yaw_of
 from eye_bci_ros2.nodes.eye_bci import make_pipeline_nodes, NODE_NAMES
 from eye_bci_ros2.nodes.ssvep_decoder import SsvepDecoder
@@ -92,13 +94,16 @@ from eye_bci_ros2.projection.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PA
                                                   optical_pose_from_ogre, RVIZ_FOV_Y_DEG,
                                                   RvizCamera)
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
+from eye_bci_ros2.recordings.lab_recorder import describe, LabRecording
+from eye_bci_ros2.recordings.session_markers import STREAM_PREFIX as MARKER_STREAM_PREFIX
 from eye_bci_ros2.ros.conversions import (gaze_batch_arrays, marker_array_to_regions,
                                           pose_to_arrays)
 from eye_bci_ros2.ros.feedback_markers import option_label, OptionMarkers
 from eye_bci_ros2.ros.package_files import default_scene_path
-from eye_bci_ros2.ros.runner import make_executor, spin_until as _spin_until
+from eye_bci_ros2.ros.runner import make_executor, spin_for, spin_until as _spin_until
 from eye_bci_ros2.ros.ssvep_messages import msg_to_stimulus_map
-from eye_bci_ros2.ros.topics import (ACTION_FEEDBACK_QOS, CHOICES_TOPIC, EVENT_QOS,
+from eye_bci_ros2.ros.startup import quiet_liblsl
+from eye_bci_ros2.ros.topics import (ACTION_FEEDBACK_QOS, CHOICES_TOPIC, CUE_TOPIC, EVENT_QOS,
                                      FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS,
                                      GAZE_SAMPLES_TOPIC, LATCHED_QOS, MAP_QOS, MAP_TOPIC,
                                      MENU_ANSWER_TOPIC, MENU_PROGRESS_TOPIC, MENU_RESULT_TOPIC,
@@ -111,8 +116,9 @@ from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
 from eye_bci_ros2.sim.person import GazeParams, ORIGINAL_TOBII_4C, PRESETS
 from eye_bci_ros2.sim.robot import SimRobot
 from eye_bci_ros2.sim.rviz_view import SimRvizView
-from eye_bci_ros2.task.menu import BACK_LABEL, GO_LABEL, STOP_LABEL
+from eye_bci_ros2.task.menu import BACK_LABEL, GO_LABEL, SEND_LABEL, STOP_LABEL
 from eye_bci_ros2.task.scene import load_scene, Scene
+from eye_bci_ros2.tools.session_record import open_session_bag, SessionRecorder
 
 #: The person's screen, px (the Linux machine of the original report).
 SCREEN_SIZE = (DEFAULT_VIEWING.width_px, DEFAULT_VIEWING.height_px)
@@ -134,12 +140,18 @@ QUICK_PERSON = ORIGINAL_TOBII_4C.with_changes(
 ASK_MODES = ('on-arrival', 'on-change')
 #: Answers per step the time limit of the whole run allows for.
 MAX_ATTEMPTS = 3
-#: Steps of a round: the room, the table, its confirmation, the drive.
-STEPS_PER_ROUND = 4
+#: Steps of a round: the room, the table, its confirmation ('go', 'send'), the drive.
+STEPS_PER_ROUND = 5
 #: What may choose (the arbiter's input_mode): fusion's modes.
 INPUTS = INPUT_MODES
 #: Gaze samples that must reach the pipeline before the experiment starts.
 WARMUP_SAMPLES = 20
+#: The session's bag in the output folder (``session_report`` reads it for the pictures),
+#: and its LSL streams (gaze, EEG, markers) as LabRecorder wrote them.
+BAG_NAME = 'session_bag'
+XDF_NAME = 'session.xdf'
+#: How long LabRecorder is given to take the last markers before it stops, s.
+LAB_DRAIN_S = 0.5
 
 
 class DemoError(RuntimeError):
@@ -266,6 +278,8 @@ class DemoResult:
     mean_time_s: float
     itr_bits_per_min: float
     files: List[str]
+    #: The report of the recorded session (session_report), None when nothing was written.
+    report: Optional[session_report.Report] = None
 
 
 @contextmanager
@@ -283,21 +297,6 @@ def demo_domain() -> Iterator[int]:
         return
     with domain_id() as domain:
         yield domain
-
-
-def itr_bits_per_minute(offered_counts: Sequence[int], accuracy: float,
-                        mean_time_s: float) -> float:
-    """
-    Information transfer rate, bits/min, of selections with the given choice counts.
-
-    Wolpaw's bits per selection are averaged over the selections (each with
-    its own N), at the overall accuracy P, and divided by the mean time per
-    selection T.
-    """
-    if not offered_counts or not mean_time_s > 0:
-        return 0.0
-    bits = np.mean([wolpaw_bits(n, accuracy) for n in offered_counts])
-    return float(bits * 60.0 / mean_time_s)
 
 
 def make_script(scene: Scene, rounds: int, seed: int) -> List[Tuple[str, str]]:
@@ -426,6 +425,8 @@ class ExperimentDriver(Node):
         self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
         self.create_subscription(PointCloud2, GAZE_SAMPLES_TOPIC, self._on_gaze, GAZE_QOS)
         self.create_subscription(String, MENU_RESULT_TOPIC, self._on_result, EVENT_QOS)
+        # The cue (the option the script asks for), recorded for the session's report.
+        self._cue = self.create_publisher(String, CUE_TOPIC, LATCHED_QOS)
         self.eeg = eeg
         # Answers the menu acted on, not yet recorded (label, ROS time s).
         self._answers: List[Tuple[str, float]] = []
@@ -627,6 +628,12 @@ class ExperimentDriver(Node):
             # Seen which table was chosen: 'go' if it is the one meant, else 'back'.
             self.step = 'confirm'
             self.intended = GO_LABEL if self._pending == f'{room}/{table}' else BACK_LABEL
+        elif labels == {SEND_LABEL}:
+            # After 'go': the second look, at 'send' where it appeared (if 'go' was meant).
+            self.step = 'send'
+            self.intended = SEND_LABEL if self._pending == f'{room}/{table}' else None
+            if self.intended is None:
+                self.streamer.set_target(REST_XY, pylsl.local_clock())
         elif labels == {STOP_LABEL}:
             # The robot drives: the person looks away from 'stop' (off the panel).
             self.step, self.intended = 'drive', None
@@ -641,6 +648,7 @@ class ExperimentDriver(Node):
         self._withdrawn_at = math.nan
         self._no_choice = 0
         self._target_path = []
+        self._cue.publish(String(data=self.intended or ''))
 
     # -- the experiment -------------------------------------------------------------------
 
@@ -702,11 +710,17 @@ class ExperimentDriver(Node):
         self.selections.append(selection)
         if self.step == 'tables' and label != BACK_LABEL:
             self._pending = label
-        elif self.step == 'confirm' and label == GO_LABEL:
+        elif (self.step == 'confirm' and label == GO_LABEL and not self._send_rounds()) or (
+                self.step == 'send' and label == SEND_LABEL):
             table = next(s for s in reversed(self.selections) if s.step == 'tables')
             self._drive = (table, answered_at, len(self.progress))
         # The round ends when the robot has arrived (_on_progress).
         return selection
+
+    def _send_rounds(self) -> int:
+        """Return the menu's send_rounds (0: 'go' sends the robot at once)."""
+        return int(self.menu.get_parameter('send_rounds').value) if self.menu is not None \
+            else 0
 
     def menu_state(self) -> str:
         """Return what the menu waits for (its node's state), '' when unknown."""
@@ -717,6 +731,7 @@ class ExperimentDriver(Node):
         self.running = False
         self.finished = True
         self.intended = None
+        self._cue.publish(String(data=''))
         self.streamer.set_target(REST_XY, pylsl.local_clock())
         if self.eeg is not None:
             self.eeg.attend(None)
@@ -811,34 +826,6 @@ class ExperimentDriver(Node):
                 for polygon, shown, m in zip(polygons, visible, markers) if shown]
 
 
-def classify_against_history(stamps: np.ndarray, points: np.ndarray,
-                             history: Sequence[RegionSet],
-                             classifier: Optional[Callable[[RegionSet], RegionSet]] = None
-                             ) -> np.ndarray:
-    """
-    Tell which samples count for a region shown at their own time.
-
-    :param stamps: shape (N,), s, ascending.
-    :param points: shape (N, 2), screen px.
-    :param history: region sets in arrival order (stamps ascending).
-    :param classifier: the rule's classification of a set
-        (:meth:`ArbiterSettings.regions`); None: inside a region.
-    :returns: shape (N,) bool.
-    """
-    inside = np.zeros(len(stamps), dtype=bool)
-    if not len(stamps) or not history:
-        return inside
-    history_stamps = np.array([regions.stamp for regions in history])
-    shown = np.searchsorted(history_stamps, stamps, side='right') - 1
-    for index in np.unique(shown):
-        rows = shown == index
-        regions = history[max(int(index), 0)]
-        if classifier is not None:
-            regions = classifier(regions)
-        inside[rows] = regions.classify(points[rows]) >= 0
-    return inside
-
-
 def run_demo(options: DemoOptions, log=print) -> DemoResult:
     """
     Run the experiment and write its pictures and summary.
@@ -894,8 +881,13 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
         executor = make_executor(context=context)
         nodes: List[Node] = []
         eeg = None
+        eeg_id = ''
+        lab = None
+        # The session's marker stream, named for this run (LabRecorder records it by name).
+        markers_name = f'{MARKER_STREAM_PREFIX} demo-{uuid.uuid4()}'
         try:
             nodes = make_pipeline_nodes(context, overrides={
+                'session_markers': {'stream_name': markers_name},
                 'lsl_gaze_bridge': {'source_id': source_id, 'stats_period_s': 0.0},
                 'marker_projector': {
                     'image_width': PANEL_SIZE[0], 'image_height': PANEL_SIZE[1],
@@ -905,7 +897,10 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                                    'early_decision': options.early,
                                    'input_mode': options.input_mode},
                 'choice_menu': {'scene_file': scene_path, 'repeat': True,
-                                'ask_on_arrival': options.ask == 'on-arrival'},
+                                'ask_on_arrival': options.ask == 'on-arrival',
+                                # 'send' is one option: SSVEP has no other to tell it from,
+                                # and its EEG confirms 'go' already (docs/selection.md).
+                                **({} if options.input_mode == GAZE else {'send_rounds': 0})},
             }, with_menu=True)
             named = dict(zip(NODE_NAMES + ('choice_menu',), nodes))
             log(f"decision rule: {named['choice_arbiter'].settings.describe()}")
@@ -927,15 +922,38 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
             driver = ExperimentDriver(scene, script, streamer, named['choice_arbiter'], options,
                                       eeg=eeg, menu=named['choice_menu'], context=context)
             nodes.append(driver)
+            # The session recorded as a study records it (session_record, in this process).
+            recorder = None
+            if options.output_dir:
+                recorder = SessionRecorder(open_session_bag(options.output_dir, BAG_NAME),
+                                           context=context)
+                nodes.append(recorder)
             for node in nodes:
                 executor.add_node(node)
             log(f'ROS 2 domain {domain}: {", ".join(n.get_name() for n in nodes)} on one '
                 f'executor; LSL source_id {source_id}')
+            if recorder is not None and not _spin_until(executor, recorder.recording_all, 10.0):
+                raise DemoError(f'session_record did not find the session topics: recording '
+                                f"{', '.join(recorder.recorded) or 'nothing'}")
             streamer.start()
+            if options.output_dir:
+                lab = _lab_recording(os.path.join(options.output_dir, XDF_NAME),
+                                     [source_id, eeg_id], markers_name, options.stream_timeout_s)
+                log(f'LabRecorder records {", ".join(describe(s) for s in lab.streams)} into '
+                    f'{lab.path}')
             _experiment(executor, driver, streamer, named['lsl_gaze_bridge'], options, log)
             # Let the menu's last result arrive.
             _spin_until(executor, lambda: len(driver.outcomes) >= len(script), 2.0)
+            if recorder is not None:   # and the recorder take what the driver has seen
+                _spin_until(executor, lambda: recorder.has_seen(
+                    {MENU_PROGRESS_TOPIC: len(driver.progress),
+                     MENU_RESULT_TOPIC: len(driver.outcomes)}), 2.0)
         finally:
+            if lab is not None:   # while the outlets still stream
+                # LabRecorder's inlets tell nothing of what they took: half a second for the
+                # last markers (the arrival) to reach them before the footers are written.
+                spin_for(executor, LAB_DRAIN_S)
+                lab.stop()
             executor.shutdown()
             for node in nodes:
                 node.destroy_node()
@@ -949,6 +967,22 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                 rclpy.logging.set_logger_level(name, level)
 
     return _summarise(options, person, source_id, script, driver, log)
+
+
+def _lab_recording(path: str, source_ids: Sequence[str], markers_name: str,
+                   timeout_s: float) -> LabRecording:
+    """Record the run's gaze (and EEG) outlets and its marker stream with LabRecorder."""
+    wanted = {source for source in source_ids if source}
+    end = time.monotonic() + timeout_s
+    while True:
+        found = [info for info in pylsl.resolve_streams(1.0)
+                 if info.source_id() in wanted or info.name() == markers_name]
+        if len(found) > len(wanted) or time.monotonic() > end:
+            break
+    if len(found) <= len(wanted):
+        raise DemoError(f"LabRecorder: the run's LSL streams were not all found within "
+                        f'{timeout_s:g} s (found: {", ".join(map(describe, found)) or "none"})')
+    return LabRecording(path, found)
 
 
 def _experiment(executor, driver: ExperimentDriver, streamer: GazeStreamer, bridge,
@@ -1058,22 +1092,11 @@ def _write_outputs(result: DemoResult, person: GazeParams) -> List[str]:
     """Write the pictures, summary.json and selections.csv; return their paths."""
     directory = result.options.output_dir
     os.makedirs(directory, exist_ok=True)
-    files = []
-    if result.options.pictures:
-        for selection in result.selections:
-            name = f'round{selection.round_index}_{selection.step}'
-            if selection.attempt > 1:
-                name += f'_attempt{selection.attempt}'
-            selection.picture = demo_render.render_screen(
-                selection.screen, os.path.join(directory, name + '.png'))
-            files.append(selection.picture)
-    if result.options.pictures:
-        for selection in result.selections:
-            if selection.drive is not None:
-                selection.robot['picture'] = demo_render.render_drive(
-                    selection.drive, os.path.join(
-                        directory, f'round{selection.round_index}_drive.png'))
-                files.append(selection.robot['picture'])
+    # The pictures are the recorded session's report (session_report: the same for a study).
+    report = session_report.build_report(session_report.read_session(
+        os.path.join(directory, BAG_NAME)))
+    files = session_report.write_report(report, directory, pictures=result.options.pictures)
+    result.report = report
     rows = [s.as_row() for s in result.selections]
     summary = {
         'options': asdict(result.options), 'person': asdict(person),
@@ -1191,6 +1214,7 @@ def options_from_args(args: argparse.Namespace) -> DemoOptions:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run the demo; return 0 when it finished, 1 when something failed."""
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     parser = build_parser()
     args = parser.parse_args(argv)
     options = options_from_args(args)

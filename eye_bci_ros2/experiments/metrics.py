@@ -13,6 +13,9 @@ selections, which the caller accounts for).
 """
 
 import math
+from typing import Sequence
+
+import numpy as np
 
 #: Time a benchmark counts between selections besides the decision: the cue and the gaze
 #: shift to the next option, s (Nakanishi et al. 2018's 0.5 s; bench/decision, bench/ssvep).
@@ -40,3 +43,18 @@ def wolpaw_bits(choices: int, accuracy: float) -> float:
     if p >= 1.0:
         return math.log2(n)
     return math.log2(n) + p * math.log2(p) + (1.0 - p) * math.log2((1.0 - p) / (n - 1))
+
+
+def itr_bits_per_minute(offered_counts: Sequence[int], accuracy: float,
+                        mean_time_s: float) -> float:
+    """
+    Information transfer rate, bits/min, of selections with the given choice counts.
+
+    Wolpaw's bits per selection are averaged over the selections (each with
+    its own N), at the overall accuracy P, and divided by the mean time per
+    selection T.
+    """
+    if not offered_counts or not mean_time_s > 0:
+        return 0.0
+    bits = np.mean([wolpaw_bits(n, accuracy) for n in offered_counts])
+    return float(bits * 60.0 / mean_time_s)

@@ -275,6 +275,58 @@ def render_drive(picture: DrivePicture, path: str, size: Tuple[int, int] = (1400
     return _save(figure, path)
 
 
+@dataclass
+class TimelinePicture:
+    """
+    A session over time: one lane per kind of event (times s from the session's start).
+
+    :ivar title: the caption.
+    :ivar spans: lane -> [(start, end, colour, label)]: questions, drives.
+    :ivar ticks: lane -> [(time, colour, label)]: choices, rounds without one, answers.
+    :ivar rate: (times (T,), samples per s (T,)) of the gaze, or None.
+    """
+
+    title: str
+    spans: Dict[str, List[Tuple[float, float, str, str]]] = field(default_factory=dict)
+    ticks: Dict[str, List[Tuple[float, str, str]]] = field(default_factory=dict)
+    rate: Optional[Tuple[np.ndarray, np.ndarray]] = None
+
+
+def render_timeline(picture: TimelinePicture, path: str, width_px: int = 1800) -> str:
+    """Draw a session's timeline: lanes of spans and ticks, and the gaze rate beneath."""
+    lanes = list(picture.spans) + [lane for lane in picture.ticks if lane not in picture.spans]
+    figure = Figure(figsize=(width_px / 100.0, 1.6 + 0.7 * len(lanes)), dpi=100.0)
+    FigureCanvasAgg(figure)
+    axes = figure.add_axes((0.1, 0.3 if picture.rate is not None else 0.15, 0.87, 0.55))
+    for row, lane in enumerate(lanes):
+        y = len(lanes) - 1 - row
+        for start, end, colour, label in picture.spans.get(lane, ()):
+            axes.add_patch(Rectangle((start, y - 0.35), max(end - start, 1e-3), 0.7,
+                                     facecolor=colour, edgecolor='black', linewidth=0.5))
+            if label:
+                axes.text(start, y + 0.38, label, fontsize=7, va='bottom', ha='left',
+                          rotation=30)
+        for time_s, colour, label in picture.ticks.get(lane, ()):
+            axes.plot([time_s, time_s], [y - 0.4, y + 0.4], color=colour, linewidth=2)
+            if label:
+                axes.text(time_s, y - 0.45, label, fontsize=7, va='top', ha='center',
+                          rotation=30)
+    axes.set_yticks(range(len(lanes)))
+    axes.set_yticklabels(list(reversed(lanes)))
+    axes.set_ylim(-1, max(len(lanes), 1))
+    axes.autoscale(axis='x')
+    axes.grid(True, axis='x', alpha=0.3)
+    figure.text(0.1, 0.93, picture.title, fontsize=13, weight='bold')
+    if picture.rate is not None:
+        below = figure.add_axes((0.1, 0.07, 0.87, 0.15), sharex=axes)
+        below.plot(picture.rate[0], picture.rate[1], color='#4060ff', linewidth=1)
+        below.set_ylabel('gaze\nsamples/s', fontsize=8)
+        below.set_xlabel('time since the session started, s')
+    else:
+        axes.set_xlabel('time since the session started, s')
+    return _save(figure, path)
+
+
 def _circle(centre, radius: float, colour) -> Circle:
     return Circle(centre, radius, color=colour, alpha=0.8)
 

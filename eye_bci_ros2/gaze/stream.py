@@ -15,22 +15,18 @@ from typing import List, Optional, Sequence
 
 from eye_bci_ros2.gaze.profiles import (build_config, GazeConfig, parse_channels, PROFILE_NAMES,
                                         PROFILES, resolve_mapping, stream_matches, xpath_predicate)
+# Re-exported for the layers above (recordings): what a stream carries lives in streams.
+from eye_bci_ros2.streams.content_types import (  # noqa: F401
+    is_gaze_type, not_gaze as not_gaze_type)
 from eye_bci_ros2.streams.lsl_connection import StreamDescription
 
 #: The profile that assumes nothing about the layout.
 CUSTOM = 'custom'
-#: LSL content types (the XDF meta-data specification's, lower case) that are never an eye
-#: tracker's gaze: a bridge told to read one would read EEG volts or markers as pixels.
-NOT_GAZE_TYPES = frozenset(('eeg', 'emg', 'ecg', 'nirs', 'mocap', 'audio', 'markers',
-                            'videoraw', 'videocompressed'))
 
 
 def not_gaze(stream: StreamDescription) -> Optional[str]:
     """Say why a stream is no eye tracker's whatever the parameters (None: it may be one)."""
-    if stream.stream_type.lower() not in NOT_GAZE_TYPES:
-        return None
-    return (f'it is an {stream.stream_type} stream, not gaze (a gaze bridge cannot use it): '
-            "start the eye tracker's LSL sender (sim_gaze to try without one)")
+    return not_gaze_type(stream.stream_type)
 
 
 def _layout_fits(profile_name: str, labels: Sequence[str], channel_count: int) -> bool:

@@ -1,9 +1,10 @@
 """
 The whole pipeline in one process: every node on one executor.
 
-Composes the four pipeline nodes, lsl_gaze_bridge, camera_tracker,
-marker_projector and choice_arbiter (RViz, the eye tracker and the task that
-publishes ``choices`` stay outside).  The original experiment's menu is
+Composes the pipeline nodes, lsl_gaze_bridge, camera_tracker,
+marker_projector, choice_arbiter and session_markers (the session's events on
+an LSL marker stream, for LabRecorder); RViz, the eye tracker and the task that
+publishes ``choices`` stay outside.  The original experiment's menu is
 started explicitly: ``ros2 run eye_bci_ros2 choice_menu``, or
 ``eye_bci --with-menu`` to compose it too.  One executor
 (:mod:`eye_bci_ros2.ros.runner`) runs them all: every callback is short and

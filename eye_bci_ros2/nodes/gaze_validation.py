@@ -3,9 +3,11 @@ Node ``gaze_validation``: validate the tracker through the running nodes, fit an
 
 The procedure (:mod:`eye_bci_ros2.gaze.validation` holds the arithmetic):
 
-1. waits for gaze on ``gaze/samples`` (at most ``gaze_wait_s``) and refuses
-   at once, before any target is shown, when none arrives (no bridge, or no
-   tracker streaming); waits for ``camera/pose`` (at most ``camera_wait_s``)
+1. refuses at once, before any target, when ``output`` cannot be written
+   (:mod:`eye_bci_ros2.base.output_files`); waits for gaze on
+   ``gaze/samples`` (at most ``gaze_wait_s``) and refuses at once, before
+   any target is shown, when none arrives (no bridge, or no tracker
+   streaming); waits for ``camera/pose`` (at most ``camera_wait_s``)
    and reads the bridge's ``gaze_correction`` over its parameter service
    (``bridge_node``);
 2. shows ``targets`` (5 or 9) targets one after the other, ``target_s`` each,
@@ -32,7 +34,9 @@ The procedure (:mod:`eye_bci_ros2.gaze.validation` holds the arithmetic):
    is implausible falls back to a simpler one, and the outcome's ``note``
    says why);
 5. otherwise composes it with the bridge's current correction, saves it as a
-   parameter file (``output``; ``--params-file`` for the bridge), sets the
+   parameter file (``output``; ``--params-file`` for the bridge; when that
+   fails after all, in a file of the temp directory named in a warning and
+   in the outcome's ``output``), sets the
    bridge's ``gaze_correction`` (what ``ros2 param set`` does) and validates
    again (``validate_again``), logging the residual;
 6. publishes the outcome on ``validation/result`` (std_msgs/String: one JSON
@@ -60,6 +64,7 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Empty, Header, String
 from visualization_msgs.msg import Marker, MarkerArray
 
+from eye_bci_ros2.base.output_files import save_or_fallback, unwritable
 from eye_bci_ros2.gaze.validation import (as_matrix, compose_corrections, correction_values,
                                           CorrectionRefused, error_model, fit_correction, IDENTITY,
                                           implausibility, KINDS, measure, MIN_SAMPLES, MIN_TARGETS,
@@ -319,6 +324,13 @@ class GazeValidation(Node):
         """Run the whole validation (module doc), one step per timer tick."""
         params = dict(self._params)
         screen = screen_geometry(params)
+        # Checked before the first target: the person's minutes are not lost at the last step.
+        output = os.path.abspath(params['output']) if params['output'] else ''
+        problem = unwritable(output) if output else None
+        if problem:
+            self._finish(ValidationOutcome(
+                False, f"{problem}: set output to a writable file ('' = none); no target shown"))
+            return
         self.get_logger().info(f"validation: {params['targets']} targets, "
                                f"{params['target_s']:g} s each")
         if params['gaze_wait_s'] > 0:
@@ -360,11 +372,8 @@ class GazeValidation(Node):
             self._finish(base)
             return
         values = correction_values(total)
-        output = os.path.abspath(params['output']) if params['output'] else ''
         if output:
-            save_correction(output, values, params['bridge_node'])
-            self.get_logger().info(f'saved {output}: start the bridge with --params-file '
-                                   f'{output}')
+            output = self._save(output, values, params['bridge_node'])
         problem = yield from self._set_correction(values, params['bridge_timeout_s'])
         if problem:
             base.reason = problem + (f' (saved to {output})' if output else '')
@@ -394,6 +403,18 @@ class GazeValidation(Node):
         yield from self._wait(lambda: False, LINGER_S)
         if not params['on_request']:
             self.exit_status = 0
+
+    def _save(self, output: str, values: List[float], bridge: str) -> str:
+        """Save the correction to ``output``, else to a named fallback file; return which."""
+        try:
+            output = save_or_fallback(
+                output, lambda path: save_correction(path, values, bridge), 'the correction',
+                self.get_name(), self.get_logger().warning)
+        except OSError as error:
+            self.get_logger().error(f'the correction is applied but not saved: {error}')
+            return ''
+        self.get_logger().info(f'saved {output}: start the bridge with --params-file {output}')
+        return output
 
     def _pass(self, targets: np.ndarray, params: Dict[str, Any],
               screen: ScreenGeometry) -> Iterator[None]:

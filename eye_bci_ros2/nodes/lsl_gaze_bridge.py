@@ -101,7 +101,7 @@ from eye_bci_ros2.gaze.validation import (as_matrix, correction_values, IDENTITY
                                           is_identity, PARAMETER as CORRECTION_PARAMETER)
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
 from eye_bci_ros2.ros.conversions import gaze_cdr, gaze_point_cdr, stamp_to_ns
-from eye_bci_ros2.ros.log_throttle import WARN_PERIOD_S
+from eye_bci_ros2.ros.log_throttle import log_at, WARN_PERIOD_S
 from eye_bci_ros2.ros.lsl_adapter import LogReporter, PylslBackend
 from eye_bci_ros2.ros.node_clock import NodeClock
 from eye_bci_ros2.ros.parameters import declare_parameters, ParamSpec
@@ -547,9 +547,8 @@ class LslGazeBridge(Node):
             self._counters[reason] += number
         report = self._invalid.update(stamps_ns, batch.keep, batch.dropped)
         if report is not None:
-            log = self.get_logger()
-            (log.warning if report.warning else log.info)(
-                f'{report.text} (from {self.stream})')
+            # One call site, two severities: log_at (rclpy's logger refuses that itself).
+            log_at(self.get_logger(), report.warning, f'{report.text} (from {self.stream})')
         if not len(batch.xy):
             return
         stamps_ns = stamps_ns[batch.keep]

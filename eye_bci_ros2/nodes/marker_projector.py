@@ -6,7 +6,11 @@ reads it) and ``camera/pose`` (geometry_msgs/PoseStamped, optical convention,
 latched) and publishes ``choices/regions`` (visualization_msgs/MarkerArray,
 latched): the complete current set, one closed LINE_STRIP per visible marker,
 points in screen px, same ns/id/text as the marker (see
-:mod:`eye_bci_ros2.ros.conversions`).
+:mod:`eye_bci_ros2.ros.conversions`), and last an invisible ARROW of ns
+``camera_view`` whose pose is the camera pose projected with: an arbiter uses
+regions only when made for the view on its ``camera/pose``, so a second
+pipeline's projector showing another view changes nothing
+(:mod:`eye_bci_ros2.decision.camera_view`).
 
 Markers are kept by (ns, id) with RViz2's semantics
 (:class:`eye_bci_ros2.ros.marker_store.MarkerStore`: ADD/MODIFY adds or
@@ -267,6 +271,7 @@ class MarkerProjector(Node):
                                           check_all=_camera_problem)
         self._camera = camera_from_parameters(self._params)
         self._camera_frame: Optional[str] = None  # None until a camera pose arrives
+        self._camera_pose = None                  # the last camera/pose's pose
         self._table = MarkerTable()
         # The markers as RViz shows them; the table follows them for the projection.
         self._store = MarkerStore(on_add=self._added, on_remove=self._delete)
@@ -321,6 +326,7 @@ class MarkerProjector(Node):
             return
         self._camera = self._camera.replace(external=external)
         self._camera_frame = frame
+        self._camera_pose = message.pose   # said in the regions (decision.camera_view)
         # The screen changed when RViz moved the camera (the pose's stamp), not now.
         stamp = Time.from_msg(message.header.stamp, clock_type=self.get_clock().clock_type)
         self._publish(stamp if stamp.nanoseconds > 0 else None)
@@ -395,7 +401,8 @@ class MarkerProjector(Node):
             stamp = self._last_stamp
         self._last_stamp = stamp
         message = regions_to_marker_array(
-            polygons[rows], [self._table.sources[row] for row in rows], stamp.to_msg())
+            polygons[rows], [self._table.sources[row] for row in rows], stamp.to_msg(),
+            camera=(self._camera_frame, self._camera_pose))
         self._publisher.publish(message)
 
 

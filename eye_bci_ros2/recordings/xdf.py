@@ -28,12 +28,10 @@ import numpy as np
 
 from eye_bci_ros2.gaze.profiles import (build_config, convert, PROFILE_NAMES, resolve_mapping,
                                         stream_matches)
+from eye_bci_ros2.gaze.stream import is_gaze_type
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, ScreenGeometry
 from eye_bci_ros2.recordings.gaze_recording import (GazeRecording, PathLike, RecordingError,
                                                     TargetSchedule)
-
-#: Stream types (lower case) that carry gaze, besides those of the profiles.
-GAZE_TYPES = ('gaze', 'eyetracker', 'eye-tracker', 'eyetracking', 'eye_tracker')
 
 
 def _first(value, default=''):
@@ -95,7 +93,7 @@ def pick_gaze_stream(streams: Sequence[Dict], name: Optional[str] = None,
         if profile is not None and stream_matches(build_config({'profile': profile}),
                                                   stream_type, stream_name, ''):
             return True
-        return (stream_type.lower() in GAZE_TYPES
+        return (is_gaze_type(stream_type)
                 or profile_for(stream_type, stream_name) is not None)
 
     candidates = [stream for stream in streams if is_gaze(stream)]
@@ -147,21 +145,12 @@ def gaze_from_stream(stream: Dict, profile: Optional[str] = None,
     return points
 
 
-def load_xdf_gaze(path: PathLike, stream_name: Optional[str] = None,
-                  profile: Optional[str] = None, screen: ScreenGeometry = DEFAULT_VIEWING,
-                  source_size: Optional[Sequence[int]] = None) -> GazeRecording:
+def load_xdf_streams(path: PathLike) -> List[Dict]:
     """
-    Load the gaze stream of an XDF file (module doc).
+    Load every stream of an XDF file as recorded (``pyxdf.load_xdf``, stamps not de-jittered).
 
-    :param path: the ``.xdf`` (or ``.xdfz``) file.
-    :param stream_name: the gaze stream's name, when the file has several.
-    :param profile: the tracker application's layout (default: from the stream).
-    :param screen: the person's screen.
-    :param source_size: the sender's screen, px, for pixel layouts.
-    :raises RecordingError: an unreadable file, no or several gaze streams,
-        a layout the stream does not have, a stream without samples.
+    :raises RecordingError: pyxdf missing, or a file it cannot read (one line).
     """
-    path = Path(path)
     try:
         import pyxdf
     except ImportError:
@@ -177,7 +166,25 @@ def load_xdf_gaze(path: PathLike, stream_name: Optional[str] = None,
         raise RecordingError(f'{path}: not a readable XDF file ({error})') from None
     finally:
         pyxdf_log.setLevel(level)
-    stream = pick_gaze_stream(streams, stream_name, profile)
+    return streams
+
+
+def load_xdf_gaze(path: PathLike, stream_name: Optional[str] = None,
+                  profile: Optional[str] = None, screen: ScreenGeometry = DEFAULT_VIEWING,
+                  source_size: Optional[Sequence[int]] = None) -> GazeRecording:
+    """
+    Load the gaze stream of an XDF file (module doc).
+
+    :param path: the ``.xdf`` (or ``.xdfz``) file.
+    :param stream_name: the gaze stream's name, when the file has several.
+    :param profile: the tracker application's layout (default: from the stream).
+    :param screen: the person's screen.
+    :param source_size: the sender's screen, px, for pixel layouts.
+    :raises RecordingError: an unreadable file, no or several gaze streams,
+        a layout the stream does not have, a stream without samples.
+    """
+    path = Path(path)
+    stream = pick_gaze_stream(load_xdf_streams(path), stream_name, profile)
     stamps = np.asarray(stream['time_stamps'], dtype=float)
     if not len(stamps):
         raise RecordingError(f"{path}: stream '{_first(stream['info'].get('name'))}' has no "

@@ -322,9 +322,14 @@ def cube_marker(ns: str, marker_id: int, text: str, frame_id: str, position,
     return marker
 
 
+#: ns of the marker that says which camera view a ``choices/regions`` message was projected
+#: with (:mod:`eye_bci_ros2.decision.camera_view`); its pose is the camera's, optical.
+CAMERA_VIEW_NS = 'camera_view'
+
+
 def regions_to_marker_array(
         polygons: np.ndarray, sources: Sequence[Marker], stamp: Time,
-        line_width_px: float = 2.0) -> MarkerArray:
+        line_width_px: float = 2.0, camera: Optional[Tuple[str, Pose]] = None) -> MarkerArray:
     """
     Build the ``choices/regions`` message.
 
@@ -333,6 +338,8 @@ def regions_to_marker_array(
     :param sources: the R markers the regions come from (ns, id, text, colour).
     :param stamp: when these regions became what the screen shows.
     :param line_width_px: drawn line width.
+    :param camera: the camera pose projected with (frame, optical pose): appended
+        as an invisible ARROW of ns :data:`CAMERA_VIEW_NS` after the regions.
     """
     array = MarkerArray()
     for polygon, source in zip(polygons, sources):
@@ -352,7 +359,35 @@ def regions_to_marker_array(
         region.points = [Point(x=float(u), y=float(v), z=0.0) for u, v in _distinct(polygon)]
         region.points.append(region.points[0])
         array.markers.append(region)
+    if camera is not None:
+        view = Marker()
+        view.header.frame_id, view.pose = camera
+        view.header.stamp = stamp
+        view.ns = CAMERA_VIEW_NS
+        view.type = Marker.ARROW
+        view.action = Marker.ADD
+        view.scale.x, view.scale.y, view.scale.z = 0.3, 0.05, 0.05   # alpha 0: not drawn
+        array.markers.append(view)
     return array
+
+
+def regions_camera_view(array: MarkerArray) -> Optional[np.ndarray]:
+    """
+    Return the camera view a ``choices/regions`` message was projected with, or None.
+
+    :returns: shape (7,): position x, y, z and orientation x, y, z, w of the camera
+        (:data:`CAMERA_VIEW_NS`); None when the message does not say.
+    """
+    for marker in reversed(array.markers):
+        if marker.ns == CAMERA_VIEW_NS and marker.type == Marker.ARROW:
+            return pose_view(marker.pose)
+    return None
+
+
+def pose_view(pose: Pose) -> np.ndarray:
+    """Return a pose as a camera view: shape (7,), position then quaternion x, y, z, w."""
+    p, q = pose.position, pose.orientation
+    return np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w], dtype=float)
 
 
 def marker_array_to_regions(array: MarkerArray) -> Tuple[List[str], np.ndarray]:

@@ -66,7 +66,7 @@ class QuietRepeats:
     While the person does not choose, the arbiter and the menu go round and
     round ("round 7 (request) ...", "no choice ...: asking again"): several
     lines a second that bury everything else.  A line whose text differs from
-    the previous one only in its numbers is a repeat: the first is logged,
+    a line of the run only in its numbers and quoted names is a repeat: the first is logged,
     the repeats go to DEBUG, and once per ``period_s`` one line says how many
     were held back.  A different line ends the run.
 
@@ -130,18 +130,45 @@ def log_info(logger, text: str) -> None:
     message and log file.  A logger that is not rclpy's (a test's) gets
     ``info``.
     """
+    _emit(logger, LoggingSeverity.INFO, text, sys._getframe(1))
+
+
+def log_at(logger, warning: bool, text: str) -> None:
+    """
+    Log ``text`` at WARN when ``warning``, else at INFO, from one line of the caller's.
+
+    rclpy's logger keeps a context per call site (file, function, line) and
+    raises ``ValueError('Logger severity cannot be changed between calls.')``
+    when one site logs at another severity than the first time (rclpy's
+    ``RcutilsLogger.log``), so ``(log.warning if bad else log.info)(text)``
+    fails on its second kind of line, after the first has passed every test
+    that saw only one kind.  This hands the line to rcutils as :func:`log_info`
+    does, with no per-site context: any severity, any order.
+    """
+    severity = LoggingSeverity.WARN if warning else LoggingSeverity.INFO
+    _emit(logger, severity, text, sys._getframe(1))
+
+
+def _emit(logger, severity: LoggingSeverity, text: str, caller) -> None:
+    """Hand ``text`` to rcutils at ``severity`` as from ``caller`` (a frame)."""
     emit = _RCUTILS_LOG
     if emit is None or not isinstance(logger, RcutilsLogger):
-        logger.info(text)
+        # One call site per severity: an rclpy logger refuses a site whose severity changes.
+        if severity == LoggingSeverity.WARN:
+            logger.warning(text)
+        else:
+            logger.info(text)
         return
-    if logger.is_enabled_for(LoggingSeverity.INFO):
-        caller = sys._getframe(1)
+    if logger.is_enabled_for(severity):
         code = caller.f_code
-        emit(LoggingSeverity.INFO, logger.name, text, code.co_name,
+        emit(severity, logger.name, text, code.co_name,
              os.path.abspath(code.co_filename), caller.f_lineno)
 
 
-#: Digits and decimal numbers, replaced to compare lines by their shape.
-_DIGITS = re.compile(r'-?\d+(\.\d+)?|nan|inf')
-#: A run is a cycle of at most this many kinds of line (round, no choice, asking again, ...).
-RUN_SHAPES = 6
+#: Digits, decimal numbers and quoted names (the option looked at), replaced to compare
+#: lines by their shape: "not clearly on one option ('kitchen' ...)" and "('bedroom' ...)"
+#: are one kind of line, or a person looking around made a new kind every round.
+_DIGITS = re.compile(r"-?\d+(\.\d+)?|nan|inf|'[^']*'")
+#: A run is a cycle of at most this many kinds of line (round, each reason for no choice,
+#: asking again, ...).
+RUN_SHAPES = 12

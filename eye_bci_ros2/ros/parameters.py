@@ -30,11 +30,13 @@ import dataclasses
 from dataclasses import dataclass
 import difflib
 import sys
-from typing import Any, Callable, Dict, Generic, Iterable, List, Optional, Tuple, Type, TypeVar
+from typing import (Any, Callable, Dict, Generic, Iterable, List, Mapping, Optional, Sequence,
+                    Tuple, Type, TypeVar)
 import weakref
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rcl_interfaces.msg import ParameterType, SetParametersResult
+from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -42,6 +44,7 @@ from eye_bci_ros2.base.settings import declarations, Setting
 # Re-exported for the nodes' parameter tables: the checks live in eye_bci_ros2.base.validators.
 from eye_bci_ros2.base.validators import frame_id as check_frame_id  # noqa: F401
 from eye_bci_ros2.base.validators import vector3 as check_vector3  # noqa: F401
+from eye_bci_ros2.ros.package_files import package_parameters
 
 #: A check returns None when the value is fine, else the reason it is not.
 Check = Callable[[Any], Optional[str]]
@@ -298,10 +301,13 @@ def _coerce_on_set(node: Node, specs: Dict[str, ParamSpec]) -> None:
 
         def pre_set(parameters):
             for parameter in parameters:
-                if not node.has_parameter(parameter.name):
-                    # rclpy refuses it ("not declared"); say which name was meant.
-                    node.get_logger().warning(
-                        unknown_name_text(parameter.name, node.list_parameters([], 0).names))
+                if not node.has_parameter(parameter.name) and not getattr(
+                        node, '_allow_undeclared_parameters', False):
+                    # rclpy would refuse it ("not declared"); refuse it saying which name
+                    # was meant, in the log and in the answer to ros2 param set.
+                    text = unknown_name_text(parameter.name, node.list_parameters([], 0).names)
+                    node.get_logger().warning(text)
+                    raise UndeclaredParameter(text)
             return [coerce_parameter(table[p.name], p) if p.name in table else p
                     for p in parameters]
 
@@ -391,18 +397,55 @@ _ROS_PARAMETERS = ('use_sim_time', 'start_type_description_service')
 _QOS_PREFIX = 'qos_overrides.'
 
 
-def unknown_name_text(name: str, known: Iterable[str]) -> str:
+def unknown_name_text(name: str, known: Iterable[str],
+                      elsewhere: Optional[Mapping[str, Sequence[str]]] = None) -> str:
     """
-    Say that ``name`` is no parameter, with the closest known name when there is one.
+    Say that ``name`` is no parameter here, with the name probably meant and whose it is.
 
     :param name: the name given (``-p``, a params file, ``ros2 param set``).
-    :param known: the parameter names that exist.
+    :param known: the parameter names that exist here.
+    :param elsewhere: every node's parameter names, ``{node: names}`` (default: the
+        package's, :func:`~eye_bci_ros2.ros.package_files.package_parameters`): a name
+        (or the close one) that only another node has is said to be that node's.
     :returns: one line, e.g. ``unknown parameter 'image_widht' ignored: did you
-        mean 'image_width'?``.
+        mean 'image_width'?``, or ``unknown parameter 'screen_ofset_x' ignored: did
+        you mean 'screen_offset_x'? That is a parameter of marker_projector, not of
+        this node``.
     """
-    close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
-    hint = f"did you mean '{close[0]}'?" if close else 'ros2 param list shows the names'
+    known = list(known)
+    owners: Dict[str, List[str]] = {}
+    for node, names in (package_parameters() if elsewhere is None else elsewhere).items():
+        for other in names:
+            if other not in known:
+                owners.setdefault(other, []).append(node)
+    close = difflib.get_close_matches(name, known + list(owners), n=1, cutoff=0.6)
+    if name in owners:
+        hint = f'it is a parameter of {" and ".join(owners[name])}, not of this node'
+    elif not close:
+        hint = 'ros2 param list shows the names'
+    elif close[0] in owners:
+        hint = (f"did you mean '{close[0]}'? That is a parameter of "
+                f'{" and ".join(owners[close[0]])}, not of this node')
+    else:
+        hint = f"did you mean '{close[0]}'?"
     return f"unknown parameter '{name}' ignored: {hint}"
+
+
+class UndeclaredParameter(ParameterNotDeclaredException):
+    """
+    rclpy's refusal of an undeclared parameter, saying which name was meant.
+
+    rclpy answers ``ros2 param set`` of an undeclared name with the text of the
+    ``ParameterNotDeclaredException`` it catches (its set-parameters service puts
+    ``str(error)`` into the result's ``reason``), which by itself says only
+    ``Invalid access to undeclared parameter(s): ...``.  Raised by the node's
+    pre-set callback with :func:`unknown_name_text`, the command line's answer
+    carries the hint.
+    """
+
+    def __init__(self, text: str):
+        """Hold ``text`` as the whole message."""
+        Exception.__init__(self, text)
 
 
 def unknown_overrides(nodes: Iterable[Node]) -> Dict[str, str]:

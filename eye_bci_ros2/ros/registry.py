@@ -67,6 +67,7 @@ EXECUTABLES: Tuple[Executable, ...] = (
     Executable('camera_tracker', _NODES + 'camera_tracker', 'CameraTracker', PIPELINE),
     Executable('marker_projector', _NODES + 'marker_projector', 'MarkerProjector', PIPELINE),
     Executable('choice_arbiter', _NODES + 'choice_arbiter', 'ChoiceArbiter', PIPELINE),
+    Executable('session_markers', _NODES + 'session_markers', 'SessionMarkers', PIPELINE),
     Executable('choice_menu', _NODES + 'choice_menu', 'ChoiceMenu', MENU),
     Executable('gaze_validation', _NODES + 'gaze_validation', 'GazeValidation'),
     Executable('ssvep_decoder', _NODES + 'ssvep_decoder', 'SsvepDecoder'),
@@ -83,15 +84,22 @@ EXECUTABLES: Tuple[Executable, ...] = (
     Executable('calibrate', 'eye_bci_ros2.tools.calibrate', group=TOOL),
     Executable('find_panel', 'eye_bci_ros2.tools.find_panel', group=TOOL),
     Executable('monitor', 'eye_bci_ros2.tools.monitor', group=TOOL),
+    Executable('session_record', 'eye_bci_ros2.tools.session_record', group=TOOL),
+    Executable('session_report', 'eye_bci_ros2.experiments.session_report', group=TOOL),
     Executable('ssvep_calibrate', 'eye_bci_ros2.tools.ssvep_calibrate', group=TOOL),
     Executable('accuracy_test', 'eye_bci_ros2.experiments.accuracy_test', group=TOOL),
     Executable('demo', 'eye_bci_ros2.experiments.demo', group=TOOL),
 )
 
 
+#: The module every console script enters through: it prepares the process, then imports the
+#: executable's module and runs its ``main`` (:mod:`eye_bci_ros2.ros.startup`).
+STARTUP_MODULE = 'eye_bci_ros2.ros.startup'
+
+
 def console_scripts() -> Tuple[str, ...]:
-    """Return setuptools' ``console_scripts``: ``'<name> = <module>:main'`` per executable."""
-    return tuple(f'{e.name} = {e.module}:main' for e in EXECUTABLES)
+    """Return setuptools' ``console_scripts``: ``'<name> = <startup>:<name>'`` per executable."""
+    return tuple(f'{e.name} = {STARTUP_MODULE}:{e.name}' for e in EXECUTABLES)
 
 
 def parameter_nodes() -> Tuple[Executable, ...]:

@@ -25,7 +25,7 @@ code that holds the interpreter (where no Python thread runs, and the ignored
 signals would leave it to SIGKILL) ends :data:`HARD_LIMIT_S` later through
 ``faulthandler``'s own thread: status 1 and the stacks where it hung.  A
 normal stop exits 0.  A Ctrl-C before these handlers (during the imports) ends
-the process quietly with status 0 (``eye_bci_ros2/__init__.py``), also when
+the process quietly with status 0 (:mod:`eye_bci_ros2.ros.startup`), also when
 an import swallowed it: nothing is started then.
 A node that does one job and ends (``gaze_validation``) sets its attribute
 ``exit_status`` (an int, None while it runs): the loop stops and the process
@@ -67,10 +67,9 @@ from rclpy.experimental import EventsExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
-from rclpy.utilities import remove_ros_args
 
-from eye_bci_ros2 import ctrl_c_pending
 from eye_bci_ros2.ros.parameters import quote_param_rules, warn_unknown_overrides
+from eye_bci_ros2.ros.startup import ctrl_c_pending, quiet_liblsl
 
 #: rcl's error type (a bad params file, a malformed --ros-args rule).  rclpy raises it
 #: from ``rclpy.init`` but exports it only from its private C extension
@@ -169,11 +168,24 @@ def spin_for(executor: Executor, seconds: float, step_s: float = 0.01) -> None:
 
 
 def non_ros_args(argv: List[str]) -> List[str]:
-    """Return ``argv`` without its ROS arguments (all of it if rcl cannot parse them)."""
-    try:
-        return remove_ros_args(argv)
-    except Exception:  # noqa: B902 - rclpy.init reports the reason in one line
-        return [argv[0]] if argv else []
+    """
+    Return ``argv`` without its ROS arguments: each ``--ros-args`` up to ``--`` or the end.
+
+    rcl's rule, applied here rather than by rclpy's ``remove_ros_args``: rcl
+    parses every argument outside ``--ros-args`` too and warns of each
+    ``name:=name`` there as a remap rule in a deprecated form, once per call (a
+    mistyped ``-p profile:=tobii_pro`` before ``--ros-args`` got three such lines
+    before the one that says what to do, :func:`command_line_problem`).
+    """
+    kept, ros = [], False
+    for arg in argv:
+        if ros:
+            ros = arg != '--'
+        elif arg == '--ros-args':
+            ros = True
+        else:
+            kept.append(arg)
+    return kept
 
 
 def _stop_on_signals(stop: threading.Event) -> None:
@@ -313,6 +325,7 @@ def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] =
     argv = [arg for arg in argv if arg not in [option for option, _ in options]]
     if ctrl_c_pending():    # a Ctrl-C during the imports that one of them swallowed
         sys.exit(0)
+    quiet_liblsl()      # also for ``python -m``, which skips the console script's start-up
     stop = threading.Event()
     _stop_on_signals(stop)
     try:

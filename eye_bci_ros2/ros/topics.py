@@ -43,6 +43,15 @@ MENU_PROGRESS_TOPIC = 'choice_menu/progress'
 CHOICE_TOPIC = 'choice'
 NO_CHOICE_TOPIC = 'choice/none'
 REQUEST_TOPIC = 'choice/request'
+#: What the participant was asked to choose (std_msgs/String, the option's label; LATCHED_QOS):
+#: published by a cued experiment (the demo's script) when it cues; '' = no cue.  Recorded
+#: so that a session's report knows each answer's intended option (accuracy, ITR).
+CUE_TOPIC = 'experiment/cue'
+#: Each ``choice`` and ``choice/none`` told in full (std_msgs/String, one JSON object:
+#: label or reason, rule, evidence and the ROS stamp of the last gaze sample used,
+#: eye_bci_ros2.recordings.session_markers.decision_fields; EVENT_QOS), published just
+#: before it: what the session's marker stream records.
+CHOICE_DETAIL_TOPIC = 'choice/detail'
 #: When the open round's decision can next come (builtin_interfaces/Time, a sample stamp on
 #: the ROS clock, LATCHED_QOS; choice_arbiter -> lsl_gaze_bridge): the earliest early
 #: decision, then the window end.  The gaze stamped up to it is wanted promptly then, so

@@ -6,12 +6,15 @@ The decoder (:mod:`eye_bci_ros2.nodes.ssvep_decoder`) reads its stream through
 does; the stream is selected by the layout's type and name
 (:mod:`eye_bci_ros2.ssvep.layouts`) and the parameters.  The channels are not
 a reason to refuse a stream here: the decoder chooses them after connecting
-and says which are missing (:func:`eye_bci_ros2.ssvep.layouts.resolve_channels`).
+and says which are missing (:func:`eye_bci_ros2.ssvep.layouts.resolve_channels`);
+a stream whose type says it is no EEG (an eye tracker's gaze, markers) is refused
+(:mod:`eye_bci_ros2.streams.content_types`).
 """
 
 from typing import Any, Mapping, Optional
 
 from eye_bci_ros2.ssvep.layouts import ANY, LAYOUTS, stream_name_matches
+from eye_bci_ros2.streams.content_types import not_eeg
 from eye_bci_ros2.streams.lsl_connection import StreamDescription
 
 
@@ -53,12 +56,12 @@ class EegStreamProfile:
                 and (self.source_id in ('', ANY) or stream.source_id == self.source_id))
 
     def misfit(self, stream: StreamDescription) -> Optional[str]:
-        """Any numeric stream that matches is taken (the decoder then picks channels)."""
-        return None
+        """Say why a matching stream is no EEG (its type; None: it is taken, channels later)."""
+        return not_eeg(stream.stream_type)
 
     def unusable(self, stream: StreamDescription) -> Optional[str]:
-        """Any numeric stream may be EEG: selecting it is the user's call."""
-        return None
+        """Say why a stream is no EEG whatever the parameters (gaze, markers; None: it may be)."""
+        return not_eeg(stream.stream_type)
 
     def describe(self) -> str:
         """Say which streams are selected."""

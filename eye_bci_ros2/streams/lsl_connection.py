@@ -540,6 +540,8 @@ class StreamConnection:
             if stream.uid == opened.stream.uid or stream.uid in self._reported_uids:
                 continue
             self._reported_uids.add(stream.uid)
+            if self.profile.unusable(stream) or stream.uid in self._refused:
+                continue   # never this profile's (an EEG stream for gaze): not suggested
             self._report.warning(
                 f'another LSL stream matches {self.profile.describe()}: {stream.describe()}, '
                 f"uid '{stream.uid}'; it is NOT used: staying with {opened.stream.describe()}, "

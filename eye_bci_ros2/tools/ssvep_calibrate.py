@@ -37,14 +37,15 @@ Example::
 """
 
 import argparse
-import os
 import sys
-import tempfile
 import time
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from eye_bci_ros2.base import output_files
+from eye_bci_ros2.base.output_files import unwritable
+from eye_bci_ros2.ros.startup import quiet_liblsl
 from eye_bci_ros2.sim.eeg import calibration_session, EegSimulator, SUBJECTS
 from eye_bci_ros2.ssvep.layouts import LAYOUT_NAMES, LAYOUTS, parse_channels, resolve_channels
 from eye_bci_ros2.ssvep.online import DEFAULT_ONSET_S
@@ -177,49 +178,11 @@ def npz_path(path: str) -> str:
     return path if path.endswith('.npz') else path + '.npz'
 
 
-def unwritable(path: str) -> Optional[str]:
-    """
-    Return why ``path`` cannot be written (one line), or None when it can.
-
-    Tried for real (opened for appending, a new file removed again), so a missing or
-    read-only directory, a directory of that name or a full disk are all caught.
-    """
-    existed = os.path.exists(path)
-    try:
-        with open(path, 'ab'):
-            pass
-    except OSError as error:
-        return f"cannot write '{path}': {error.strerror or error}"
-    if not existed:
-        os.remove(path)
-    return None
-
-
-def fallback_path(path: str) -> str:
-    """Return where a file meant for ``path`` goes when ``path`` fails: the temp dir, stamped."""
-    stamp = time.strftime('%Y%m%d-%H%M%S')
-    return os.path.join(tempfile.gettempdir(),
-                        f'ssvep_calibrate-{stamp}-{os.getpid()}-{os.path.basename(path)}')
-
-
 def save_or_fallback(path: str, save, what: str) -> str:
-    """
-    Write with ``save(path)``; when that fails, write to :func:`fallback_path` instead.
-
-    :param what: what is saved, for the one line said on stderr.
-    :returns: the file written.
-    :raises OSError: when the fallback cannot be written either.
-    """
-    try:
-        save(path)
-        return npz_path(path)
-    except OSError as error:
-        fallback = npz_path(fallback_path(npz_path(path)))
-        save(fallback)
-        print(f"ssvep_calibrate: cannot write '{npz_path(path)}' "
-              f'({error.strerror or error}): {what} saved to {fallback} instead',
-              file=sys.stderr, flush=True)
-        return fallback
+    """Write with ``save(path)``, else to a named fallback file (:mod:`.base.output_files`)."""
+    return output_files.save_or_fallback(
+        path, save, what, 'ssvep_calibrate',
+        lambda line: print(f'ssvep_calibrate: {line}', file=sys.stderr, flush=True), npz_path)
 
 
 def save_recording(path: str, times, samples, trials, rate: float, labels) -> None:
@@ -259,6 +222,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     fails afterwards is saved to a fallback file (named in one line), so a session is
     never lost.
     """
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     args = build_parser().parse_args(argv)
     for path in filter(None, (args.output, args.save_recording)):
         problem = unwritable(npz_path(path))

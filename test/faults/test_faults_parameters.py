@@ -115,6 +115,7 @@ SPECIFIC = {
         'world_frame': [('', 'empty frame'), ('odom', "inconsistent with the scene's frame")],
         'robot_radius_m': [(1.0, 'inconsistent: no table where a robot this large fits')],
         'confirm_rounds': [(0, 'no round to answer in')],
+        'send_rounds': [(-1, 'negative rounds')],
     },
     'gaze_validation': {
         'targets': [(7, 'neither 5 nor 9')],
@@ -158,6 +159,7 @@ GOOD_CHANGE = {
     'camera_tracker': ('eye', [1.0, -9.0, 11.0]),
     'marker_projector': ('screen_offset_x', 64),
     'choice_arbiter': ('window_s', 1.5),
+    'session_markers': ('enabled', False),
     'lsl_gaze_bridge': ('screen_width', 2560),
     'choice_menu': ('robot_radius_m', 0.25),
     'gaze_validation': ('target_s', 2.0),

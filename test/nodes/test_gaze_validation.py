@@ -2,6 +2,8 @@
 
 import json
 import os
+import shutil
+import tempfile
 
 from geometry_msgs.msg import PointStamped
 import numpy as np
@@ -154,3 +156,52 @@ def test_on_request_answers_each_start_and_keeps_running(graph, rigs):
     assert node.exit_status is None
     start.publish(Empty())                              # and again
     assert graph.spin_until(lambda: len(rig.results.messages) == 2, 30.0)
+
+
+def targets_shown(graph):
+    """Return the screen points gaze_validation shows, as they come (a list that grows)."""
+    shown = []
+    graph.node('target_watch').create_subscription(
+        PointStamped, VALIDATION_TARGET_TOPIC,
+        lambda m: shown.append(m) if np.isfinite(m.point.x) else None, LATCHED_QOS)
+    return shown
+
+
+def test_an_output_that_cannot_be_written_is_refused_before_the_first_target(
+        graph, rigs, tmp_path):
+    # Issue 39: the person looked at all 9 targets, then the result was lost.
+    rig = rigs(graph, bridge_params={'gaze_correction': SHIFT})
+    shown = targets_shown(graph)
+    output = tmp_path / 'nonexistent_dir' / 'gc.yaml'
+    node = rig.start_validation(graph, targets=5, output=str(output))
+    outcome = finished(graph, node, timeout=20.0)
+    assert not outcome.accepted and node.exit_status == 1
+    assert outcome.reason.startswith(f"cannot write '{output}': No such file or directory")
+    assert '\n' not in outcome.reason
+    graph.spin_for(0.3)
+    assert shown == []                                   # not one target shown
+    np.testing.assert_allclose(correction_values(rig.bridge.correction), SHIFT)
+
+
+def test_an_output_that_fails_at_the_end_keeps_the_correction_in_a_named_file(
+        graph, rigs, tmp_path, monkeypatch):
+    spare = tmp_path / 'tmp'
+    spare.mkdir()
+    monkeypatch.setattr(tempfile, 'tempdir', str(spare))  # where fallback files go
+    session = tmp_path / 'session'
+    session.mkdir()
+    output = session / 'gc.yaml'
+    rig = rigs(graph, person=OFFSET_PERSON)
+    shown = targets_shown(graph)
+    node = rig.start_validation(graph, targets=5, output=str(output), validate_again=False)
+    # The directory goes away while the person looks at the targets (a stick pulled out).
+    assert graph.spin_until(lambda: shown, 20.0)
+    shutil.rmtree(session)
+    outcome = finished(graph, node)
+    assert outcome.accepted and node.exit_status == 0, outcome.reason
+    assert os.path.dirname(outcome.output) == str(spare)
+    assert os.path.basename(outcome.output).startswith('gaze_validation-')
+    np.testing.assert_allclose(correction_values(load_correction(outcome.output)),
+                               outcome.correction)
+    np.testing.assert_allclose(correction_values(rig.bridge.correction), outcome.correction)
+    assert f'saved to {outcome.output}' in outcome.summary()

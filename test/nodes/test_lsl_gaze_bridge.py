@@ -390,3 +390,27 @@ def test_sample_for_outlets_reach_the_screen_point(graph):
     outlet.push_chunk(sample_for('tobii_pro', points, eye_offset_px=(20.0, 10.0)).tolist())
     outlet.push_sample(sample_for('tobii_pro', [500.0, 600.0], lost_eye='left').tolist())
     np.testing.assert_allclose(wait_for(graph, gaze, 4), points + [[500, 600]], atol=1e-3)
+
+
+def test_gaze_coming_back_after_a_long_look_away_is_published_and_logged(graph, capfd):
+    # Issue 39: the warning and the "valid gaze again" line came from one call site at two
+    # severities; rclpy refuses that ("Logger severity cannot be changed between calls"),
+    # and the chunk that brought valid gaze back was lost.
+    outlet, info = make_outlet('custom')   # x, y in screen px
+    log = LogTap(capfd)
+    node, gaze = start_bridge(graph, **bridge_parameters('custom', info, invalid_warn_s=0.5))
+    connect(graph, outlet)
+    push_seconds(outlet, [[960.0, 540.0]] * 60)             # looking at the screen
+    wait_for(graph, gaze, 60)
+    for back_at, point in ((60, [100.0, 200.0]), (108, [300.0, 400.0])):
+        away = log.mark()
+        push_seconds(outlet, [[NAN, NAN]] * 120)            # 1 s away: longer than 0.5 s
+        assert log.wait_for(graph, r'WARN.*lsl_gaze_bridge.*no valid gaze for', away), \
+            log.since(away)
+        push_seconds(outlet, [[NAN, NAN]] * 12 + [point] * 48)   # and back
+        points = wait_for(graph, gaze, back_at + 48)
+        np.testing.assert_allclose(points[back_at:], [point] * 48)
+        assert log.wait_for(graph, r'INFO.*lsl_gaze_bridge.*valid gaze again after', away), \
+            log.since(away)
+    assert 'failed to publish gaze' not in log.read()
+    assert node.counters['published'] == 156

@@ -10,7 +10,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.projection.camera_model import look_at_pose
-from eye_bci_ros2.ros.conversions import arrays_to_pose, marker_array_to_regions
+from eye_bci_ros2.ros.conversions import (arrays_to_pose, CAMERA_VIEW_NS,
+                                          marker_array_to_regions, regions_camera_view)
 from eye_bci_ros2.ros.topics import LATCHED_QOS
 
 pytestmark = pytest.mark.ros
@@ -124,7 +125,10 @@ def test_late_subscriber_gets_the_latched_regions(graph):
     rig.next_regions(rig.look_down)
     late = Collector(graph.node('late'), MarkerArray, 'choices/regions', LATCHED_QOS)
     assert graph.spin_until(lambda: late.messages, 10.0)
-    assert len(late.last.markers) == 1
+    # The region, and the camera view it was projected with (decision.camera_view).
+    assert [m.type for m in late.last.markers] == [Marker.LINE_STRIP, Marker.ARROW]
+    np.testing.assert_allclose(regions_camera_view(late.last), [
+        0, 0, 10, *look_at_pose([0, 0, 10], [0, 0, 0], [0, 1, 0])[1]], atol=1e-12)
 
 
 def test_screen_offset_change_shifts_every_region_exactly(graph):
@@ -212,7 +216,7 @@ def test_add_modify_delete_and_deleteall(graph):
     assert sorted(regions) == ['d/0']
     regions = rig.next_regions(lambda: rig.send(cube('', 0, [0, 0, 0], action=Marker.DELETEALL)))
     assert regions == {}
-    assert rig.regions.last.markers == []
+    assert [m.ns for m in rig.regions.last.markers] == [CAMERA_VIEW_NS]
 
 
 def test_other_frames_bad_data_and_markers_behind_are_left_out(graph):

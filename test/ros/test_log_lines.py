@@ -6,7 +6,7 @@ import pytest
 from rcl_interfaces.msg import Log
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from eye_bci_ros2.ros.log_throttle import log_info, QuietRepeats
+from eye_bci_ros2.ros.log_throttle import log_at, log_info, QuietRepeats
 
 pytestmark = pytest.mark.ros
 
@@ -50,3 +50,17 @@ def test_a_line_below_the_loggers_level_is_not_logged(graph):
     assert graph.spin_until(lambda: lines)
     graph.spin_for(0.2)
     assert [m.msg for m in lines] == ['shown']
+
+
+def test_one_call_site_logs_warnings_and_news_in_any_order(graph):
+    # rclpy's own logger refuses a call site whose severity changes (issue 39: the bridge's
+    # "no valid gaze" warning, then its "valid gaze again" line from the same site).
+    node = graph.node('turncoat')
+    lines = rosout_lines(graph, 'turncoat')
+    for warning in (True, False, True, False):
+        log_at(node.get_logger(), warning, f'warning {warning}')
+        site = inspect.currentframe().f_lineno - 1
+    assert graph.spin_until(lambda: len(lines) >= 4)
+    assert [(m.level, m.msg) for m in lines] == [
+        (Log.WARN, 'warning True'), (Log.INFO, 'warning False')] * 2
+    assert {(m.file, m.line) for m in lines} == {(__file__, site)}

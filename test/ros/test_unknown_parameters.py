@@ -4,6 +4,7 @@ import pytest
 from rclpy.parameter import Parameter
 
 from eye_bci_ros2.nodes.camera_tracker import CameraTracker
+from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.ros.parameters import unknown_overrides
 
@@ -38,3 +39,28 @@ def test_the_dump_of_a_node_with_an_empty_array_names_every_parameter(graph):
     values = graph.get_parameters('marker_projector', names)
     # A parameter left "not set" made GetParameters return nothing at all (an empty dump).
     assert len(values) == 2
+
+
+def test_another_nodes_parameter_is_named_as_that_nodes(graph):
+    # Issue 39: on the bridge, -p screen_ofset_x:=64 suggested 'screen_height'.
+    node = graph.add(LslGazeBridge, parameter_overrides=[
+        Parameter('screen_ofset_x', value=64.0), Parameter('rviz_config', value='')])
+    found = unknown_overrides([node])
+    assert found['screen_ofset_x'] == (
+        "unknown parameter 'screen_ofset_x' ignored: did you mean 'screen_offset_x'? That is "
+        'a parameter of marker_projector and gaze_validation, not of this node')
+    assert 'it is a parameter of camera_tracker and marker_projector' in found['rviz_config']
+
+
+def test_the_answer_to_param_set_of_an_unknown_name_carries_the_hint(graph):
+    # What ros2 param set prints: the set-parameters service's result reason.
+    graph.add(MarkerProjector)
+    result, = graph.set_parameters('marker_projector', {'screen_ofset_x': 64.0})
+    assert not result.successful
+    assert result.reason == ("unknown parameter 'screen_ofset_x' ignored: did you mean "
+                             "'screen_offset_x'?")
+    result, = graph.set_parameters('marker_projector', {'profile': 'tobii_pro'})
+    assert result.reason == ("unknown parameter 'profile' ignored: it is a parameter of "
+                             'lsl_gaze_bridge, not of this node')
+    result, = graph.set_parameters('marker_projector', {'screen_offset_x': 64.0})
+    assert result.successful

@@ -538,3 +538,34 @@ def test_gaps_are_counted_and_the_rate_measured_between_them():
     # The rate the sample times show between the gaps; a sender at 500 Hz would say so.
     assert rig.conn.measured_rate_hz == pytest.approx(rate, rel=1e-6)
     rig.close()
+
+
+def test_an_eeg_stream_is_never_suggested_to_a_gaze_connection_of_any_type():
+    # Issue 39: with stream_type:=* the bridge said "to use it instead, set source_id to
+    # 'sim_eeg'" of an EEG stream.  Any type, and one name for both streams (so that only
+    # these two match, whatever else runs on this machine).
+    name = unique_id('lab')
+    eeg = open_outlet(stream_info(name, 'EEG', 8, 250.0, source_id=unique_id('sim_eeg')))
+    gaze, gaze_info = make_outlet('xy_pixels', name=name, source_id=unique_id('tobii'))
+    rig = gaze_rig('*', stream_name=name)
+    rig.wait_advertised(eeg.get_info(), gaze_info)
+    rig.connect(gaze_info.uid())
+    for _ in range(5):
+        rig.conn.maintain()
+    assert rig.log.having('not taking') and rig.conn.stream.uid == gaze_info.uid()
+    assert rig.log.having('another LSL stream') == [], rig.log.text()
+    rig.close()
+
+
+def test_a_gaze_stream_is_refused_by_an_eeg_connection_whatever_it_selects():
+    # Issue 39: the decoder took a Tobii stream and asked for channels by label.
+    tobii, info = make_outlet('tobii_pro', source_id=unique_id('tobii'))
+    rig = Rig(EegStreamProfile({'layout': 'generic', 'stream_type': '*',
+                                'source_id': info.source_id()}))
+    assert rig.until(lambda: rig.log.having('not taking')), rig.log.text()
+    for _ in range(5):
+        rig.conn.maintain()
+    assert rig.conn.stream is None and not tobii.have_consumers()
+    refusal, = rig.log.having('not taking')
+    assert "it is an Eyetracker stream (an eye tracker's gaze), not EEG" in refusal
+    rig.close()

@@ -53,7 +53,7 @@ def test_unknown_node_name_is_rejected():
 
 def test_eye_bci_is_the_four_pipeline_nodes_and_the_menu_only_when_asked(graph):
     assert NODE_NAMES == ('lsl_gaze_bridge', 'camera_tracker', 'marker_projector',
-                          'choice_arbiter')
+                          'choice_arbiter', 'session_markers')
     source = {'lsl_gaze_bridge': {'source_id': f'no-such-tracker-{uuid.uuid4()}'}}
     nodes = make_pipeline_nodes(graph.context, overrides=source)
     try:

@@ -47,7 +47,7 @@ def test_once_names_the_running_nodes_and_what_each_waits_for(tmp_path):
             # No tracker yet, no RViz, no menu: each node waits for its own input.
             assert field(monitor_once(domain), 'nodes') == (
                 'lsl_gaze_bridge(gaze_stream),camera_tracker(rviz_camera),'
-                'marker_projector(options),choice_arbiter(regions+gaze)')
+                'marker_projector(options),choice_arbiter(regions+gaze),session_markers')
             # The tracker starts: the bridge and the arbiter have their gaze.
             with running('sim.gaze_outlet', '--source-id', tracker, log=tmp_path / 'sim.log',
                          domain=domain):
@@ -55,7 +55,8 @@ def test_once_names_the_running_nodes_and_what_each_waits_for(tmp_path):
                     pipeline.output()[-3000:]
                 line = monitor_once(domain)
             assert field(line, 'nodes') == ('lsl_gaze_bridge,camera_tracker(rviz_camera),'
-                                            'marker_projector(options),choice_arbiter(regions)')
+                                            'marker_projector(options),choice_arbiter(regions),'
+                                            'session_markers')
             assert int(field(line, 'samples')) > 0
             assert stop(pipeline) == 0
 

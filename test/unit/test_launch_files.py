@@ -231,13 +231,14 @@ def test_both_files_take_the_tracker_profile_and_params_file_and_the_experiment_
     assert literal(pipeline_profile, 'profile default') == ''
 
 
-def test_pipeline_starts_the_four_pipeline_nodes_and_the_experiment_adds_menu_and_rviz():
+def test_pipeline_starts_the_pipeline_nodes_and_the_experiment_adds_menu_and_rviz():
     def executables(name):
         module = tree(REPO / 'launch' / name)
         return sorted(literal(keywords(call)['executable'], 'executable')
                       for call in calls(module, 'Node'))
     assert executables('pipeline.launch.py') == [
-        'camera_tracker', 'choice_arbiter', 'lsl_gaze_bridge', 'marker_projector']
+        'camera_tracker', 'choice_arbiter', 'lsl_gaze_bridge', 'marker_projector',
+        'session_markers']
     assert executables('experiment.launch.py') == ['choice_menu', 'rviz2', 'sim_robot']
 
 

@@ -49,24 +49,29 @@ position = posterior) of at least ``confirm_threshold`` for it).
 from typing import Optional
 
 from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Empty, String
 from visualization_msgs.msg import MarkerArray
 
+from eye_bci_ros2.decision.camera_view import ViewGate
 from eye_bci_ros2.decision.evidence import Decision
-from eye_bci_ros2.decision.fusion import FusionOutcome
+from eye_bci_ros2.decision.fusion import FusionOutcome, HYBRID
 from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings, RoundScheduler
 from eye_bci_ros2.nodes.choice_arbiter.feedback import FEEDBACK_PARAMETERS, FeedbackPublisher
 from eye_bci_ros2.nodes.choice_arbiter.fusion import FUSION_PARAMETERS, FusionInput
-from eye_bci_ros2.ros.conversions import gaze_cdr, marker_array_to_regions, ns_to_stamp
+from eye_bci_ros2.recordings.session_markers import decision_detail
+from eye_bci_ros2.ros.conversions import (gaze_cdr, marker_array_to_regions, ns_to_stamp,
+                                          pose_view, regions_camera_view)
 from eye_bci_ros2.ros.graph_watch import GraphWatch
 from eye_bci_ros2.ros.log_throttle import KeyedWarnings, QuietRepeats
 from eye_bci_ros2.ros.node_clock import NodeClock
 from eye_bci_ros2.ros.parameters import param_specs, SettingsParameters
 from eye_bci_ros2.ros.runner import spin_node
-from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, DECISION_DUE_TOPIC, EVENT_QOS, GAZE_QOS,
+from eye_bci_ros2.ros.topics import (CAMERA_POSE_TOPIC, CHOICE_DETAIL_TOPIC, CHOICE_TOPIC,
+                                     DECISION_DUE_TOPIC, EVENT_QOS, GAZE_QOS,
                                      GAZE_SAMPLES_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
                                      REGIONS_TOPIC, REQUEST_TOPIC)
 
@@ -111,6 +116,12 @@ class ChoiceArbiter(Node):
         self._rounds = RoundScheduler(self._decision.settings, self._publish, self._log)
         self._publisher = self.create_publisher(String, CHOICE_TOPIC, EVENT_QOS)
         self._none_publisher = self.create_publisher(String, NO_CHOICE_TOPIC, EVENT_QOS)
+        # Each outcome in full for the session's markers (topics.CHOICE_DETAIL_TOPIC): the
+        # gaze decision being handed to the input modes, whose outcome it may be, and the
+        # round's last gaze decision with a label (hybrid: the candidate SSVEP may confirm).
+        self._detail_publisher = self.create_publisher(String, CHOICE_DETAIL_TOPIC, EVENT_QOS)
+        self._deciding: Optional[Decision] = None
+        self._gaze_choice: Optional[Decision] = None
         # When the open round's decision can next come, for the bridge's batching
         # (topics.DECISION_DUE_TOPIC): (round start, due) last announced.
         self._due_publisher = self.create_publisher(Time, DECISION_DUE_TOPIC, LATCHED_QOS)
@@ -121,7 +132,9 @@ class ChoiceArbiter(Node):
                                  raw=True)
         # Says so when a second pipeline shares this graph (two eye_bci on one domain).
         self.graph_watch = GraphWatch(self, outputs=[CHOICE_TOPIC], inputs=[GAZE_SAMPLES_TOPIC])
+        self._views: ViewGate[MarkerArray] = ViewGate()
         self.create_subscription(MarkerArray, REGIONS_TOPIC, self._on_regions, LATCHED_QOS)
+        self.create_subscription(PoseStamped, CAMERA_POSE_TOPIC, self._on_camera, LATCHED_QOS)
         self.create_subscription(Empty, REQUEST_TOPIC, self._on_request, EVENT_QOS)
         self._timer = self.create_timer(TICK_S, self._on_tick)
         self._fusion = FusionInput(self, self._on_outcome, self._log, self._now)
@@ -148,6 +161,16 @@ class ChoiceArbiter(Node):
     def rounds_started(self) -> int:
         """Return the number of rounds started since the node started."""
         return self._rounds.rounds_started
+
+    @property
+    def regions(self) -> Optional[RegionSet]:
+        """Return the newest regions in use (None before the first)."""
+        return self._rounds.newest_regions
+
+    @property
+    def regions_ignored(self) -> int:
+        """Return the number of regions messages ignored: made for another camera view."""
+        return self._views.ignored
 
     @property
     def samples_received(self) -> int:
@@ -202,7 +225,24 @@ class ChoiceArbiter(Node):
         except Exception as error:  # noqa: B902 - a node never dies on a message
             self._log('warning', 'gaze_error', f'gaze batch ignored: {error}')
 
+    def _on_camera(self, msg: PoseStamped) -> None:
+        """Take the camera view on screen; use the regions held for it, if any."""
+        held = self._views.camera(pose_view(msg.pose))
+        if held is not None:
+            self._use_regions(held)
+
     def _on_regions(self, msg: MarkerArray) -> None:
+        # Only regions made for the camera view on camera/pose (decision.camera_view): a
+        # second pipeline's projector on this graph shows another view.
+        try:
+            view = regions_camera_view(msg)
+        except AttributeError as error:
+            self._log('warning', 'regions_bad', f'regions message ignored: {error}')
+            return
+        if self._views.offer(view, msg, self._now()):
+            self._use_regions(msg)
+
+    def _use_regions(self, msg: MarkerArray) -> None:
         try:
             now = self._now()
             labels, polygons = marker_array_to_regions(msg)
@@ -221,6 +261,7 @@ class ChoiceArbiter(Node):
         self._fusion.offered(labels)
 
     def _on_request(self, msg: Empty) -> None:
+        self._gaze_choice = None
         self._fusion.new_round()
         try:
             self._rounds.request(self._now())
@@ -241,6 +282,12 @@ class ChoiceArbiter(Node):
     def _on_tick(self) -> None:
         try:
             now = self._now()
+            for view in self._views.expired(now):
+                self._log('warning', 'regions_other_view',
+                          'regions projected from another camera view '
+                          f'({", ".join(f"{value:.3g}" for value in view[:3])}) than '
+                          f'{CAMERA_POSE_TOPIC} shows are ignored: another pipeline on this '
+                          'graph? Give each its own namespace (__ns:=/name) or ROS_DOMAIN_ID')
             self._rounds.tick(now)
             self._announce_due(now)
             self._feedback.update(now)
@@ -251,10 +298,24 @@ class ChoiceArbiter(Node):
 
     def _publish(self, decision: Decision) -> None:
         """Hand a round's gaze decision to the input modes (they choose, or end the round)."""
-        self._fusion.gaze(decision)
+        self._deciding = decision
+        if decision.label is not None:
+            self._gaze_choice = decision
+        try:
+            self._fusion.gaze(decision)
+        finally:
+            self._deciding = None
 
     def _on_outcome(self, outcome: FusionOutcome) -> None:
         """Publish what the input modes decided: ``choice``, or why none (``choice/none``)."""
+        mode = self._fusion.parameters.settings.input_mode
+        decision = self._deciding
+        if decision is None and mode == HYBRID and self._gaze_choice is not None \
+                and self._gaze_choice.label == outcome.choice:
+            decision = self._gaze_choice      # SSVEP confirmed this gaze candidate
+        self._detail_publisher.publish(String(data=decision_detail(
+            decision, outcome.choice, outcome.no_choice, mode, self.settings.method,
+            self._time.ns())))
         if outcome.choice is not None:
             self._publisher.publish(String(data=outcome.choice))
             self._feedback.confirm(outcome.choice, self._now())
