@@ -52,6 +52,8 @@ Topics:
 * subscribes ``navigate_to_pose/_action/status`` action_msgs/GoalStatusArray:
   a goal this menu did not send (a menu restarted while its robot drives) is
   met with 'stop' (a cancel of every goal) before anything else;
+* publishes ``choice_menu/goal`` geometry_msgs/PoseStamped: each goal sent, a
+  record for recorders (an action goal is on no topic; nothing moves on it);
 * publishes ``choice_menu/progress`` std_msgs/String (latched): what the
   robot is doing ("driving to 'kitchen/table_2': 3.1 m left", "arrived at
   ...", "stopped ...", "the robot did not reach ...: there is no path to
@@ -126,7 +128,8 @@ from eye_bci_ros2.ros.runner import spin_node
 from eye_bci_ros2.ros.topics import (ACTION_STATUS_QOS, CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC,
                                      CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS,
                                      GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC, LATCHED_QOS,
-                                     MENU_ANSWER_TOPIC, MENU_PROGRESS_TOPIC, MENU_RESULT_TOPIC,
+                                     MENU_ANSWER_TOPIC, MENU_GOAL_TOPIC, MENU_PROGRESS_TOPIC,
+                                     MENU_RESULT_TOPIC,
                                      MENU_STATE_TOPIC, NAVIGATE_TO_POSE_ACTION,
                                      NAVIGATE_TO_POSE_CANCEL_SERVICE,
                                      NAVIGATE_TO_POSE_STATUS_TOPIC, NO_CHOICE_TOPIC,
@@ -262,6 +265,7 @@ class ChoiceMenu(Node):
         self._request_pub = self.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
         self._state_pub = self.create_publisher(String, MENU_STATE_TOPIC, LATCHED_QOS)
         self._progress_pub = self.create_publisher(String, MENU_PROGRESS_TOPIC, LATCHED_QOS)
+        self._sent_goal_pub = self.create_publisher(PoseStamped, MENU_GOAL_TOPIC, EVENT_QOS)
         # The robot: nav2's NavigateToPose.  The goal the protocol follows (its id and, once
         # accepted, its handle); every goal id this node sent (the status topic's other
         # goals are not the menu's); a cancel-all client for those.
@@ -455,6 +459,7 @@ class ChoiceMenu(Node):
         self._sent_ids.append(goal_id)
         future = self._navigator.send_goal_async(
             goal, feedback_callback=self._on_feedback, goal_uuid=UUID(uuid=list(goal_id)))
+        self._sent_goal_pub.publish(goal.pose)      # the record; nothing moves on it
         future.add_done_callback(lambda done: self._on_goal_response(goal_id, done))
         return []
 

@@ -36,6 +36,10 @@ MENU_RESULT_TOPIC = 'choice_menu/result'
 MENU_STATE_TOPIC = 'choice_menu/state'
 MENU_ANSWER_TOPIC = 'choice_menu/answer'
 MENU_PROGRESS_TOPIC = 'choice_menu/progress'
+#: Each robot goal the menu sent as a NavigateToPose goal (geometry_msgs/PoseStamped, map
+#: frame, EVENT_QOS): a record for recorders and people (an action goal is on no topic);
+#: nothing moves on it.
+MENU_GOAL_TOPIC = 'choice_menu/goal'
 
 #: The arbiter's choice (std_msgs/String, the label) and a round that ended without one
 #: (std_msgs/String, the reason; input mode gaze), both EVENT_QOS; ``choice/request``

@@ -205,7 +205,7 @@ def test_the_demos_bag_holds_every_question_choice_and_drive(quick_run):
     for (t_choice, _), (t_answer, _) in zip(found['/choice'], found['/choice_menu/answer']):
         assert any(t <= t_choice for t in requests) and t_choice <= t_answer
     # The drive: the goal, the map, the plan, the odometry, the menu's arrival.
-    (_, goal), = found['/goal_pose']
+    (_, goal), = found['/choice_menu/goal']
     assert [goal.pose.position.x, goal.pose.position.y] == pytest.approx(
         summary['selections'][1]['robot']['goal'][:2], abs=1e-3)
     assert len(found['/odom']) > 5 and found['/plan'] and found['/map']
