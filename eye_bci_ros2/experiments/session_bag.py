@@ -29,7 +29,8 @@ from eye_bci_ros2.ros.feedback_markers import option_label
 from eye_bci_ros2.ros.message_types import message_class
 from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, CHOICES_TOPIC, CUE_TOPIC, GAZE_SAMPLES_TOPIC,
                                      GOAL_POSE_TOPIC, MAP_TOPIC, MENU_ANSWER_TOPIC,
-                                     MENU_GOAL_TOPIC, MENU_PROGRESS_TOPIC, MENU_RESULT_TOPIC, MENU_STATE_TOPIC,
+                                     MENU_GOAL_TOPIC, MENU_PROGRESS_TOPIC, MENU_RESULT_TOPIC,
+                                     MENU_STATE_TOPIC,
                                      NAVIGATE_TO_POSE_ACTION, NO_CHOICE_TOPIC, ODOM_TOPIC,
                                      PLAN_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC,
                                      VALIDATION_RESULT_TOPIC)
