@@ -15,7 +15,8 @@ export OPENBLAS_NUM_THREADS ?= 1
 
 .PHONY: demo test bench soak accuracy lint build clean
 
-$(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml $(INTERFACES)
+$(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml $(INTERFACES) \
+		eye_bci_ros2/ros/registry.py
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -r requirements.txt -c constraints.txt
@@ -23,8 +24,9 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml $(INTE
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
+# The console scripts, as a user runs them: their start-up keeps a Ctrl-C quiet (ros/startup.py).
 demo: $(STAMP)
-	$(PY) -m eye_bci_ros2.experiments.demo $(ARGS)
+	$(VENV)/bin/demo $(ARGS)
 
 # Two workers (pytest-xdist), one test file each: most tests wait on ROS 2 graphs and LSL.
 test: $(STAMP)
@@ -40,7 +42,7 @@ soak: $(STAMP)
 	$(PY) -m bench.soak $(ARGS)
 
 accuracy: $(STAMP)
-	$(PY) -m eye_bci_ros2.experiments.accuracy_test $(ARGS)
+	$(VENV)/bin/accuracy_test $(ARGS)
 
 lint: $(STAMP)
 	$(PY) -m pytest test/lint

@@ -27,46 +27,55 @@ figure assumes the confirmation does not share it, which the menu's layout
 helps, 'go' being elsewhere on the screen).
 
 **Midas goals** (``--midas``): robot goals per minute of a person who only
-looks around, with no intent, through the menu's flow on the same real gaze
-(:mod:`bench.midas`'s free looking, rounds back to back as the menu asks):
-a tables step (3 tables + 'back', :data:`SIZE` px, placed as
-:func:`bench.midas.layout` places options, clear of the dots); a table
-chosen opens the confirmation step at once, 'back' on the table's place and
-'go' :data:`MENU_GAP_DEG` beside it towards the screen's centre (the menu's
-layout, :func:`eye_bci_ros2.task.menu.confirm_markers`; the other side if it
-does not fit, else anywhere at least that far: 'go' must be clear of the dots
-too, and the dense grids leave no room at the menu's places); 'back' there returns to the same
-tables; 'go' is a goal, and a new room's tables follow (as does the tables
-step's 'back': the rooms step between is left out, it only adds time without
-goals, so the figure is an upper bound in that respect).  The drive's time
-is not counted: minutes are minutes of menu.  Measured as the menu asks
-until answered, and with its ``confirm_rounds`` (asked that many rounds
-without an answer: back to the tables, no goal).  Its price: the intended
-'go' rounds (every jump of a dot, 'go' 100 px on the dot, 'back' at the
-menu's gap beside it, asked back to back until a choice, the next jump or
-the last round): how many are still answered 'go'.
+looks around, with no intent, through the whole menu as the nodes run it,
+with the menu's defaults, on the same real gaze (:mod:`bench.midas`'s free
+looking: options at random places clear of the dots), from the rooms
+(:func:`menu_replay`): the rooms (:data:`ROOMS`), the chosen room's tables
+(:data:`TABLES` + 'back'), the confirmation ('back' on the table's place,
+'go' :data:`MENU_GAP_DEG` beside it towards the screen's centre, the menu's
+layout, :func:`eye_bci_ros2.task.menu.confirm_markers`; elsewhere when that
+place is not clear of the dots), asked ``confirm_rounds`` rounds, then
+'send' (:data:`SEND_GAP_DEG` above or below 'go', :func:`send_layout`),
+asked ``send_rounds`` rounds; 'send' is a goal, and the rooms again.  Rounds
+are asked again as the nodes do (:func:`asked_again`); the camera's arrival
+and the look-away gate are left out (an upper bound in that respect);
+minutes are minutes of menu.  Each step's share is reported, and the steps
+'go' / 'back' and 'send' are also measured at any moment of free looking
+(:func:`step_trials`: thousands of trials that share no gaze), so that the
+rate is a product of measured factors with a 95 % bound (each factor's
+bound at 1 - 0.05 / k).  Its price: the intended 'go' (:func:`intended_go`:
+'go' on a dot as it appears, then 'send' on the next dot), the share that
+reaches 'send', the median and slowest time.  ``--json PATH`` writes
+``{"midas": {"goals", "minutes", "goals_per_min", "upper95_per_min"},
+"intended_go": {"rounds", "go", "rate", "median_s", "slowest_s"}}``.
 
 Usage::
 
     python -m bench.confirmation [--data DIR] [--seed 0]
-    python -m bench.confirmation --midas [--layouts 5] [--confirm-rounds N [N ...]]
+    python -m bench.confirmation --midas [--json PATH] [--layouts 20]
+                                 [--confirm-rounds N] [--send-rounds N]
 """
 
 import argparse
+from dataclasses import replace
+import json
+import math
 import sys
-from typing import Callable, Dict, List, Optional, Sequence
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
+from scipy import stats
 
 from bench import midas
 from bench.real_gaze import (_decide, _fits, _ppd, intent, load_folder, PITCH, RULES,
                              settings_for_recording)
+from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.experiments.trials import decide_trial
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, px_per_degree_at
 from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.gaze import GazeRecording
-from eye_bci_ros2.task.menu import GO_RIGHT, ProtocolSettings
+from eye_bci_ros2.task.menu import GO_RIGHT, ProtocolSettings, SEND_DOWN
 
 #: Option size, px (the tables step's measured figure is at 100 px).
 SIZE = 100
@@ -160,168 +169,412 @@ def midas_confirm_layout(recording: GazeRecording, back: np.ndarray, rng: np.ran
     return None
 
 
-def midas_goals(recording: GazeRecording, rule: ArbiterSettings, layouts: int = midas.LAYOUTS,
-                seed: int = 0,
-                tables: Optional[Callable[[], Optional[np.ndarray]]] = None,
-                confirm: Optional[Callable[[np.ndarray], Optional[np.ndarray]]] = None,
-                timeout_s: Optional[float] = None) -> Dict[str, float]:
-    """
-    Replay one recording as free looking through the menu's flow, once per layout (module doc).
+#: The rooms step: 4 rooms (the default scene's), :data:`SIZE` px.
+ROOMS = 4
+#: 'send' to 'go' on the default screen, degrees: SEND_DOWN half-heights of the 720 px
+#: panel, at the screen's centre.
+SEND_GAP_DEG = float(SEND_DOWN * 360 / px_per_degree_at(
+    np.array([[DEFAULT_VIEWING.width_px / 2, DEFAULT_VIEWING.height_px / 2]]),
+    DEFAULT_VIEWING)[0])
+#: One-sided confidence of the bound on goals per minute, split over its factors.
+CONFIDENCE = 0.95
+#: Replays per recording of ``--midas`` (each with its own layouts): 260 minutes of menu
+#: and 15,600 'send' trials over the 13 minutes of real gaze (docs/selection.md).
+MIDAS_REPLAYS = 20
 
-    :param tables: draws a tables step's centres (TABLES + 1, 2), 'back' last (default:
-        :func:`bench.midas.layout`, clear of the dots); :param confirm: the confirmation
-        step's centres (go, back) for a chosen table's centre (default:
-        :func:`midas_confirm_layout`).  Either returning None ends the layout's replay.
-    :param timeout_s: a confirmation unanswered this long after it appeared returns to the
-        tables, s (None: asked until answered; the menu's ``confirm_rounds`` N: N windows).
-    :returns: ``{'minutes': of menu, 'rounds': asked, 'tables': chosen, 'back': the
-        confirmation's 'back' chosen, 'goals': its 'go' chosen, 'layouts': replayed,
-        'go after': per goal, s from the table's choice to the 'go', 'timeouts'}``.
+
+def send_layout(recording: GazeRecording, go: np.ndarray, rng: np.random.Generator,
+                clearance_deg: float = midas.CLEARANCE_DEG) -> Optional[np.ndarray]:
     """
-    rng = np.random.default_rng([seed, 33, len(recording.stamps)])
-    if tables is None:
-        def tables():
-            return midas.layout(recording, TABLES + 1, SIZE, midas.CLEARANCE_DEG, rng)
-    if confirm is None:
-        def confirm(place):
-            return midas_confirm_layout(recording, place, rng)
+    Return the 'send' step's centre (1, 2) for 'go' at ``go``, or None (module doc).
+
+    :data:`SEND_GAP_DEG` above or below 'go' towards the screen's centre, else
+    the other side, else anywhere at least that far from 'go'; clear of the dots.
+    """
+    go = np.asarray(go, dtype=float)
+    gap = SEND_GAP_DEG * _ppd(recording, go)
+    inwards = 1.0 if go[1] < recording.screen.height_px / 2 else -1.0
+    screen = np.array([recording.screen.width_px, recording.screen.height_px], dtype=float)
+    places = [go + [0.0, inwards * gap], go - [0.0, inwards * gap]] + list(
+        rng.uniform(SIZE / 2, screen - SIZE / 2, (midas.TRIES, 2)))
+    for place in places:
+        centres = place.reshape(1, 2)
+        if (np.hypot(*(place - go)) >= gap - 1e-9 and _fits(centres, SIZE, recording)
+                and midas._edge_distance(place, SIZE, recording.targets.places).min()
+                >= clearance_deg * _ppd(recording, place)):
+            return centres
+    return None
+
+
+#: The steps of the menu as replayed, in order, and what passing each means.
+STEPS = ('rooms', 'tables', 'confirm', 'send')
+
+
+def asked_again(stamps: np.ndarray, start: float, window_s: float) -> float:
+    """
+    Return when the menu asks again after a round from ``start`` s ended without a choice.
+
+    As the nodes do it: the arbiter ends a round at the first sample stamped at or after
+    its window's end (``choice/none``), the menu asks again then, and the new round takes
+    the samples that arrive after the question (not that one: it closed the last round).
+
+    :param stamps: the valid samples' stamps (M,) s, ascending.
+    """
+    index = int(np.searchsorted(stamps, start + window_s))
+    return float(stamps[index]) if index < len(stamps) else start + window_s
+
+
+def _empty_tally() -> Dict:
+    return {'minutes': 0.0, 'rounds': 0, 'layouts': 0, 'goals': 0, 'go after': [],
+            'answers': [],
+            **{f'{step} offered': 0 for step in STEPS},
+            **{f'{step} passed': 0 for step in STEPS},
+            'tables back': 0, 'confirm back': 0, 'confirm unanswered': 0,
+            'send unanswered': 0}
+
+
+def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: ProtocolSettings,
+                layouts: int = midas.LAYOUTS, seed: int = 0,
+                places: Optional[Dict[str, Callable]] = None) -> Dict:
+    """
+    Replay one recording as free looking through the whole menu, once per layout (module doc).
+
+    Rooms (asked until answered) -> the room's tables and 'back' (asked until
+    answered; 'back' returns to the rooms) -> the confirmation 'go' / 'back'
+    (``confirm_rounds`` rounds; 'back' or none: the tables) -> 'send'
+    (``send_rounds`` rounds; none: the tables; 0: 'go' is the goal) -> a goal,
+    and the rooms again.  Each step's options appear, and are asked about, at
+    the choice that opens it; a round without a choice is asked again at its
+    end (``shown_since``: when they appeared).
+
+    :param places: where each step's options are (the default draws them clear of the
+        dots, :func:`bench.midas.layout`, :func:`midas_confirm_layout`, :func:`send_layout`):
+        'rooms' () -> (ROOMS, 2), 'tables' (room index) -> (TABLES + 1, 2) with 'back'
+        last, 'confirm' (the table's centre) -> (2, 2) 'go', 'back', 'send' ('go''s centre)
+        -> (1, 2); None from any ends the layout's replay.
+    :returns: the tally: minutes of menu, rounds, per step how often it was
+        offered and passed (rooms: a room chosen; tables: a table; confirm:
+        'go'; send: 'send'), 'back' and unanswered counts, goals, per goal
+        the seconds from the table's choice, and 'answers': each step's
+        outcome in order, (step, the option's index or None: unanswered, s).
+    """
+    rng = np.random.default_rng([seed, 35, len(recording.stamps)])
     stamps, points = midas._valid(recording)
     first, end = float(recording.stamps[0]), float(recording.stamps[-1])
-    total = {'minutes': 0.0, 'rounds': 0, 'tables': 0, 'back': 0, 'goals': 0, 'layouts': 0,
-             'go after': [], 'timeouts': 0}
+    draw = {'rooms': lambda: midas.layout(recording, ROOMS, SIZE, midas.CLEARANCE_DEG, rng),
+            'tables': lambda room: midas.layout(recording, TABLES + 1, SIZE,
+                                                midas.CLEARANCE_DEG, rng),
+            'confirm': lambda table: midas_confirm_layout(recording, table, rng),
+            'send': lambda go: send_layout(recording, go, rng), **(places or {})}
+    total = _empty_tally()
+    limits = {'rooms': np.inf, 'tables': np.inf, 'confirm': settings.confirm_rounds,
+              'send': settings.send_rounds}
     for _ in range(layouts):
-        start = shown = first
-        room = centres = tables()
-        confirming = False
-        if centres is None:
+        rooms = draw['rooms']()
+        tables: Dict[int, Optional[np.ndarray]] = {}
+        if rooms is None:
             continue
         total['layouts'] += 1
-        while start + rule.window_s <= end:
-            deadline = shown + timeout_s if confirming and timeout_s is not None else np.inf
-            low, high = np.searchsorted(stamps, [start, min(start + rule.window_s, deadline)])
+        start = shown = first
+        step, centres, room, unanswered, table_at = 'rooms', rooms, 0, 0, first
+        total['rooms offered'] += 1
+        # New options start a round with the samples from their stamp on (the arbiter
+        # takes the recent ones), a question asked again after it (asked_again).
+        side = 'left'
+        while start + rule.window_s <= end and centres is not None:
+            low = np.searchsorted(stamps, start, side)
+            high = np.searchsorted(stamps, start + rule.window_s)
             outcome = decide_trial(points[low:high], stamps[low:high],
                                    midas._options(centres, SIZE, shown), rule, start=start,
                                    shown_since=shown)
             total['rounds'] += 1
-            if outcome.label is None and start + rule.window_s >= deadline:
-                total['timeouts'] += 1
-                centres, confirming, start = room, False, deadline
-                shown = start
-                continue
             if outcome.label is None:
-                start += rule.window_s
+                start, side = asked_again(stamps, start, rule.window_s), 'right'
+                unanswered += 1
+                if unanswered >= limits[step]:
+                    total[f'{step} unanswered'] += 1
+                    total['answers'].append((step, None, start))
+                    step, centres, shown, unanswered = 'tables', tables[room], start, 0
+                    total['tables offered'] += 1
+                    side = 'left'
                 continue
-            # The next step's options appear, and are asked about, at the choice.
-            asked, start = shown, outcome.time_s
-            shown = start
             chosen = int(outcome.label)
-            if not confirming and chosen < TABLES:
-                total['tables'] += 1
-                centres, confirming = confirm(room[chosen]), True
-            elif confirming and chosen == 1:
-                total['back'] += 1
-                centres, confirming = room, False
+            start = shown = outcome.time_s
+            side = 'left'
+            unanswered = 0
+            total['answers'].append((step, chosen, start))
+            if step == 'rooms':
+                total['rooms passed'] += 1
+                room = chosen
+                if room not in tables:
+                    tables[room] = draw['tables'](room)
+                step, centres = 'tables', tables[room]
+            elif step == 'tables' and chosen == TABLES:
+                total['tables back'] += 1
+                step, centres = 'rooms', rooms
+            elif step == 'tables':
+                total['tables passed'] += 1
+                table_at = start
+                step, centres = 'confirm', draw['confirm'](tables[room][chosen])
+            elif step == 'confirm' and chosen == 1:
+                total['confirm back'] += 1
+                step, centres = 'tables', tables[room]
+            elif step == 'confirm' and settings.send_rounds:
+                total['confirm passed'] += 1
+                step, centres = 'send', draw['send'](centres[0])
             else:
-                if confirming:
-                    total['goals'] += 1
-                    total['go after'].append(start - asked)
-                room = centres = tables()
-                confirming = False
-            if centres is None:
-                break
+                total[f'{step} passed'] += 1
+                total['goals'] += 1
+                total['go after'].append(start - table_at)
+                step, centres = 'rooms', rooms
+            total[f'{step} offered'] += 1
         total['minutes'] += (min(start, end) - first) / 60.0
     return total
 
 
-def intended_go(recordings: Sequence[GazeRecording], rounds: Optional[int] = None,
+def step_trials(recording: GazeRecording, rule: ArbiterSettings, step: str, rounds: int,
+                layouts: int = midas.LAYOUTS, seed: int = 0) -> Dict[str, int]:
+    """
+    Measure a step's pass share at many moments of free looking (module doc): trials and passes.
+
+    The step's options appear at moments ``rounds`` windows apart (trials that
+    share no gaze), at places drawn anew for each, clear of the dots, and are
+    asked ``rounds`` rounds: 'confirm' ('go' / 'back', 'back' at the drawn place,
+    'go' as the menu puts it) passes on 'go'; 'send' (one option) on 'send'.
+    """
+    rng = np.random.default_rng([seed, 37, len(recording.stamps), len(step)])
+    stamps, points = midas._valid(recording)
+    first, end = float(recording.stamps[0]), float(recording.stamps[-1])
+    span = rounds * rule.window_s
+    tally = {'trials': 0, 'passed': 0}
+    for _ in range(layouts):
+        for onset in np.arange(first, end - span, span):
+            place = midas.layout(recording, 1, SIZE, midas.CLEARANCE_DEG, rng)
+            if place is None:
+                continue
+            centres = place if step == 'send' else midas_confirm_layout(recording, place[0], rng)
+            if centres is None:
+                continue
+            options, start, chosen = midas._options(centres, SIZE, onset), onset, None
+            side = 'left'
+            while start < onset + span - 1e-9 and chosen is None:
+                low = np.searchsorted(stamps, start, side)
+                high = np.searchsorted(stamps, start + rule.window_s)
+                chosen = decide_trial(points[low:high], stamps[low:high], options, rule,
+                                      start=start, shown_since=onset).label
+                start, side = asked_again(stamps, start, rule.window_s), 'right'
+            tally['trials'] += 1
+            tally['passed'] += int(chosen == '0')
+    return tally
+
+
+def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
                 seed: int = 0) -> Dict:
-    """Count the intended 'go' rounds' answers (module doc): go, back, none; 'go after' s."""
-    counts: Dict = {'rounds': 0, 'go': 0, 'back': 0, 'none': 0, 'go after': []}
+    """
+    Count the intended 'go' on real gaze, through 'go' and 'send' (module doc).
+
+    Every jump of a dot with a next one is a round: 'go' (100 px) on the dot,
+    'back' at the menu's gap beside it, asked ``confirm_rounds`` rounds (and
+    until the next jump); then, if 'go' was chosen, 'send' (100 px) on the
+    next dot from its onset (a target that appears elsewhere, as 'send' does),
+    asked ``send_rounds`` rounds (and until the jump after).  The time is the
+    sum of the two reactions, each from its target's onset.
+
+    :returns: ``{'rounds', 'go' (both passed), 'back', 'none', 'go after': s per 'go',
+        'people': {recording: (rounds, go)}}``.
+    """
+    counts: Dict = {'rounds': 0, 'go': 0, 'back': 0, 'none': 0, 'go after': [], 'people': {}}
     rng = np.random.default_rng([seed, 31])
     gap = next(iter(LAYOUTS.values()))
     for recording in recordings:
         rule = settings_for_recording(RULES['default'], recording)
         stamps, points = midas._valid(recording)
         onsets = list(recording.targets.onsets) + [float(recording.stamps[-1])]
-        for onset, centres in confirm_rounds(recording, gap, rng):
-            options = midas._options(centres[::-1], SIZE, onset)     # 'go' on the dot
-            end = onsets[onsets.index(onset) + 1]
-            end = end if rounds is None else min(end, onset + rounds * rule.window_s)
-            start, answer = onset, 'none'
-            while start < end:
-                low, high = np.searchsorted(stamps, [start, min(start + rule.window_s, end)])
+        places = recording.targets.places
+
+        def ask(options: RegionSet, onset: float, end: float) -> Tuple[Optional[str], float]:
+            start, side = onset, 'left'
+            while start < end - 1e-9:
+                low = np.searchsorted(stamps, start, side)
+                high = np.searchsorted(stamps, min(start + rule.window_s, end))
                 made = decide_trial(points[low:high], stamps[low:high], options, rule,
                                     start=start, shown_since=onset)
                 if made.label is not None:
-                    answer = 'go' if made.label == '0' else 'back'
-                    counts['go after'] += [made.time_s - onset] if answer == 'go' else []
-                    break
-                start += rule.window_s
+                    return made.label, made.time_s - onset
+                start, side = asked_again(stamps, start, rule.window_s), 'right'
+            return None, math.nan
+
+        before = (counts['rounds'], counts['go'])
+        for onset, centres in confirm_rounds(recording, gap, rng):
+            index = onsets.index(onset)
+            if index + 2 >= len(onsets):
+                continue        # no next dot for 'send'
             counts['rounds'] += 1
-            counts[answer] += 1
+            label, go_s = ask(midas._options(centres[::-1], SIZE, onset), onset,
+                              min(onsets[index + 1], onset + settings.confirm_rounds
+                                  * rule.window_s))
+            if label != '0':
+                counts['back' if label == '1' else 'none'] += 1
+                continue
+            if not settings.send_rounds:
+                counts['go'] += 1
+                counts['go after'].append(go_s)
+                continue
+            later = onsets[index + 1]
+            label, send_s = ask(midas._options(places[index + 1].reshape(1, 2), SIZE, later),
+                                later, min(onsets[index + 2], later + settings.send_rounds
+                                           * rule.window_s))
+            if label == '0':
+                counts['go'] += 1
+                counts['go after'].append(go_s + send_s)
+            else:
+                counts['none'] += 1
+        if counts['rounds'] > before[0]:
+            counts['people'][recording.name] = (counts['rounds'] - before[0],
+                                                counts['go'] - before[1])
     return counts
 
 
-def run_midas(data=None, layouts: int = midas.LAYOUTS, seed: int = 0,
-              rounds: Sequence[Optional[int]] = (None, ProtocolSettings().confirm_rounds)
-              ) -> Dict:
-    """
-    Return the Midas goals and the intended 'go' answers per ``confirm_rounds`` (module doc).
+def poisson_upper(count: int, exposure: float, confidence: float) -> float:
+    """One-sided upper confidence bound of a Poisson rate: ``count`` events in ``exposure``."""
+    return float(stats.chi2.ppf(confidence, 2 * count + 2) / 2.0 / max(exposure, 1e-12))
 
-    :returns: ``{'midas': {rounds: {...}}, 'intended': {rounds: {...}}}`` (rounds None:
-        asked until answered), or ``{'skipped': reason}`` without data.
+
+def binomial_upper(passed: int, trials: int, confidence: float) -> float:
+    """One-sided upper Clopper-Pearson bound of a share: ``passed`` of ``trials``."""
+    if trials <= 0 or passed >= trials:
+        return 1.0
+    return float(stats.beta.ppf(confidence, passed + 1, trials - passed))
+
+
+def run_midas(data=None, layouts: int = MIDAS_REPLAYS, seed: int = 0,
+              settings: Optional[ProtocolSettings] = None) -> Dict:
     """
+    Goals per minute of looking around without intent, and the intended 'go' (module doc).
+
+    :param settings: the menu's protocol (default: its defaults).
+    :returns: ``{'settings', 'chain': the whole menu's tally (:func:`menu_replay`),
+        'trials': {step: {'trials', 'passed'}}, 'factors': [(name, value, upper)],
+        'midas': {goals, minutes, goals_per_min, upper95_per_min, product_per_min},
+        'intended_go': {rounds, go, rate, median_s, slowest_s, back, none}}``, or
+        ``{'skipped': reason}`` without data.
+    """
+    settings = settings or ProtocolSettings()
     recordings = midas.load_recordings(data)
     if recordings is None:
         return {'skipped': midas.NO_DATA}
-    return {'midas': {count: _midas_total(recordings, layouts, seed, count) for count in rounds},
-            'intended': {count: intended_go(recordings, count, seed) for count in rounds}}
-
-
-def _midas_total(recordings: Sequence[GazeRecording], layouts: int, seed: int,
-                 rounds: Optional[int]) -> Dict:
-    """Sum :func:`midas_goals` over the recordings; the rates per minute of menu."""
-    total = {'minutes': 0.0, 'rounds': 0, 'tables': 0, 'back': 0, 'goals': 0, 'layouts': 0,
-             'go after': [], 'timeouts': 0}
+    chain = _empty_tally()
+    trials = {step: {'trials': 0, 'passed': 0} for step in ('confirm', 'send')}
     for recording in recordings:
         rule = settings_for_recording(RULES['default'], recording)
-        timeout_s = None if rounds is None else rounds * rule.window_s
-        for key, value in midas_goals(recording, rule, layouts, seed,
-                                      timeout_s=timeout_s).items():
-            total[key] += value
-    minutes = max(total['minutes'], 1e-9)
-    after = total['go after']
-    return dict(total, goals_per_minute=total['goals'] / minutes,
-                tables_per_minute=total['tables'] / minutes,
-                median_go_s=float(np.median(after)) if after else float('nan'))
-
-
-def _rounds_name(rounds: Optional[int]) -> str:
-    return 'until answered' if rounds is None else f'confirm_rounds {rounds}'
+        for key, value in menu_replay(recording, rule, settings, layouts, seed).items():
+            chain[key] += value
+        for step, rounds in (('confirm', settings.confirm_rounds),
+                             ('send', settings.send_rounds)):
+            if rounds:
+                for key, value in step_trials(recording, rule, step, rounds, layouts,
+                                              seed).items():
+                    trials[step][key] += value
+    minutes = max(chain['minutes'], 1e-9)
+    # goals / min = confirmations opened / min x P('go' | confirmation) x P('send' | 'go'):
+    # each factor bounded at 1 - (1 - CONFIDENCE) / k, so the product's bound holds at 95 %.
+    factors = [('confirmations opened per minute', chain['confirm offered'] / minutes,
+                chain['confirm offered'], minutes, 'rate'),
+               ("'go' per confirmation (the menu's flow)", chain['confirm passed']
+                / max(chain['confirm offered'], 1), chain['confirm passed'],
+                chain['confirm offered'], 'share')]
+    if settings.send_rounds:
+        send = trials['send']
+        factors.append(("'send' per 'go' (trials at any moment)",
+                        send['passed'] / max(send['trials'], 1), send['passed'],
+                        send['trials'], 'share'))
+    level = 1.0 - (1.0 - CONFIDENCE) / len(factors)
+    bounded = []
+    product = upper = 1.0
+    for name, value, count, exposure, kind in factors:
+        high = (poisson_upper(count, exposure, level) if kind == 'rate'
+                else binomial_upper(count, exposure, level))
+        bounded.append({'factor': name, 'value': value, 'count': count,
+                        'of': exposure, 'upper': high})
+        product *= value
+        upper *= high
+    # The goals counted in the replay bound the rate on their own too; the smaller holds.
+    direct = poisson_upper(chain['goals'], minutes, CONFIDENCE)
+    intended = intended_go(recordings, settings, seed)
+    after = intended['go after']
+    return {
+        'settings': {'confirm_rounds': settings.confirm_rounds,
+                     'send_rounds': settings.send_rounds},
+        'recordings': [r.name for r in recordings], 'chain': chain, 'trials': trials,
+        'factors': bounded,
+        'midas': {'goals': chain['goals'], 'minutes': chain['minutes'],
+                  'goals_per_min': chain['goals'] / minutes,
+                  'upper95_per_min': min(upper, direct), 'product_per_min': product,
+                  'direct_upper95_per_min': direct, 'product_upper95_per_min': upper},
+        'intended_go': {'rounds': intended['rounds'], 'go': intended['go'],
+                        'rate': intended['go'] / max(intended['rounds'], 1),
+                        'median_s': float(np.median(after)) if after else math.nan,
+                        'slowest_s': float(max(after)) if after else math.nan,
+                        'back': intended['back'], 'none': intended['none'],
+                        'within_1_5_s': sum(1 for t in after if t <= 1.5),
+                        'people': intended['people']},
+    }
 
 
 def format_midas(result: Dict) -> List[str]:
     """Return the Midas goals' report, as printed."""
     if 'skipped' in result:
         return [f"skipped: {result['skipped']}"]
-    lines = ['looking around without intent, through the menu (tables: 3 + back, '
-             f'{SIZE} px; confirm: go/back, menu layout), default rule:',
-             '| confirmation asked | layouts | minutes | tables chosen | then back | unanswered | '
-             'then go (goals) | goals per minute | median s from table to go |',
-             '|---|---|---|---|---|---|---|---|---|']
-    for rounds, row in result['midas'].items():
-        lines.append(f"| {_rounds_name(rounds)} | {row['layouts']} | {row['minutes']:.1f} | "
-                     f"{row['tables']} | {row['back']} | {row['timeouts']} | {row['goals']} | "
-                     f"{row['goals_per_minute']:.2f} | {row['median_go_s']:.1f} |")
-    lines += ['', "intended 'go' (go on the dot, real gaze rounds, asked until a choice or the "
-                  'next jump):', '| confirmation asked | rounds | go | back | none | go % | '
-                  "slowest 'go', s |", '|---|---|---|---|---|---|---|']
-    for rounds, row in result['intended'].items():
-        slowest = max(row['go after']) if row['go after'] else float('nan')
-        lines.append(f"| {_rounds_name(rounds)} | {row['rounds']} | {row['go']} | "
-                     f"{row['back']} | {row['none']} | "
-                     f"{100 * row['go'] / max(row['rounds'], 1):.1f} | {slowest:.2f} |")
+    chain, m, go = result['chain'], result['midas'], result['intended_go']
+    conf = result['settings']
+    lines = [f'looking around without intent, through the whole menu (rooms {ROOMS}, tables '
+             f'{TABLES} + back, go/back, send; {SIZE} px, clear of the dots), default rule, '
+             f"confirm_rounds {conf['confirm_rounds']}, send_rounds {conf['send_rounds']}:",
+             f"{chain['layouts']} replays, {chain['minutes']:.1f} minutes of menu, "
+             f"{chain['rounds']} rounds", '',
+             '| step | offered | passed | share | then back | unanswered |',
+             '|---|---|---|---|---|---|']
+    for step in STEPS:
+        offered, passed = chain[f'{step} offered'], chain[f'{step} passed']
+        back = chain.get(f'{step} back', '')
+        lines.append(f'| {step} | {offered} | {passed} | {passed / max(offered, 1):.3f} | '
+                     f"{back} | {chain.get(f'{step} unanswered', '')} |")
+    lines += ['', 'the same steps at any moment of free looking (trials sharing no gaze):',
+              '| step | trials | passed | share |', '|---|---|---|---|']
+    for step, row in result['trials'].items():
+        if row['trials']:
+            lines.append(f"| {step} | {row['trials']} | {row['passed']} | "
+                         f"{row['passed'] / row['trials']:.4f} |")
+    lines += ['', 'goals per minute as a product of measured factors (each bounded at '
+                  f'{100 * (1 - (1 - CONFIDENCE) / len(result["factors"])):.1f} %, '
+                  'the product at 95 %):', '| factor | measured | count | of | upper bound |',
+              '|---|---|---|---|---|']
+    for row in result['factors']:
+        lines.append(f"| {row['factor']} | {row['value']:.4g} | {row['count']} | "
+                     f"{row['of']:.4g} | {row['upper']:.4g} |")
+    lines += ['', f"robot goals: {m['goals']} in {m['minutes']:.1f} minutes = "
+                  f"{m['goals_per_min']:.4f} per minute; product of the factors "
+                  f"{m['product_per_min']:.2g} per minute; upper 95 % bound "
+                  f"{m['upper95_per_min']:.2g} per minute (product "
+                  f"{m['product_upper95_per_min']:.2g}, goals counted "
+                  f"{m['direct_upper95_per_min']:.2g}); one goal in "
+                  f"{1 / max(m['upper95_per_min'], 1e-12) / 60:.1f} hours at the bound",
+              "intended 'go' (real gaze: 'go' on a dot"
+              f"{', send on the next' if conf['send_rounds'] else ''}): {go['go']} of "
+              f"{go['rounds']} ({100 * go['rate']:.1f} %), {go['back']} back, {go['none']} none;"
+              f" median {go['median_s']:.2f} s, slowest {go['slowest_s']:.2f} s from 'go' "
+              f"appearing (both reactions), {go['within_1_5_s']} within 1.5 s",
+              'per person: ' + ', '.join(
+                  f'{name} {done} of {rounds}' for name, (rounds, done) in go['people'].items())]
     return lines
+
+
+def midas_json(result: Dict) -> Dict:
+    """Return the ``--json`` summary (module doc)."""
+    keys = {'midas': ('goals', 'minutes', 'goals_per_min', 'upper95_per_min'),
+            'intended_go': ('rounds', 'go', 'rate', 'median_s', 'slowest_s')}
+    return {section: {key: result[section][key] for key in names}
+            for section, names in keys.items()}
 
 
 def format_lines(result: Dict) -> List[str]:
@@ -352,17 +605,26 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--midas', action='store_true',
                         help='robot goals per minute of looking around without intent')
-    parser.add_argument('--layouts', type=int, default=midas.LAYOUTS,
-                        help='with --midas: replays per recording')
-    parser.add_argument('--confirm-rounds', type=int, nargs='+',
-                        help='with --midas: confirm_rounds values (0: asked until answered; '
-                             "default: 0 and the menu's)")
+    parser.add_argument('--layouts', type=int, default=MIDAS_REPLAYS,
+                        help='with --midas: replays per recording, each with its own layouts')
+    parser.add_argument('--confirm-rounds', type=int,
+                        help="with --midas: the menu's confirm_rounds (default: its default)")
+    parser.add_argument('--send-rounds', type=int,
+                        help="with --midas: the menu's send_rounds (0: no 'send'; default: "
+                             'its default)')
+    parser.add_argument('--json', help='with --midas: write the summary here')
     args = parser.parse_args(argv)
     try:
         if args.midas:
-            rounds = (None, ProtocolSettings().confirm_rounds) if not args.confirm_rounds \
-                else [n if n > 0 else None for n in args.confirm_rounds]
-            lines = format_midas(run_midas(args.data, args.layouts, args.seed, rounds))
+            changed = {name: value for name, value in (
+                ('confirm_rounds', args.confirm_rounds), ('send_rounds', args.send_rounds))
+                if value is not None}
+            result = run_midas(args.data, args.layouts, args.seed,
+                               replace(ProtocolSettings(), **changed))
+            lines = format_midas(result)
+            if args.json and 'skipped' not in result:
+                with open(args.json, 'w', encoding='utf-8') as out:
+                    json.dump(midas_json(result), out, indent=1)
         else:
             lines = format_lines(run(data=args.data, seed=args.seed))
     except (OSError, ValueError) as error:

@@ -108,6 +108,7 @@ from bench.latency import default_poll_period, Driver, encode_xy_pixels, make_ou
 from bench.timing import machine_info
 from eye_bci_ros2.ros.runner import (freeze_startup_objects, make_executor, spin_for,
                                      spin_until, STOP_POLL_S)
+from eye_bci_ros2.ros.startup import quiet_liblsl
 from eye_bci_ros2.ros.topics import EVENT_QOS, NO_CHOICE_TOPIC
 
 #: Round window, s, and the request period: a round is always open.
@@ -774,6 +775,7 @@ def _scenario(text: str) -> Scenario:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Print ``{"lab_rate": {...}}``; 1 if a goal is missed."""
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     parser = argparse.ArgumentParser(prog='python -m bench.lab_rate',
                                      description=__doc__.strip().splitlines()[0])
     parser.add_argument('--long', action='store_true',

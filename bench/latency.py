@@ -77,6 +77,7 @@ from eye_bci_ros2.nodes.choice_arbiter import ChoiceArbiter
 from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.ros.conversions import cube_marker, marker_array_to_regions
 from eye_bci_ros2.ros.runner import make_executor, spin_for, spin_until
+from eye_bci_ros2.ros.startup import quiet_liblsl
 from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, LATCHED_QOS,
                                      REGIONS_TOPIC, REQUEST_TOPIC)
 from eye_bci_ros2.sim.lsl_outlet import open_outlet, stream_info
@@ -447,6 +448,7 @@ def run(quick: bool = False, rounds: int = 0) -> Dict[str, object]:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run the benchmark and print ``{"latency": {...}}``; 1 if the goal is missed."""
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     parser = argparse.ArgumentParser(prog='python -m bench.latency',
                                      description=__doc__.strip().splitlines()[0])
     parser.add_argument('--quick', action='store_true', help=f'{QUICK_ROUNDS} rounds')

@@ -30,6 +30,17 @@ trade of the default rule: right against wrong as ``confidence`` changes.
 ``--simulated`` runs the same rounds on the simulated person recorded on each
 recording's own schedule (:func:`eye_bci_ros2.sim.person.record_schedule`).
 
+**What a new person can expect** (:func:`new_people`, always printed): the
+figures above are measured on the people the default was chosen on (the
+rule, and its ``confidence`` from the trade curve).  Each person of the jump
+recordings is held out in turn: the rule (among :data:`RULES` and the default
+at each :data:`CURVE` confidence) is chosen on the *other* people by the
+selection goal (:data:`GOAL`: the most right choices at 9 x 100 px among the
+rules within its limits on wrong choices and resting gaze), then measured on
+the held-out person; the pooled rows are what a person the settings were not
+chosen on can expect, and each person's own row, at the default, is the
+spread between people.
+
 Usage::
 
     python -m bench.real_gaze [--data DIR] [--sizes 16 32 64 100 200] [--options 3 9]
@@ -72,6 +83,12 @@ SETTLED_S = 0.6
 SWEEP_LEAD_S = 0.3
 #: The confidences of the trade curve.
 CURVE = (0.8, 0.9, 0.95, 0.99, 0.999)
+
+#: The selection goal (docs/selection.md) the held-out choice keeps: at most this wrong %
+#: at 9 x 100 px, and at most this % of resting-near and resting-away rounds chosen.
+GOAL = {'wrong %': 1.0, 'resting near': 5.0, 'resting away': 0.5}
+#: The layouts of the held-out figures: (options, px).
+HELD_OUT_LAYOUTS = ((9, 100), (9, 200))
 
 #: The previous default rule (tolerant counts, share test, early decision on a 20 ms run).
 COUNT_EARLY = ArbiterSettings(**dict(COUNT_RULE, early_decision=True))
@@ -244,6 +261,109 @@ def midas(recordings: Sequence[GazeRecording], settings: ArbiterSettings,
             for kind, flags in chosen.items()}
 
 
+def candidates() -> Dict[str, ArbiterSettings]:
+    """Return the rules a held-out choice picks from: :data:`RULES`, the default per confidence."""
+    found = dict(RULES)
+    for confidence in CURVE:
+        if confidence != RULES['default'].confidence:
+            found[f'default, confidence {confidence:g}'] = RULES['default'].replace(
+                confidence=confidence)
+    return found
+
+
+def measure(recordings: Sequence[GazeRecording], settings: ArbiterSettings,
+            seed: int = 0) -> Dict[str, Dict[str, float]]:
+    """Intent tallies of :data:`HELD_OUT_LAYOUTS` and the resting Midas rounds, one rule."""
+    found: Dict[str, Dict[str, float]] = {
+        f'{count} x {size} px': intent(recordings, settings, count, size, seed)
+        for count, size in HELD_OUT_LAYOUTS}
+    found.update(midas(recordings, settings, seed))
+    return found
+
+
+def within_goal(measured: Dict[str, Dict[str, float]]) -> bool:
+    """Whether a rule's figures keep :data:`GOAL` (9 x 100 px wrong, resting gaze chosen)."""
+    return (measured['9 x 100 px']['wrong %'] <= GOAL['wrong %']
+            and all(measured.get(kind, {'chosen %': 0.0})['chosen %'] <= GOAL[kind]
+                    for kind in ('resting near', 'resting away')))
+
+
+def choose_rule(measured: Dict[str, Dict[str, Dict[str, float]]]) -> str:
+    """
+    Return the rule the goal picks from ``{rule: measure(...)}``.
+
+    The most right at 9 x 100 px among the rules within :data:`GOAL`; when none
+    is, the fewest wrong.  Ties: the order of ``measured``.
+    """
+    allowed = [name for name, rows in measured.items() if within_goal(rows)]
+    if allowed:
+        return max(allowed, key=lambda name: measured[name]['9 x 100 px']['right %'])
+    return min(measured, key=lambda name: measured[name]['9 x 100 px']['wrong %'])
+
+
+def pool(rows: Sequence[Dict[str, float]]) -> Dict[str, float]:
+    """Pool intent tallies of several people (shares weighted by their rounds)."""
+    rounds = sum(row['rounds'] for row in rows)
+    pooled: Dict[str, float] = {'rounds': rounds}
+    for key in ('right %', 'wrong %', 'none %'):
+        pooled[key] = sum(row[key] * row['rounds'] for row in rows) / max(rounds, 1)
+    return pooled
+
+
+def people(recordings: Sequence[GazeRecording]) -> List[GazeRecording]:
+    """Return the recordings with intent rounds (jump schedules), one per person."""
+    return [recording for recording in recordings if recording.targets.jumps]
+
+
+def new_people(recordings: Sequence[GazeRecording], seed: int = 0) -> Dict:
+    """
+    Measure what a person the rule was not chosen on can expect: leave-one-person-out.
+
+    :returns: ``{'people': {name: {'default': measure, 'chosen': rule, 'held out':
+        measure}}, 'pooled': {layout: tally, kind: chosen %}, 'range': {layout:
+        (lowest, highest) right % of the people at the default}}``; ``{}`` with fewer
+        than two people.
+    """
+    persons = people(recordings)
+    if len(persons) < 2:
+        return {}
+    rules = candidates()
+    # Every rule on every person once: a held-out choice only reads the others' rows.
+    measured = {person.name: {name: measure([person], settings, seed)
+                              for name, settings in rules.items()} for person in persons}
+    found: Dict = {'people': {}}
+    for person in persons:
+        others = [other for other in persons if other is not person]
+        on_others = {name: _pooled_measure([measured[o.name][name] for o in others])
+                     for name in rules}
+        chosen = choose_rule(on_others)
+        found['people'][person.name] = {'default': measured[person.name]['default'],
+                                        'chosen': chosen,
+                                        'held out': measured[person.name][chosen]}
+    held = [entry['held out'] for entry in found['people'].values()]
+    found['pooled'] = _pooled_measure(held)
+    found['range'] = {layout: (min(e['default'][layout]['right %'] for e in
+                                   found['people'].values()),
+                               max(e['default'][layout]['right %'] for e in
+                                   found['people'].values()))
+                      for layout in held[0] if 'right %' in held[0][layout]}
+    return found
+
+
+def _pooled_measure(rows: Sequence[Dict[str, Dict[str, float]]]) -> Dict[str, Dict[str, float]]:
+    """Pool :func:`measure` results of several people: intent tallies and Midas shares."""
+    pooled: Dict[str, Dict[str, float]] = {}
+    for key in rows[0]:
+        if 'right %' in rows[0][key]:
+            pooled[key] = pool([row[key] for row in rows])
+        else:
+            counted = [row[key] for row in rows if key in row]
+            total = sum(entry['rounds'] for entry in counted)
+            pooled[key] = {'rounds': total, 'chosen %': sum(
+                entry['chosen %'] * entry['rounds'] for entry in counted) / max(total, 1)}
+    return pooled
+
+
 def load_folder(folder) -> List[GazeRecording]:
     """Every recording of a known format in ``folder``."""
     return [load_gaze(path) for path in find_recordings(folder)]
@@ -287,6 +407,7 @@ def run(quick: bool = False, data=None, sizes: Sequence[int] = SIZES,
             f'{count} x {size} px': intent(recordings, base.replace(confidence=c), count, size,
                                            seed)
             for count in counts for size in sizes} for c in CURVE}
+    result['new people'] = new_people(recordings, seed)
     if simulated:
         twins = simulated_twins([r for r in recordings if r.targets.jumps], seed)
         result['simulated'] = {
@@ -321,6 +442,8 @@ def format_lines(section: Dict) -> List[str]:
             for layout, t in cells.items():
                 lines.append(f"| {name} | {layout} | {t['right %']:.1f} | {t['wrong %']:.1f} "
                              f"| {t['none %']:.1f} |")
+    if section.get('new people'):
+        lines += new_people_lines(section['new people'])
     if 'simulated' in section:
         lines += ['', '| simulated person, default rule | rounds | right % | wrong % | none % '
                   '| median ms |', '|---|---|---|---|---|---|']
@@ -330,6 +453,33 @@ def format_lines(section: Dict) -> List[str]:
         lines.append('simulated Midas: ' + ', '.join(
             f"{k} {v['chosen %']:.1f} % of {v['rounds']}"
             for k, v in section['simulated midas'].items()))
+    return lines
+
+
+def _measure_cells(rows: Dict[str, Dict[str, float]]) -> str:
+    cells = [f"{rows[layout]['right %']:.1f} / {rows[layout]['wrong %']:.1f}"
+             for layout in (f'{count} x {size} px' for count, size in HELD_OUT_LAYOUTS)]
+    cells += [f"{rows[kind]['chosen %']:.1f}" if kind in rows else '-'
+              for kind in ('resting near', 'resting away')]
+    return ' | '.join(cells)
+
+
+def new_people_lines(found: Dict) -> List[str]:
+    """Return the held-out table (:func:`new_people`): per person, and pooled."""
+    layouts = [f'{count} x {size} px' for count, size in HELD_OUT_LAYOUTS]
+    lines = ['', 'what a new person can expect: each person held out, the rule chosen on the '
+             'others (leave-one-person-out)',
+             '| person | rule | ' + ' | '.join(f'{layout}: right / wrong %' for layout in layouts)
+             + ' | resting near: chosen % | resting away: chosen % |',
+             '|---|---|' + '---|' * (len(layouts) + 2)]
+    for name, entry in found['people'].items():
+        lines.append(f'| {name} | default (chosen on this person too) | '
+                     f"{_measure_cells(entry['default'])} |")
+        lines.append(f"| {name}, held out | {entry['chosen']} (chosen on the others) | "
+                     f"{_measure_cells(entry['held out'])} |")
+    lines.append(f"| **pooled, held out** | | {_measure_cells(found['pooled'])} |")
+    lines.append('right % at the default, lowest-highest person: ' + ', '.join(
+        f'{layout} {low:.1f}-{high:.1f}' for layout, (low, high) in found['range'].items()))
     return lines
 
 

@@ -40,6 +40,14 @@ every setting is the nodes' default.  The **bound**: the hybrid under every
 choices any of them makes within the goal's limits (chosen with hindsight on
 these rounds: a bound, not a result).
 
+**What a new subject can expect** (:func:`held_out_subjects`): the hybrid's
+``confirm_threshold`` and ``hold_s`` were set with these subjects in view, so
+each EEG subject is held out in turn, the setting chosen on the *other*
+subjects (the most right choices among the :data:`BOUND_GRID` settings within
+the goal's limits) and the held-out subject decided with it; the pooled rows
+are the leave-subject-out figures.  The spread: each subject's rows, and each
+gaze person's (the gaze recordings the rounds came from).
+
 Usage::
 
     python -m bench.real_hybrid [--gaze-data DIR] [--eeg-data DIR] [--subjects s01,s02]
@@ -339,21 +347,59 @@ def within_goal(row: Dict) -> bool:
     return row['midas'] <= GOAL_MIDAS and row['wrong'] <= GOAL_WRONG
 
 
-def bound(pairings: Sequence[Pairing]) -> Dict[str, Dict]:
+def grid_decisions(pairings: Sequence[Pairing]) -> Dict[str, List[Decided]]:
+    """Decide the hybrid under every :data:`BOUND_GRID` setting: setting name -> rounds."""
+    return decide_all(pairings, {
+        f'confirm_threshold {c:g} hold_s {h:g}':
+        FusionSettings('hybrid', confirm_threshold=c, hold_s=h) for c, h in BOUND_GRID})
+
+
+def best_setting(rows: Dict[str, Dict]) -> Optional[str]:
+    """Return the setting with the most right among those within the limits (None: none)."""
+    allowed = [name for name, row in rows.items() if within_goal(row)]
+    return max(allowed, key=lambda name: (rows[name]['right'], -rows[name]['midas']),
+               default=None)
+
+
+def bound(pairings: Sequence[Pairing],
+          decided: Optional[Dict[str, List[Decided]]] = None) -> Dict[str, Dict]:
     """
     Decide the hybrid under every :data:`BOUND_GRID` setting; find the best within limits.
 
+    :param decided: :func:`grid_decisions` of ``pairings``, if made already.
     :returns: ``{'best': row with its settings, 'grid': {name: row}}``; the best is the
         most right choices among the settings within the limits (hindsight).
     """
-    fusions = {f'confirm_threshold {c:g} hold_s {h:g}':
-               FusionSettings('hybrid', confirm_threshold=c, hold_s=h) for c, h in BOUND_GRID}
-    rows = {name: tally(rounds) for name, rounds in decide_all(pairings, fusions).items()}
-    allowed = [name for name, row in rows.items() if within_goal(row)]
-    best = max(allowed, key=lambda name: (rows[name]['right'], -rows[name]['midas']),
-               default=None)
+    decided = decided if decided is not None else grid_decisions(pairings)
+    rows = {name: tally(rounds) for name, rounds in decided.items()}
+    best = best_setting(rows)
     return {'best': dict(rows[best], setting=best) if best else {'setting': None},
             'grid': rows}
+
+
+def held_out_subjects(decided: Dict[str, List[Decided]]) -> Dict:
+    """
+    Leave-subject-out: each subject decided with the setting chosen on the others (module doc).
+
+    :param decided: :func:`grid_decisions`.
+    :returns: ``{'pooled': row (tally of every held-out round), 'subjects': {subject:
+        dict(row, setting=chosen)}}``; a subject for whom no setting keeps the limits on
+        the others is decided with the default (``FusionSettings('hybrid')``).
+    """
+    default = FusionSettings('hybrid')
+    fallback = f'confirm_threshold {default.confirm_threshold:g} hold_s {default.hold_s:g}'
+    subjects = sorted({r.pairing.subject for rounds in decided.values() for r in rounds})
+    held: List[Decided] = []
+    found: Dict = {'subjects': {}}
+    for subject in subjects:
+        on_others = {name: tally([r for r in rounds if r.pairing.subject != subject])
+                     for name, rounds in decided.items()}
+        chosen = best_setting(on_others) or fallback
+        mine = [r for r in decided[chosen] if r.pairing.subject == subject]
+        held += mine
+        found['subjects'][subject] = dict(tally(mine), setting=chosen)
+    found['pooled'] = tally(held)
+    return found
 
 
 def _folder(given: Optional[str], kind: str, finder) -> str:
@@ -412,8 +458,14 @@ def evaluate(pairings: Sequence[Pairing], with_bound: bool = True) -> Dict:
     result['goal'] = {'midas': GOAL_MIDAS, 'wrong': GOAL_WRONG, 'right_within_5s': GOAL_RIGHT,
                       'met': bool(within_goal(result['hybrid'])
                                   and result['hybrid']['right_within_5s'] >= GOAL_RIGHT)}
+    result['gaze people'] = {
+        person: {mode: tally([r for r in rounds if r.pairing.recording.name == person])
+                 for mode, rounds in decided.items()}
+        for person in sorted({p.recording.name for p in pairings})}
     if with_bound:
-        result['bound'] = bound(pairings)['best']
+        grid = grid_decisions(pairings)
+        result['bound'] = bound(pairings, grid)['best']
+        result['held out'] = held_out_subjects(grid)
     looks = {p.look for p in pairings}
     result['rounds'] = {'pairings': len(pairings), 'gaze_rounds_used': len(looks),
                         'gaze_recordings': sorted({p.recording.name for p in pairings})}
@@ -468,9 +520,23 @@ def format_lines(section: Dict) -> List[str]:
             lines.append(_row_line(f"hybrid bound ({best['setting']}, hindsight)", best))
         else:
             lines.append('hybrid bound: no setting of the grid keeps the limits')
+    if section.get('held out'):
+        held = section['held out']
+        lines += ['', 'what a new subject can expect: the hybrid, confirm_threshold x hold_s '
+                  'chosen on the other subjects (leave-subject-out):', *header,
+                  _row_line('**hybrid, held out, pooled**', held['pooled'])]
+        lines += [_row_line(f"{subject} held out ({row['setting']})", row)
+                  for subject, row in held['subjects'].items()]
     lines += ['', 'per subject:', *header]
     for subject, rows in section['subjects'].items():
         lines += [_row_line(f'{subject} {mode}', rows[mode]) for mode in INPUT_MODES]
+    lines += ['', 'per gaze person:', *header]
+    for person, rows in section.get('gaze people', {}).items():
+        lines += [_row_line(f'{person} {mode}', rows[mode]) for mode in INPUT_MODES]
+    rights = [rows['hybrid']['right_within_5s'] for rows in section['subjects'].values()]
+    if rights:
+        lines.append(f'hybrid right within 5 s, lowest-highest subject: '
+                     f'{100 * min(rights):.1f}-{100 * max(rights):.1f} %')
     lines += ['', f"goal met: {section['goal']['met']}; rounds: {section['rounds']}"]
     return lines
 

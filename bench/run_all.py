@@ -49,6 +49,7 @@ import traceback
 from typing import Callable, Dict, List, Optional, Sequence, TextIO
 
 from bench.timing import machine_info
+from eye_bci_ros2.ros.startup import quiet_liblsl
 
 #: Benchmark name -> module providing ``run(quick=False, **sizes) -> dict``, in run order.
 REGISTRY: Dict[str, str] = {
@@ -416,6 +417,7 @@ def _write(path: str, results: Dict) -> None:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run the benchmarks, print each table as it comes, write the JSON; 1 when one failed."""
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     args = parse_args(argv)
     names = args.only or list(REGISTRY)
     results = _existing_results(args.output) if args.only else {}

@@ -73,6 +73,7 @@ from eye_bci_ros2.nodes.marker_projector import MarkerProjector
 from eye_bci_ros2.projection.camera_model import RvizCamera
 from eye_bci_ros2.ros.conversions import cube_marker, gaze_batch_arrays
 from eye_bci_ros2.ros.runner import executor_kind, make_executor, spin_until
+from eye_bci_ros2.ros.startup import quiet_liblsl
 from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS, GAZE_QOS,
                                      GAZE_SAMPLES_TOPIC, LATCHED_QOS, NO_CHOICE_TOPIC,
                                      REQUEST_TOPIC)
@@ -546,6 +547,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Optional[List[str]] = None) -> int:
     """Run the soak; 0 when nothing was lost, no round was wrong and memory stayed flat."""
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     parser = build_parser()
     args = parser.parse_args(argv)
     if not (args.rate > 0 and args.minutes > 0 and args.sample_period > 0

@@ -42,6 +42,7 @@ from eye_bci_ros2.nodes.lsl_gaze_bridge import LslGazeBridge
 from eye_bci_ros2.projection.camera_model import look_at_pose
 from eye_bci_ros2.ros.conversions import arrays_to_pose
 from eye_bci_ros2.ros.runner import make_executor, spin_until
+from eye_bci_ros2.ros.startup import quiet_liblsl
 from eye_bci_ros2.ros.topics import CAMERA_POSE_TOPIC, LATCHED_QOS
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
 from eye_bci_ros2.sim.person import IDEAL_EYE, PRESETS
@@ -125,6 +126,7 @@ def run(quick: bool = False, seeds: Optional[Sequence[int]] = None) -> Dict:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Print the figures (and JSON with --json); status 1 when the goal is missed."""
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     parser = argparse.ArgumentParser(prog='python -m bench.validation',
                                      description=__doc__.strip().split('\n\n')[0])
     parser.add_argument('--quick', action='store_true', help='the offset person only, 5 targets')

@@ -55,6 +55,15 @@ camera has arrived; it asks again after a round without a choice) takes a
 fixation on one as a reaction to them: a person looks at what they want
 before they are asked.
 
+Urgent options (``urgent``: the robot's 'stop').  Resting never chooses
+because a choice must not come from a gaze that was already there; but an
+option whose choice only ever makes things safer must not wait for the gaze
+to look away and back.  While one is offered, a resting fixation on it
+chooses as a fresh one does: once it has lasted ``dwell_s`` within the round
+(its samples from the round start), so a gaze resting on 'stop' when it is
+offered stops the robot as fast as a gaze that lands on it.  Only the urgent
+options: a resting fixation on any other option still chooses nothing.
+
 Still fixations only.  An eye following a moving thing (smooth pursuit) drags
 a dispersion window along; a fixation decides only while the means of the
 first and second halves of its last ``dwell_s`` lie within
@@ -223,13 +232,15 @@ class FixationEvidence:
     :param classifier: maps a region set to the one whose outlines count
         (module doc: only the outline test of a resting fixation uses it);
         None: the set as given.
+    :param urgent: labels a resting gaze chooses too (module doc, "Urgent options").
     """
 
     def __init__(self, start: float, screen: ScreenGeometry, sigma_gaze_deg: float,
                  dwell_s: float, min_samples: int = 1, min_reaction_s: float = 0.1,
                  shown_since: Optional[float] = None,
                  confidence: float = 0.95,
-                 classifier: Optional[Callable[[RegionSet], RegionSet]] = None):
+                 classifier: Optional[Callable[[RegionSet], RegionSet]] = None,
+                 urgent: Tuple[str, ...] = ()):
         """Start an empty round."""
         if not sigma_gaze_deg > 0:
             raise ValueError(f'the gaze error must be > 0 deg, got {sigma_gaze_deg}')
@@ -243,6 +254,9 @@ class FixationEvidence:
         self.min_reaction_s = float(min_reaction_s)
         self.confidence = float(confidence)
         self._classifier = classifier
+        self.urgent = frozenset(label for label in urgent if label)
+        # Whether an urgent option is offered now: a resting fixation may decide then.
+        self._urgent_shown = False
         centre_scale = float(px_per_degree_at(screen.centre_px.reshape(1, 2), screen)[0])
         self._radius_px = FIXATION_RADIUS_DEG * centre_scale
         self._still_px = STILL_DEG * centre_scale
@@ -320,6 +334,8 @@ class FixationEvidence:
             if self._latest is not None and options_moved(self._latest, region_set):
                 self._moved_at = max(self._moved_at, region_set.stamp)
             self._latest = region_set
+            self._urgent_shown = bool(self.urgent) and not self.urgent.isdisjoint(
+                region_set.labels)
         for label in region_set.labels:
             if label not in self._counts:
                 self._counts[label] = 0
@@ -348,10 +364,12 @@ class FixationEvidence:
             if not self._take(stamp, all_x[index], all_y[index], region_set):
                 continue
             current = self._current
-            if confidence is None or not current.fresh or not self._settled(current):
+            if confidence is None or not self._may_decide(current) \
+                    or not self._settled(current):
                 continue
             label, posterior, margin = self._judge_current(current, region_set, 'decision')
-            if label is not None and posterior >= confidence:
+            if label is not None and posterior >= confidence and (
+                    current.fresh or label in self.urgent):
                 self.last_stamp = stamp
                 # As one at a time: the samples after the deciding one are not taken.
                 self.samples -= len(points) - index - 1
@@ -386,7 +404,7 @@ class FixationEvidence:
         if math.hypot(x - centre_x, y - centre_y) > limit:
             return 0
         run = len(stamps) - position
-        if confidence is not None and current.fresh:
+        if confidence is not None and self._may_decide(current):
             # Stamps rise: the samples after which it cannot settle yet are a prefix (by
             # span), or as many as min_samples still needs.
             before_dwell = int(np.count_nonzero(
@@ -424,9 +442,13 @@ class FixationEvidence:
         pulled promptly.
         """
         current = self._current
-        if self.decision is not None or current is None or not current.fresh:
+        if self.decision is not None or current is None or not self._may_decide(current):
             return None
         return current.first + self.dwell_s
+
+    def _may_decide(self, fixation: _Fixation) -> bool:
+        """Whether a fixation may choose: fresh, or any while an urgent option is offered."""
+        return fixation.fresh or self._urgent_shown
 
     def early(self, confidence: float) -> Optional[Decision]:
         """Return the early decision if made (samples are tested as they arrive)."""
@@ -462,7 +484,7 @@ class FixationEvidence:
             elif posterior < confidence:
                 reason = (f"{where} is not clearly on one option ('{label}' posterior "
                           f'{posterior:.2f})')
-            elif not fixation.fresh:
+            elif not fixation.fresh and label not in self.urgent:
                 reason = (f"the gaze rested {'on' if inside else 'near'} '{label}' from the "
                           'round start: look away and back to choose it')
             else:
@@ -484,7 +506,7 @@ class FixationEvidence:
         confidence = self.confidence
         out = dict.fromkeys(self.labels, 0.0)
         current = self._current
-        if current is None or self._latest is None or not current.fresh:
+        if current is None or self._latest is None or not self._may_decide(current):
             return out
         # Cached as the early decision's test is: the feedback asks ~30 times a second,
         # and a fixation's centre settles within a few samples.

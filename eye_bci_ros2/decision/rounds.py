@@ -66,7 +66,8 @@ def _fixation_evidence(settings: 'ArbiterSettings', start: float,
                             shown_since=shown_since,
                             dwell_s=settings.dwell_s, min_samples=settings.min_samples,
                             min_reaction_s=settings.min_reaction_s,
-                            confidence=settings.confidence, classifier=settings.regions)
+                            confidence=settings.confidence, classifier=settings.regions,
+                            urgent=(settings.urgent_label,))
 
 
 def _count_evidence(settings: 'ArbiterSettings', start: float,
@@ -257,6 +258,10 @@ class ArbiterSettings:
         True, "Tolerant rule: count the tolerance from the option's centre (none for options "
         'larger than the gaze error); false = from its edge').field(rule=True)
     min_share: float = MIN_SHARE.field(rule=True)
+    urgent_label: str = Setting(
+        'stop', "Fixation rule: the option a gaze already resting on it chooses (the menu's "
+        "'stop': a stop must not wait for the gaze to look away and back), as fast as a "
+        "fresh look; '' = none").field(rule=True)
     # The person's screen: one declaration with gaze_validation's.
     screen_width: int = SCREEN_WIDTH.field(rule=True)
     screen_height: int = SCREEN_HEIGHT.field(rule=True)

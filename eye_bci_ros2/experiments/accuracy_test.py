@@ -57,6 +57,7 @@ from eye_bci_ros2.projection.camera_model import (DEFAULT_IMAGE_SIZE, DEFAULT_PA
                                                   RVIZ_FOV_Y_DEG, RvizCamera)
 from eye_bci_ros2.projection.geometry import polygon_signed_area
 from eye_bci_ros2.ros.package_files import default_scene_path
+from eye_bci_ros2.ros.startup import quiet_liblsl
 from eye_bci_ros2.sim.person import GazeParams, GazeSimulator, ORIGINAL_TOBII_4C, PRESETS
 from eye_bci_ros2.task.scene import load_scene, Scene
 
@@ -472,6 +473,7 @@ def _parse_sizes(text: str) -> Tuple[float, ...]:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run the accuracy test; return the exit code (0 done, 1 failed, 2 bad usage)."""
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

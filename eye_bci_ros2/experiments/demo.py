@@ -17,9 +17,10 @@ What runs (all real, nothing mocked but RViz and the person):
   room and offers its tables, the person looks at the scripted table, the
   arbiter decides again; the menu asks to confirm the table ('go' / 'back':
   the person looks at 'go' when the table chosen is the scripted one, else
-  at 'back'), sends the robot (``sim_robot``, the simulated nav2 robot on the
-  scene's map, driving ``robot_time_scale`` times faster than real time so
-  the demo stays quick) and offers 'stop' while it drives: the person looks
+  at 'back'; after 'go', at 'send', the second look that appears then),
+  sends the robot (``sim_robot``, the simulated nav2 robot on the scene's map,
+  driving ``robot_time_scale`` times faster than real time so the demo stays
+  quick) and offers 'stop' while it drives: the person looks
   away (at a corner of the screen, off the panel: that neither stops nor
   sends it), and the menu offers the rooms again when it has arrived.
 
@@ -97,6 +98,7 @@ from eye_bci_ros2.ros.feedback_markers import option_label, OptionMarkers
 from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.ros.runner import make_executor, spin_until as _spin_until
 from eye_bci_ros2.ros.ssvep_messages import msg_to_stimulus_map
+from eye_bci_ros2.ros.startup import quiet_liblsl
 from eye_bci_ros2.ros.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC,
                                      GAZE_QOS, GAZE_SAMPLES_TOPIC, GOAL_POSE_TOPIC, GOAL_QOS,
                                      LATCHED_QOS, MAP_QOS, MAP_TOPIC, MENU_ANSWER_TOPIC,
@@ -109,7 +111,7 @@ from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
 from eye_bci_ros2.sim.person import GazeParams, ORIGINAL_TOBII_4C, PRESETS
 from eye_bci_ros2.sim.robot import SimRobot
 from eye_bci_ros2.sim.rviz_view import SimRvizView
-from eye_bci_ros2.task.menu import BACK_LABEL, GO_LABEL, STOP_LABEL
+from eye_bci_ros2.task.menu import BACK_LABEL, GO_LABEL, SEND_LABEL, STOP_LABEL
 from eye_bci_ros2.task.scene import load_scene, Scene
 
 #: The person's screen, px (the Linux machine of the original report).
@@ -130,8 +132,8 @@ QUICK_PERSON = ORIGINAL_TOBII_4C.with_changes(
 ASK_MODES = ('on-arrival', 'on-change')
 #: Answers per step the time limit of the whole run allows for.
 MAX_ATTEMPTS = 3
-#: Steps of a round: the room, the table, its confirmation, the drive.
-STEPS_PER_ROUND = 4
+#: Steps of a round: the room, the table, its confirmation ('go', 'send'), the drive.
+STEPS_PER_ROUND = 5
 #: What may choose (the arbiter's input_mode): fusion's modes.
 INPUTS = INPUT_MODES
 #: Gaze samples that must reach the pipeline before the experiment starts.
@@ -611,6 +613,12 @@ class ExperimentDriver(Node):
             # Seen which table was chosen: 'go' if it is the one meant, else 'back'.
             self.step = 'confirm'
             self.intended = GO_LABEL if self._pending == f'{room}/{table}' else BACK_LABEL
+        elif labels == {SEND_LABEL}:
+            # After 'go': the second look, at 'send' where it appeared (if 'go' was meant).
+            self.step = 'send'
+            self.intended = SEND_LABEL if self._pending == f'{room}/{table}' else None
+            if self.intended is None:
+                self.streamer.set_target(REST_XY, pylsl.local_clock())
         elif labels == {STOP_LABEL}:
             # The robot drives: the person looks away from 'stop' (off the panel).
             self.step, self.intended = 'drive', None
@@ -682,11 +690,17 @@ class ExperimentDriver(Node):
         self.selections.append(selection)
         if self.step == 'tables' and label != BACK_LABEL:
             self._pending = label
-        elif self.step == 'confirm' and label == GO_LABEL:
+        elif (self.step == 'confirm' and label == GO_LABEL and not self._send_rounds()) or (
+                self.step == 'send' and label == SEND_LABEL):
             table = next(s for s in reversed(self.selections) if s.step == 'tables')
             self._drive = (table, answered_at)
         # The round ends when the robot has arrived (_on_progress).
         return selection
+
+    def _send_rounds(self) -> int:
+        """Return the menu's send_rounds (0: 'go' sends the robot at once)."""
+        return int(self.menu.get_parameter('send_rounds').value) if self.menu is not None \
+            else 0
 
     def menu_state(self) -> str:
         """Return what the menu waits for (its node's state), '' when unknown."""
@@ -885,7 +899,10 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                                    'early_decision': options.early,
                                    'input_mode': options.input_mode},
                 'choice_menu': {'scene_file': scene_path, 'repeat': True,
-                                'ask_on_arrival': options.ask == 'on-arrival'},
+                                'ask_on_arrival': options.ask == 'on-arrival',
+                                # 'send' is one option: SSVEP has no other to tell it from,
+                                # and its EEG confirms 'go' already (docs/selection.md).
+                                **({} if options.input_mode == GAZE else {'send_rounds': 0})},
             }, with_menu=True)
             named = dict(zip(NODE_NAMES + ('choice_menu',), nodes))
             log(f"decision rule: {named['choice_arbiter'].settings.describe()}")
@@ -1170,6 +1187,7 @@ def options_from_args(args: argparse.Namespace) -> DemoOptions:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run the demo; return 0 when it finished, 1 when something failed."""
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     parser = build_parser()
     args = parser.parse_args(argv)
     options = options_from_args(args)

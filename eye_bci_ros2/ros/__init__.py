@@ -4,6 +4,7 @@ The ROS 2 plumbing the nodes share: registry, runner, parameters, topics, conver
 Each module is one piece of the adapters' common ground, not a node:
 
 * ``registry``: the one list of executables and the nodes they run;
+* ``startup``: an executable's process prepared before its imports (console scripts);
 * ``runner``: the thin Jazzy ``main``, the executors, spin helpers;
 * ``parameters``: parameters declared from a table, validated, applied live;
 * ``screen_parameters``: the person's screen as one parameter table;

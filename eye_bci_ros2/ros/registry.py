@@ -89,9 +89,14 @@ EXECUTABLES: Tuple[Executable, ...] = (
 )
 
 
+#: The module every console script enters through: it prepares the process, then imports the
+#: executable's module and runs its ``main`` (:mod:`eye_bci_ros2.ros.startup`).
+STARTUP_MODULE = 'eye_bci_ros2.ros.startup'
+
+
 def console_scripts() -> Tuple[str, ...]:
-    """Return setuptools' ``console_scripts``: ``'<name> = <module>:main'`` per executable."""
-    return tuple(f'{e.name} = {e.module}:main' for e in EXECUTABLES)
+    """Return setuptools' ``console_scripts``: ``'<name> = <startup>:<name>'`` per executable."""
+    return tuple(f'{e.name} = {STARTUP_MODULE}:{e.name}' for e in EXECUTABLES)
 
 
 def parameter_nodes() -> Tuple[Executable, ...]:

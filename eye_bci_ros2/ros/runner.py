@@ -25,7 +25,7 @@ code that holds the interpreter (where no Python thread runs, and the ignored
 signals would leave it to SIGKILL) ends :data:`HARD_LIMIT_S` later through
 ``faulthandler``'s own thread: status 1 and the stacks where it hung.  A
 normal stop exits 0.  A Ctrl-C before these handlers (during the imports) ends
-the process quietly with status 0 (``eye_bci_ros2/__init__.py``), also when
+the process quietly with status 0 (:mod:`eye_bci_ros2.ros.startup`), also when
 an import swallowed it: nothing is started then.
 A node that does one job and ends (``gaze_validation``) sets its attribute
 ``exit_status`` (an int, None while it runs): the loop stops and the process
@@ -69,8 +69,8 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
-from eye_bci_ros2 import ctrl_c_pending
 from eye_bci_ros2.ros.parameters import quote_param_rules, warn_unknown_overrides
+from eye_bci_ros2.ros.startup import ctrl_c_pending, quiet_liblsl
 
 #: rcl's error type (a bad params file, a malformed --ros-args rule).  rclpy raises it
 #: from ``rclpy.init`` but exports it only from its private C extension
@@ -313,6 +313,7 @@ def spin_nodes(make_nodes: Callable[[], List[Node]], args: Optional[List[str]] =
     argv = [arg for arg in argv if arg not in [option for option, _ in options]]
     if ctrl_c_pending():    # a Ctrl-C during the imports that one of them swallowed
         sys.exit(0)
+    quiet_liblsl()      # also for ``python -m``, which skips the console script's start-up
     stop = threading.Event()
     _stop_on_signals(stop)
     try:

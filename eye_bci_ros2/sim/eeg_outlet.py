@@ -24,6 +24,7 @@ from typing import Callable, List, Optional, Sequence, Tuple
 import numpy as np
 import pylsl
 
+from eye_bci_ros2.ros.startup import quiet_liblsl
 from eye_bci_ros2.sim.eeg import EegSimulator, REALISTIC_SUBJECTS, SUBJECTS
 from eye_bci_ros2.sim.lsl_outlet import OutletThread, stream_info
 from eye_bci_ros2.ssvep.layouts import ANY, LAYOUT_NAMES
@@ -171,6 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run ``sim_eeg`` until the duration ends or Ctrl-C."""
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format='%(message)s')
     try:

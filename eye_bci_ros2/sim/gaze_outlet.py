@@ -49,6 +49,7 @@ import pylsl
 import yaml
 
 from eye_bci_ros2.gaze.profiles import DEFAULT_PROFILE, PROFILES
+from eye_bci_ros2.ros.startup import quiet_liblsl
 from eye_bci_ros2.sim.lsl_outlet import OutletThread, stream_info
 from eye_bci_ros2.sim.person import (CONSUMER_TRACKER, GazeParams, GazeSimulator, GazeTrace,
                                      IDEAL_EYE, PRESETS, Target)
@@ -375,6 +376,7 @@ def params_from_args(args: argparse.Namespace) -> GazeParams:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run ``sim_gaze``: stream until --duration or Ctrl-C; returns the exit code."""
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.replay:

@@ -68,7 +68,15 @@ every input mode) goes back to the tables, no goal: a person who only looks
 around answers it by chance too, but late (``python -m bench.confirmation
 --midas``: a 'go' by the Midas touch comes a median 18 s after the table,
 every intended 'go' measured in the first two 1 s rounds), so asking for
-ever only lets a stray 'go' come.  While the robot drives, the menu offers
+ever only lets a stray 'go' come.  **A second look** (``send_rounds``, 1):
+'go' chosen does not send yet; 'send' (:data:`SEND_LABEL`,
+:func:`send_marker`) appears where the gaze was not and is asked at once;
+only a fresh fixation on it within ``send_rounds`` rounds sends the goal,
+else back to the tables.  A person who means 'go' looks at 'send' next (one
+short saccade and fixation); a wandering gaze that chose 'go' by chance
+seldom lands on a target that just appeared elsewhere within a second
+(docs/selection.md, "Looking around without intent": each step's share on
+real gaze).  While the robot drives, the menu offers
 ``stop`` (:func:`stop_marker`) and asks at once and again after each round
 without a choice; ``stop`` sends a goal at the robot's pose from odometry
 (:meth:`MenuProtocol.on_odometry`).  Looking away chooses nothing: the robot
@@ -108,6 +116,9 @@ BACK_LABEL = 'back'
 #: Labels of the confirmation (send the robot) and of the stop while it drives.
 GO_LABEL = 'go'
 STOP_LABEL = 'stop'
+#: Label of the second look that confirms 'go' (``send_rounds``): it appears once 'go' is
+#: chosen, where the gaze was not (:func:`send_marker`).
+SEND_LABEL = 'send'
 #: Marker namespaces of the steps of the menu.
 ROOMS_NS = 'rooms'
 TABLES_NS = 'tables'
@@ -157,6 +168,8 @@ class ProtocolSettings:
     :param drive_timeout_s: a robot that comes no nearer for this long is reported, s.
     :param confirm_rounds: a confirmation asked this many times without an answer
         returns to the tables, no goal.
+    :param send_rounds: 'go' is confirmed by a second look, at 'send' (module doc), asked
+        this many rounds; unanswered: back to the tables, no goal (0: 'go' sends at once).
     """
 
     ask_on_arrival: bool = True
@@ -177,7 +190,8 @@ class ProtocolSettings:
     goal_tolerance_m: float = 0.2
     goal_tolerance_deg: float = 15.0
     drive_timeout_s: float = 10.0
-    confirm_rounds: int = 5
+    confirm_rounds: int = 2
+    send_rounds: int = 1
 
     def __post_init__(self):
         """Reject values the protocol cannot run with."""
@@ -189,6 +203,9 @@ class ProtocolSettings:
                 self.confirm_rounds, int) or self.confirm_rounds < 1:
             raise ValueError(f'confirm_rounds must be an integer >= 1, got '
                              f'{self.confirm_rounds!r}')
+        if isinstance(self.send_rounds, bool) or not isinstance(
+                self.send_rounds, int) or self.send_rounds < 0:
+            raise ValueError(f'send_rounds must be an integer >= 0, got {self.send_rounds!r}')
         for name in ('arrive_tolerance_m', 'arrive_tolerance_deg', 'settle_s', 'look_away_s',
                      'look_away_margin_px', 'pause_after_s', 'min_answer_s',
                      'goal_tolerance_m', 'goal_tolerance_deg', 'drive_timeout_s'):
@@ -377,6 +394,41 @@ def confirm_markers(view: View, chosen: CubeMarker, fov_y_deg: float = 45.0,
                         aspect))
 
 
+#: How far 'send' lies from 'go', vertically, in half-heights (0.7: 252 px of a 720 px
+#: panel, about 6.1 deg on the default screen: a saccade of its own, well beyond the
+#: fixation rule's 2 deg resting radius and its 3 sigma halo around an option).
+SEND_DOWN = 0.7
+#: ... and no nearer the view's top or bottom edge than this, half-heights from the centre.
+SEND_EDGE = 0.85
+
+
+def send_marker(view: View, go: CubeMarker, avoid: Sequence[CubeMarker] = (),
+                fov_y_deg: float = 45.0, aspect: float = 16.0 / 9.0) -> CubeMarker:
+    """
+    Return the 'send' option: it appears once 'go' is chosen, :data:`SEND_DOWN` above or below.
+
+    The Midas touch's last gate: a wandering gaze that chose 'go' by chance
+    must now, within ``send_rounds`` rounds, make a fresh fixation on a
+    target that was not there before and lies where the gaze was not.  Of the
+    places above and below 'go' (within :data:`SEND_EDGE`), the one farthest
+    from everything else worth looking at (``avoid``: the tables, 'back', where
+    'stop' will be) on the screen.  A person who means 'go' looks at it at once.
+    """
+    right, down = image_place(view, go.position, fov_y_deg, aspect)
+    others = np.array([image_place(view, marker.position, fov_y_deg, aspect)
+                       for marker in avoid]).reshape(-1, 2) * [aspect, 1.0]
+    best, clearance = None, -math.inf
+    for send_down in (down - SEND_DOWN, down + SEND_DOWN):
+        send_down = float(np.clip(send_down, -SEND_EDGE, SEND_EDGE))
+        # Distances in half-heights (the image's x scaled by the aspect).
+        nearest = float(np.min(np.hypot(*(others - [right * aspect, send_down]).T))) \
+            if len(others) else 0.0
+        if nearest > clearance:
+            best, clearance = send_down, nearest
+    return view_square(view, SEND_LABEL, right, best, STEP_SIDE, GO_COLOUR, fov_y_deg,
+                       aspect)
+
+
 def stop_marker(go: CubeMarker, back: CubeMarker) -> CubeMarker:
     """
     Return the stop option shown while the robot drives: where 'back' was.
@@ -466,6 +518,7 @@ class MenuProtocol:
         self._validation_runs = 0
         self.pending: Optional[str] = None          # a chosen table waiting for 'go'
         self._unanswered = 0                         # its confirmation's rounds without one
+        self._sending = False                        # 'go' chosen: 'send' offered
         self.drive: Optional[_Drive] = None
         self._robot: Optional[np.ndarray] = None    # the robot's pose from odometry (3,)
 
@@ -542,7 +595,7 @@ class MenuProtocol:
         if self.drive is not None:
             return self._offer_stop(now)
         if self.pending is not None:
-            return self._offer_confirm(now)
+            return self._offer_send(now) if self._sending else self._offer_confirm(now)
         return self._offer_tables(self.room, now)
 
     def on_camera_pose(self, position, quaternion, now: float) -> List[Action]:
@@ -652,7 +705,7 @@ class MenuProtocol:
         if self.drive is not None:
             return [Answer(label), *self._stop(now)]
         if self.pending is not None:
-            return [Answer(label), *self._confirmed(label == GO_LABEL, now)]
+            return [Answer(label), *self._confirm_answer(label, now)]
         if label == BACK_LABEL:
             return [Answer(label), Log('info', 'back to the rooms'), *self._offer_rooms(now)]
         if self.settings.robot_goals and label in self.goals:
@@ -673,9 +726,12 @@ class MenuProtocol:
             return []  # the round the request replaced, or one in flight with it
         if self.pending is not None:
             self._unanswered += 1
-            if self._unanswered >= self.settings.confirm_rounds:
-                return [Log('info', f"no answer to '{self.pending}' in {self._unanswered} "
-                                    'rounds'), *self._confirmed(False, now)]
+            limit = self.settings.send_rounds if self._sending else self.settings.confirm_rounds
+            if self._unanswered >= limit:
+                what = SEND_LABEL if self._sending else self.pending
+                self._sending = False
+                return [Log('info', f"no answer to '{what}' in {self._unanswered} rounds"),
+                        *self._confirmed(False, now)]
         self._asked_at = now
         return [Log('info', f'no choice ({reason}): asking again'), Request()]
 
@@ -822,6 +878,7 @@ class MenuProtocol:
     def _offer_rooms(self, now: float) -> List[Action]:
         self.room = None
         self.pending = None
+        self._sending = False
         return self._offer([room.marker for room in self.scene.rooms], ROOMS_NS,
                            self.scene.overview, now)
 
@@ -832,8 +889,26 @@ class MenuProtocol:
             markers.append(back_marker(room.view))
         return self._offer(markers, TABLES_NS, room.view, now)
 
+    def _confirm_answer(self, label: str, now: float) -> List[Action]:
+        """Act on the confirmation's answer: 'go' offers 'send' (send_rounds), 'send' sends."""
+        if label == GO_LABEL and self.settings.send_rounds and not self._sending:
+            return [Log('info', f"'go' for '{self.pending}': look at 'send' to send the robot"),
+                    *self._offer_send(now)]
+        self._sending = False
+        return self._confirmed(label in (GO_LABEL, SEND_LABEL), now)
+
+    def _offer_send(self, now: float) -> List[Action]:
+        """Offer 'send' and ask at once: it is where the gaze was not (no look-away gate)."""
+        self._unanswered = 0
+        self._sending = True
+        self._look_away = None
+        go, back = confirm_markers(self.room.view, self.room.table(self.pending).marker)
+        send = send_marker(self.room.view, go, [back] + [t.marker for t in self.room.tables])
+        return self._offer([send], CONFIRM_NS, self.room.view, now)
+
     def _offer_confirm(self, now: float) -> List[Action]:
         self._unanswered = 0
+        self._sending = False
         go, back = confirm_markers(self.room.view, self.room.table(self.pending).marker)
         return self._offer([go, back], CONFIRM_NS, self.room.view, now)
 

@@ -21,7 +21,10 @@ For the PyPI set-up, where there is no ``ros2`` command (``ros2 topic echo``,
   the pose topic once a publisher exists: until then the static view),
   marker_projector for options (``choices``) and a camera pose
   (``camera/pose``), the arbiter for options on screen (``choices/regions``)
-  and gaze, the menu as its ``choice_menu/state`` says.
+  and gaze, the menu as its ``choice_menu/state`` says;
+* ``choice_menu/progress`` (std_msgs/String, latched): what the robot the menu
+  sent is doing, in the menu's words (driving and the distance left, arrived,
+  stopped); ``-`` before the menu sent one.
 
 On a terminal it redraws a few status lines in place; when stdout is not a
 terminal (a pipe, a log file) it prints one plain ``key=value`` line per
@@ -65,7 +68,8 @@ from eye_bci_ros2.ros.registry import menu, pipeline
 from eye_bci_ros2.ros.runner import make_executor
 from eye_bci_ros2.ros.topics import (CAMERA_POSE_TOPIC, CHOICE_TOPIC, CHOICES_QOS, CHOICES_TOPIC,
                                      EVENT_QOS, GAZE_ON_SCREEN_TOPIC, GAZE_SAMPLES_TOPIC,
-                                     LATCHED_QOS, LISTENER_QOS, MENU_STATE_TOPIC, REGIONS_TOPIC)
+                                     LATCHED_QOS, LISTENER_QOS, MENU_PROGRESS_TOPIC,
+                                     MENU_STATE_TOPIC, REGIONS_TOPIC)
 
 #: Rates are counted over the last this many seconds of arrivals.
 RATE_WINDOW_S = 2.0
@@ -186,7 +190,8 @@ class Monitor(Node):
         for message_type, topic, qos in ((PoseStamped, CAMERA_POSE_TOPIC, LATCHED_QOS),
                                          (MarkerArray, CHOICES_TOPIC, CHOICES_QOS),
                                          (Bool, GAZE_ON_SCREEN_TOPIC, LATCHED_QOS),
-                                         (String, MENU_STATE_TOPIC, LATCHED_QOS)):
+                                         (String, MENU_STATE_TOPIC, LATCHED_QOS),
+                                         (String, MENU_PROGRESS_TOPIC, LATCHED_QOS)):
             self.create_subscription(message_type, topic, self._latch(topic), qos)
         #: The pipeline's nodes seen on the graph, and when what the status shows last changed
         #: (a node seen or gone, a latched message; monotonic s).
@@ -299,8 +304,13 @@ class Monitor(Node):
             'gaze_xy': None if self.gaze.newest_xy is None else self.gaze.newest_xy.tolist(),
             'gaze_region': self.gaze_region(), 'options': list(self.labels),
             'decisions': [text for _, text in self.decisions], 'problem': self.problem,
-            'nodes': self.waiting(now),
+            'nodes': self.waiting(now), 'robot': self.robot(),
         }
+
+    def robot(self) -> Optional[str]:
+        """Return what the robot the menu sent is doing (``choice_menu/progress``), or None."""
+        progress = self.latched.get(MENU_PROGRESS_TOPIC)
+        return progress.data if progress is not None and progress.data else None
 
 
 def _rate(value: Optional[float]) -> str:
@@ -336,7 +346,8 @@ def status_lines(status: dict, decisions: Sequence[Tuple[float, str]] = ()) -> L
     offered = f'options  {len(options)}: {shown}' if options else 'options  none offered'
     recent = [f"'{text}' {_clock(at)}" for at, text in list(decisions)[-DECISIONS_SHOWN:]]
     chosen = 'choice   ' + ('; '.join(reversed(recent)) if recent else '-')
-    lines = [gaze, where, offered, chosen] + node_lines(status['nodes'])
+    robot = 'robot    ' + (status['robot'] or '-')
+    lines = [gaze, where, offered, chosen, robot] + node_lines(status['nodes'])
     if status['problem']:
         lines.append(f"problem  {status['problem']} ({status['bad_messages']} so far)")
     return lines
@@ -367,6 +378,8 @@ def status_line(status: dict, elapsed_s: float) -> str:
         'region=' + (status['gaze_region'] or '-'),
         'options=' + ('|'.join(status['options']) or '-'),
         'last_choice=' + (status['decisions'][-1] if status['decisions'] else '-'),
+        # The menu's words, one field: "driving to 'table_2': 1.4 m left" -> robot=driving_to_...
+        'robot=' + ('_'.join((status['robot'] or '-').split())),
         # Each node seen, with what it waits for: lsl_gaze_bridge(gaze_stream),choice_arbiter
         'nodes=' + (','.join(name + (f"({'+'.join(key for key, _ in waits)})" if waits else '')
                              for name, waits in status['nodes'].items()) or '-'),
@@ -421,8 +434,8 @@ def build_parser() -> argparse.ArgumentParser:
     """Return the command-line parser."""
     parser = argparse.ArgumentParser(
         prog='monitor', description=__doc__.split('\n\n')[0].strip(),
-        epilog='Listens to gaze/samples (PointCloud2), choices/regions (MarkerArray) and '
-               'choice (String). ROS arguments go after --ros-args.')
+        epilog='Listens to gaze/samples (PointCloud2), choices/regions (MarkerArray), '
+               'choice and choice_menu/progress (String). ROS arguments go after --ros-args.')
     when = parser.add_mutually_exclusive_group()
     when.add_argument('--once', action='store_true',
                       help="listen for at least one --period, until the pipeline's nodes are "

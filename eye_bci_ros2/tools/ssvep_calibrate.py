@@ -45,6 +45,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from eye_bci_ros2.ros.startup import quiet_liblsl
 from eye_bci_ros2.sim.eeg import calibration_session, EegSimulator, SUBJECTS
 from eye_bci_ros2.ssvep.layouts import LAYOUT_NAMES, LAYOUTS, parse_channels, resolve_channels
 from eye_bci_ros2.ssvep.online import DEFAULT_ONSET_S
@@ -259,6 +260,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     fails afterwards is saved to a fallback file (named in one line), so a session is
     never lost.
     """
+    quiet_liblsl()     # before the first LSL stream: liblsl quiet, as every executable
     args = build_parser().parse_args(argv)
     for path in filter(None, (args.output, args.save_recording)):
         problem = unwritable(npz_path(path))

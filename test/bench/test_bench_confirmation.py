@@ -1,11 +1,14 @@
 """bench/confirmation.py: wrong goals after the confirmation step, on real recorded gaze."""
 
+import json
+
 from lab_recording import write_lab_csv
 import numpy as np
 import pytest
 
 from bench import confirmation
 from eye_bci_ros2.recordings import find_data
+from eye_bci_ros2.task.menu import ProtocolSettings
 
 REAL = find_data('real_gaze')
 
@@ -48,63 +51,93 @@ def test_rounds_put_back_on_the_dot_and_go_beside_it():
     assert rounds[1][1][0, 0] == 360.0      # the side that keeps 'go' on the screen
 
 
-# A person who looks around with no intent: 0.8 s at T, 1.7 s at another place, and again.
-# Table 0 at T; 'back' on T in the confirmation step, 'go' at G; nothing else is looked at.
-T, G, ELSEWHERE = (400.0, 540.0), (1400.0, 540.0), (1400.0, 150.0)
-TABLES = np.array([T, (960.0, 150.0), (960.0, 930.0), (1800.0, 100.0)])   # 3 tables, 'back'
-SECONDS = 50.2
+# A person who looks around with no intent, from place to place (screen px); nothing else
+# is looked at.  Rooms: room 0 at R; its tables: table 0 at T, 'back' far away; the
+# confirmation: 'go' at G, 'back' on T; 'send' at S.
+R, T, G, S = (300.0, 200.0), (400.0, 540.0), (1400.0, 540.0), (1400.0, 900.0)
+ELSEWHERE = (960.0, 100.0)
+FAR = [(1800.0, 100.0), (1800.0, 300.0), (1800.0, 500.0)]
+PLACES = {'rooms': lambda: np.array([R] + FAR),
+          'tables': lambda room: np.array([T, (960.0, 300.0), (960.0, 760.0), FAR[0]]),
+          'confirm': lambda table: np.array([G, table]),
+          'send': lambda go: np.array([S])}
+STEP_S = 0.6
+SECONDS = 48.3
 
 
-def looking_around(folder, second_place):
-    """Write and load a recording whose gaze rests 0.8 s at T, 1.7 s at second_place, ..."""
+def looking_around(folder, path):
+    """Write and load a recording whose gaze rests STEP_S at each place of ``path``, again."""
     stamps = np.arange(0.0, SECONDS, 1 / 60)
-    at_t = stamps % 2.5 < 0.8
-    noise = np.random.default_rng(0).normal(0, 1, (len(stamps), 2))
-    points = np.where(at_t[:, None], T, second_place) + noise
+    where = np.array(path)[(stamps // STEP_S).astype(int) % len(path)]
+    points = where + np.random.default_rng(0).normal(0, 1, (len(stamps), 2))
     write_lab_csv(folder, stamps, points, np.array([[1800.0, 980.0]]), SECONDS)
     recording, = confirmation.load_folder(folder)
     return recording
 
 
-def midas_goals(recording, timeout_s=None):
-    """Replay it with the tables at TABLES and the confirmation's 'go' at G, 'back' on T."""
+def replay(recording, **settings):
+    """Replay it through the whole menu with the options at PLACES."""
     rule = confirmation.settings_for_recording(confirmation.RULES['default'], recording)
-    assert rule.dwell_s < 0.8 and rule.window_s == 1.0
-    return confirmation.midas_goals(recording, rule, layouts=1, tables=lambda: TABLES,
-                                    confirm=lambda table: np.array([G, table]),
-                                    timeout_s=timeout_s)
+    assert rule.dwell_s < STEP_S and rule.window_s == 1.0
+    return confirmation.menu_replay(recording, rule, ProtocolSettings(**settings), layouts=1,
+                                    places=PLACES)
 
 
-def test_a_glance_at_a_table_then_at_go_is_a_robot_goal(tmp_path):
-    # Each 2.5 s from 2.5 s on (the gaze on T at 0 s was there before the tables: not a
-    # reaction to them) a fixation on T chooses table 0, the next one on G sends the robot
-    # (before the first round of the confirmation ends), and a new room's tables appear.
-    # 19 cycles (at 2.5 ... 47.5 s) in 50.2 s: 19 goals, none undone.
-    recording = looking_around(tmp_path, G)
-    total = midas_goals(recording)
-    assert (total['tables'], total['goals'], total['back']) == (19, 19, 0), total
-    assert 48.4 / 60 < total['minutes'] <= SECONDS / 60
-    # Each 'go' 0.8 s after its table: 2 rounds of the confirmation (2 s) keep every one.
-    assert midas_goals(recording, timeout_s=2.0)['goals'] == 19
+def test_a_look_at_a_room_a_table_go_and_send_is_a_robot_goal(tmp_path):
+    # Each cycle R, T, G, S (2.4 s) from 2.4 s on (the gaze on R at 0 s was there before the
+    # rooms: not a reaction to them) chooses the room, the table, 'go', then 'send' (it
+    # appeared at 'go', the look lands on it within its one round): 19 cycles, 19 goals.
+    total = replay(looking_around(tmp_path, [R, T, G, S]))
+    assert total['goals'] == total['send passed'] == 19, total
+    assert total['rooms passed'] == total['tables passed'] == total['confirm passed'] == 19
+    assert total['send offered'] == 19 and total['send unanswered'] == 0
+    assert 46.0 / 60 < total['minutes'] <= SECONDS / 60
+    # Each goal 1.2 s after its table (table 0.15 s into T, send 0.15 s into S).
+    assert np.allclose(total['go after'], 1.2, atol=0.05)
 
 
-def test_gaze_that_comes_back_to_the_table_undoes_it(tmp_path):
-    # The gaze leaves T for a place where nothing is shown, and comes back 2.5 s later: a
-    # fixation on 'back' (on T).  The same tables return under the gaze resting on T (not a
-    # reaction to them); it leaves and comes back: a table every 5 s (2.5 ... 47.5 s), each
-    # one undone 2.5 s later but the last (the recording ends during its confirmation).
-    recording = looking_around(tmp_path, ELSEWHERE)
-    total = midas_goals(recording)
-    assert (total['tables'], total['goals'], total['back']) == (10, 0, 9), total
-    # 2 rounds (2 s): back to the tables 2 s after each table (the gaze elsewhere),
-    # and the next landing on T 0.35 s later chooses the table again: one every 2.5 s.
-    total = midas_goals(recording, timeout_s=2.0)
-    assert (total['tables'], total['timeouts'], total['goals'], total['back']) == \
-        (19, 19, 0, 0), total
+def test_go_without_the_look_at_send_is_no_goal(tmp_path):
+    # The same wandering gaze, but after 'go' it goes elsewhere: without 'send'
+    # (send_rounds 0) every 'go' is a goal; with it (the default) none is, each 'send'
+    # unanswered after its round and the tables offered again.
+    recording = looking_around(tmp_path, [R, T, G, ELSEWHERE])
+    assert replay(recording, send_rounds=0)['goals'] == 19
+    total = replay(recording)
+    assert total['goals'] == 0 and total['confirm passed'] >= 19
+    assert total['send unanswered'] == total['send offered'] == total['confirm passed']
+
+
+def test_an_unanswered_confirmation_returns_to_the_tables(tmp_path):
+    # Table chosen, then the gaze stays away from 'go' and 'back' for 1.2 s: after
+    # confirm_rounds (2) rounds the tables again, no goal; asked for ever (a large
+    # confirm_rounds) the confirmation waits until the gaze comes back to T: 'back'.
+    recording = looking_around(tmp_path, [R, T, ELSEWHERE, ELSEWHERE])
+    total = replay(recording)
+    assert total['goals'] == 0 and total['confirm unanswered'] >= 10, total
+    assert total['confirm back'] == 0
+    patient = replay(recording, confirm_rounds=1000)
+    assert patient['confirm unanswered'] == 0 and patient['confirm back'] >= 9, patient
+
+
+def test_send_lies_where_the_gaze_was_not(tmp_path):
+    recording = looking_around(tmp_path, [R])
+    go = np.array([1400.0, 300.0])                    # above the screen's centre
+    send, = confirmation.send_layout(recording, go, np.random.default_rng(0))
+    assert send[0] == go[0] and send[1] > go[1]       # below 'go', towards the centre
+    assert send[1] - go[1] == pytest.approx(
+        confirmation.SEND_GAP_DEG * confirmation._ppd(recording, go))
+    assert confirmation.SEND_GAP_DEG > 2 * 2.0        # beyond the resting radius, twice
+
+
+def test_the_bounds_are_the_rule_of_three_without_events():
+    assert confirmation.poisson_upper(0, 100.0, 0.95) == pytest.approx(3.0 / 100, rel=0.01)
+    assert confirmation.binomial_upper(0, 1000, 0.95) == pytest.approx(3.0 / 1000, rel=0.01)
+    assert confirmation.binomial_upper(5, 1000, 0.95) > 5 / 1000
+    assert confirmation.binomial_upper(3, 3, 0.95) == 1.0
 
 
 def test_the_menu_layout_puts_back_on_the_table_and_go_beside_it(tmp_path):
-    recording = looking_around(tmp_path, G)
+    recording = looking_around(tmp_path, [R])
     go, back = confirmation.midas_confirm_layout(recording, np.array(T),
                                                  np.random.default_rng(0))
     np.testing.assert_allclose(back, T)
@@ -125,18 +158,31 @@ def test_midas_on_an_empty_folder_says_why_and_fails(tmp_path, capsys):
 
 
 @pytest.mark.skipif(REAL is None, reason='no real gaze recordings (../shared/data/real_gaze)')
-def test_robot_goals_of_looking_around_on_real_gaze(capsys):
-    assert confirmation.main(['--midas', '--layouts', '1', '--confirm-rounds', '0', '5']) == 0
+def test_robot_goals_of_looking_around_on_real_gaze(capsys, tmp_path):
+    out = tmp_path / 'out.json'
+    assert confirmation.main(['--midas', '--layouts', '1', '--json', str(out)]) == 0
     printed = capsys.readouterr().out
-    assert '| until answered | 9 |' in printed and '| confirm_rounds 5 | 9 |' in printed
-    result = confirmation.run_midas(layouts=1, rounds=(None, 5))
-    for row in result['midas'].values():
-        # Every recording replayed to its end: the two 5-minute sessions and seven short ones.
-        assert row['layouts'] == 9 and row['minutes'] > 12.0
-        # A goal needs a table first, and each table is answered once at most.
-        assert row['goals'] + row['back'] + row['timeouts'] <= row['tables']
-        assert row['goals_per_minute'] == row['goals'] / row['minutes']
-    assert result['midas'][None]['timeouts'] == 0
-    for intended in result['intended'].values():
-        # The person looking at 'go' as it appears confirms almost every time.
-        assert intended['go'] > 0.95 * intended['rounds'] > 250
+    assert 'upper 95 % bound' in printed and "intended 'go'" in printed
+    summary = json.loads(out.read_text())
+    midas, go = summary['midas'], summary['intended_go']
+    # Every recording replayed to its end, from the rooms: the two 5-minute sessions and
+    # seven short ones.
+    assert midas['minutes'] > 12.0
+    assert midas['goals_per_min'] == midas['goals'] / midas['minutes']
+    assert midas['upper95_per_min'] >= midas['goals_per_min'] and midas['upper95_per_min'] > 0
+    # The person looking at 'go' as it appears, then at the next target, confirms almost
+    # every time, in about a second.
+    assert go['go'] >= 0.97 * go['rounds'] and go['rounds'] > 250
+    assert go['median_s'] <= 1.5 and go['slowest_s'] >= go['median_s']
+    result = confirmation.run_midas(layouts=1)
+    chain = result['chain']
+    assert chain['layouts'] == 9
+    # A goal needs each step passed in turn; a step is passed at most as often as offered.
+    for step in confirmation.STEPS:
+        assert chain[f'{step} passed'] <= chain[f'{step} offered']
+    assert chain['goals'] == chain['send passed'] <= chain['confirm passed'] \
+        <= chain['tables passed']
+    # The bound is the product of its factors' bounds (or the goals counted, if smaller).
+    product = np.prod([row['upper'] for row in result['factors']])
+    assert result['midas']['upper95_per_min'] == pytest.approx(
+        min(product, result['midas']['direct_upper95_per_min']))

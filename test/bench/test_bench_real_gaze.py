@@ -1,5 +1,7 @@
 """bench/real_gaze.py: the node's rule on real recorded gaze, and the command a lab runs."""
 
+from types import SimpleNamespace
+
 from lab_recording import write_lab_csv
 import numpy as np
 import pytest
@@ -79,3 +81,55 @@ def test_a_folder_that_does_not_exist_is_one_line_and_status_1(tmp_path, capsys)
     assert real_gaze.main(['--data', str(tmp_path / 'missing')]) == 1
     err = capsys.readouterr().err.strip()
     assert err.startswith('real_gaze:') and 'no such folder' in err and '\n' not in err
+
+
+def _person(name):
+    return SimpleNamespace(name=name, targets=SimpleNamespace(jumps=True))
+
+
+def _figures(right, wrong, near=0.0, rounds=100):
+    row = {'rounds': rounds, 'right %': right, 'wrong %': wrong,
+           'none %': 100.0 - right - wrong, 'median ms': 500.0}
+    return {'9 x 100 px': row, '9 x 200 px': dict(row),
+            'resting near': {'rounds': 50, 'chosen %': near},
+            'resting away': {'rounds': 50, 'chosen %': 0.0}}
+
+
+def test_a_new_person_is_measured_with_the_rule_chosen_on_the_others(monkeypatch):
+    """
+    Leave-one-person-out: the rule is chosen on the other people only, by the goal.
+
+    Person 'a' does best with the default, which errs on 'b' and 'c' together; a rule
+    that is cautious everywhere keeps the goal on them: 'a' held out is measured with it,
+    not with the default that the figures of all three (or 'a''s own) would pick.
+    """
+    names = list(real_gaze.candidates())
+    cautious = names[-1]
+    figures = {('a', 'default'): _figures(95.0, 0.0), ('a', cautious): _figures(70.0, 0.0),
+               ('b', 'default'): _figures(90.0, 3.0), ('b', cautious): _figures(60.0, 0.0),
+               ('c', 'default'): _figures(90.0, 0.0, near=8.0),
+               ('c', cautious): _figures(80.0, 0.5)}
+    settings = real_gaze.candidates()
+
+    def measure(recordings, rule, seed=0):
+        name, = [n for n, s in settings.items() if s == rule][:1]
+        return figures.get((recordings[0].name, name), _figures(0.0, 50.0))
+
+    monkeypatch.setattr(real_gaze, 'measure', measure)
+    found = real_gaze.new_people([_person('a'), _person('b'), _person('c')])
+    held = found['people']['a']
+    assert held['chosen'] == cautious
+    assert held['held out']['9 x 100 px']['right %'] == 70.0     # 'a' with the cautious rule
+    assert held['default']['9 x 100 px']['right %'] == 95.0
+    # 'b' held out: on 'a' and 'c' the default keeps the goal (no wrong, 4 % resting near).
+    assert found['people']['b']['chosen'] == 'default'
+    assert found['people']['c']['chosen'] == cautious
+    # Pooled over the held-out people, weighted by rounds: (70 + 90 + 80) / 3.
+    assert found['pooled']['9 x 100 px']['right %'] == pytest.approx(80.0)
+    assert found['range']['9 x 100 px'] == (90.0, 95.0)
+    lines = real_gaze.new_people_lines(found)
+    assert any(line.startswith('| **pooled, held out** | | 80.0 / ') for line in lines), lines
+
+
+def test_one_person_gives_no_held_out_figure():
+    assert real_gaze.new_people([_person('a')]) == {}

@@ -1,6 +1,8 @@
 """bench.real_hybrid on folders named with its flags: what it counts is what the code chose."""
 
 import json
+import math
+from types import SimpleNamespace
 
 import pytest
 
@@ -87,3 +89,40 @@ def test_run_all_skips_it_without_recordings(tmp_path):
     outcome = run_all.run_benchmarks(['real_hybrid'], data={'real_gaze': str(tmp_path)},
                                      log=open('/dev/null', 'w'))
     assert 'no real' in outcome['skipped']['real_hybrid']
+
+
+def _rounds(subject, right, wrong, midas, intent=20, rest=20):
+    """Decided rounds of one subject: ``right``/``wrong`` of ``intent``, ``midas`` of ``rest``."""
+    labels = ('13 Hz', '17 Hz', '21 Hz')
+    rounds = []
+    for index in range(intent):
+        pairing = SimpleNamespace(subject=subject, intent=True, attended='13 Hz', labels=labels)
+        choice = '13 Hz' if index < right else ('17 Hz' if index < right + wrong else None)
+        rounds.append(real_hybrid.Decided(pairing, choice, 3.0 if choice else math.nan))
+    for index in range(rest):
+        pairing = SimpleNamespace(subject=subject, intent=False, attended=None, labels=labels)
+        rounds.append(real_hybrid.Decided(pairing, '13 Hz' if index < midas else None,
+                                          3.0 if index < midas else math.nan))
+    return rounds
+
+
+def test_a_new_subject_is_decided_with_the_setting_chosen_on_the_others():
+    """
+    Leave-subject-out: each subject's rounds under the setting the other subjects chose.
+
+    'eager' chooses most, but confirmed one no-intent round of s3's: on s1 and s3
+    together (1 of 80, over the goal's 1 %) it is refused, so s1 held out is decided
+    with 'careful', though its own figures, or all three subjects' (1 of 120), pick
+    'eager'.  s3 held out is decided with 'eager', which s1 and s2 allow.
+    """
+    decided = {'eager': (_rounds('s1', 19, 0, 0, rest=40) + _rounds('s2', 18, 0, 0, rest=40)
+                         + _rounds('s3', 18, 0, 1, rest=40)),
+               'careful': (_rounds('s1', 12, 0, 0, rest=40) + _rounds('s2', 14, 0, 0, rest=40)
+                           + _rounds('s3', 10, 0, 0, rest=40))}
+    found = real_hybrid.held_out_subjects(decided)
+    assert {s: row['setting'] for s, row in found['subjects'].items()} == {
+        's1': 'careful', 's2': 'careful', 's3': 'eager'}
+    assert found['subjects']['s1']['right'] == 0.6        # 12 of 20 under 'careful'
+    pooled = found['pooled']
+    assert pooled['counts']['right'] == 12 + 14 + 18 and pooled['intent_rounds'] == 60
+    assert pooled['counts']['midas'] == 1 and pooled['no_intent_rounds'] == 120

@@ -8,6 +8,7 @@ and gaze where the bad marker would be chooses nothing.
 """
 
 import math
+import time
 
 from fault_rig import (cube, EYE, FOCUS, LogTap, Pipeline, room_markers, SELF_CLOSED_ROUNDS,
                        static_camera, UP, WAIT_S)
@@ -264,7 +265,19 @@ def test_looked_at_marker_deleted_mid_round_is_never_chosen(graph, capfd, fault)
         rig.choose('bathroom')
 
 
+#: Longest wait for the 100 000 markers to come through, s: only a hang takes this long (the
+#: flood took 145 s on a 2-core machine with a load of 8; nothing here races that time).
+FLOOD_HANG_S = 1800.0
+
+
 def test_a_hundred_thousand_markers_in_one_array(graph, capfd, fault):
+    """
+    A flood of 100 000 markers: the nodes survive it, answer, and still decide right.
+
+    No wait races the machine's speed: the flood's own time through the projector is
+    measured, and everything after it (the nodes answering, a round over the 50 000
+    regions, the clean-up) gets that much patience, at least the rig's usual.
+    """
     rig = Pipeline(graph, arbiter_parameters=SELF_CLOSED_ROUNDS)
     rig.offer_rooms()
     # 100 000 one-centimetre cubes on a 400 x 250 grid in front of the rooms, all in view.
@@ -279,18 +292,26 @@ def test_a_hundred_thousand_markers_in_one_array(graph, capfd, fault):
         crowd.append(marker)
     with fault('markers', '100 000 markers in one MarkerArray'):
         count = len(rig.regions.messages)
+        sent = time.monotonic()
         rig.choices_pub.publish(MarkerArray(markers=crowd))
-        # Minutes, not seconds, of patience: 2 shared cores.
-        assert graph.spin_until(lambda: len(rig.regions.messages) > count, 240.0)
+        assert graph.spin_until(lambda: len(rig.regions.messages) > count, FLOOD_HANG_S), \
+            'no regions of the 100 000 markers'
+        patience = max(WAIT_S, time.monotonic() - sent)
         regions = rig.regions.last.markers
         assert len(regions) > 50000
         assert all(math.isfinite(p.x) and math.isfinite(p.y) for p in regions[0].points)
         # The arbiter may still be busy with the huge regions message: wait for it.
-        assert rig.answers('/marker_projector', 120.0) and rig.answers('/choice_arbiter', 120.0)
+        assert rig.answers('/marker_projector', patience), 'the projector stopped answering'
+        assert rig.answers('/choice_arbiter', patience), 'the arbiter stopped answering'
         assert set(ROOM_LABELS) <= {m.text for m in regions}
-        rig.choose('bedroom')
+        # A round over 50 000 options and more: the bedroom, nothing else.
+        rig.choose('bedroom', timeout=patience)
         # Clearing them brings the menu back to the three rooms.
-        rig.offer([Marker(action=Marker.DELETEALL)] + room_markers(), expect=ROOM_LABELS)
+        rig.offer([Marker(action=Marker.DELETEALL)] + room_markers(), expect=ROOM_LABELS,
+                  timeout=patience)
+        rig.choose('kitchen')
+    captured = capfd.readouterr()
+    assert 'Traceback' not in captured.out + captured.err
 
 
 def test_marker_arrays_in_quick_succession_are_all_applied(graph, capfd, fault):

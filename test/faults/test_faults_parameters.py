@@ -115,6 +115,7 @@ SPECIFIC = {
         'world_frame': [('', 'empty frame'), ('odom', "inconsistent with the scene's frame")],
         'robot_radius_m': [(1.0, 'inconsistent: no table where a robot this large fits')],
         'confirm_rounds': [(0, 'no round to answer in')],
+        'send_rounds': [(-1, 'negative rounds')],
     },
     'gaze_validation': {
         'targets': [(7, 'neither 5 nor 9')],

@@ -74,3 +74,45 @@ def test_the_rule_is_a_parameter_and_the_count_rule_is_one_set_away(graph):
     result, = graph.set_parameters(rig.arbiter.get_name(), {'method': 'vote'})
     assert result.successful, result.reason
     assert rig.arbiter.get_parameter('method').value == 'vote'
+
+
+def test_a_gaze_resting_on_stop_is_chosen_as_fast_as_a_fresh_look(graph):
+    # The robot set off while the person looked where 'stop' appears (it takes the place
+    # of 'back', the chosen table's): no "look away and back" for a stop (urgent_label).
+    rig = Rig(graph, **DEFAULT_RULE)
+    assert rig.arbiter.get_parameter('urgent_label').value == 'stop'
+    start = rig.offer({'stop': LEFT})
+    rig.send(rig.looks(LEFT, 100, 8.0), start)
+    resting = rig.wait_decision()
+    assert graph.spin_until(lambda: rig.labels, 10.0)
+    assert rig.labels == ['stop'] and resting.method == 'early'
+    # A fresh look: 'stop' elsewhere (offered after every stamp of the gaze above; the same
+    # label, so asked), the gaze lands on it 0.3 s after the question.
+    later = start + 1.2
+    assert graph.spin_until(lambda: rig.now() > later, 10.0)
+    rig.offer({'stop': RIGHT}, stamp=later, new_round=False)
+    start = rig.request()
+    glance(rig, start, OFF, RIGHT)
+    assert graph.spin_until(lambda: len(rig.labels) == 2, 10.0)
+    fresh = rig.arbiter.last_decision
+    assert rig.labels == ['stop', 'stop'] and fresh is not resting
+    # Sample time from the round start (the rule's timing, not the wall clock): dwell_s
+    # after the round start for the resting gaze, dwell_s after the landing for the fresh
+    # one; a sample period (10 ms) apart at most.
+    dwell = ArbiterSettings().dwell_s
+    assert resting.time_to_decision <= dwell + 0.011
+    assert resting.time_to_decision <= fresh.time_to_decision - 0.3 + 0.011
+
+
+def test_a_gaze_resting_on_go_is_still_no_choice(graph):
+    # Only the urgent option: 'go' under a resting gaze waits for a look away and back.
+    class NoneRig(Rig):
+        def setup(self):
+            self.none = Collector(self.driver, String, NO_CHOICE_TOPIC, EVENT_QOS)
+            self.awaited.append(NO_CHOICE_TOPIC)
+
+    rig = NoneRig(graph, **DEFAULT_RULE, window_s=0.5, stall_timeout_s=0.1)
+    start = rig.offer({'go': LEFT, 'back': RIGHT})
+    rig.send(rig.looks(LEFT, 60, 8.0), start)
+    assert graph.spin_until(lambda: rig.none.messages, 10.0)
+    assert "rested on 'go'" in rig.none.messages[0].data and rig.labels == []

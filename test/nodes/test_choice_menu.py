@@ -364,12 +364,23 @@ def confirming(graph, table='kitchen/table_2', **overrides):
     return menu, probe
 
 
-def test_go_sends_the_approach_pose_and_arrival_offers_the_rooms(graph):
+def go_and_send(probe):
+    """Answer 'go', then the second look: 'send' (the menu's default send_rounds)."""
+    probe.ask_and_answer('go')
+    probe.wait_labels(['send'])
+    probe.ask_and_answer('send')
+
+
+def test_go_then_send_sends_the_approach_pose_and_arrival_offers_the_rooms(graph):
     menu, probe = confirming(graph)
     graph.spin_for(0.3)
     assert not probe.robot_goals.messages and not probe.results.messages
     probe.robot_at(2.0, 7.0, 0.0)
     probe.ask_and_answer('go')
+    probe.wait_labels(['send'])           # 'go' alone sends nothing: the second look
+    graph.spin_for(0.3)
+    assert not probe.robot_goals.messages and not probe.results.messages
+    probe.ask_and_answer('send')
     assert graph.spin_until(lambda: probe.robot_goals.messages, 10.0)
     goal = probe.robot_goals.last
     assert goal.header.frame_id == 'map'
@@ -405,7 +416,7 @@ def test_back_in_the_confirmation_sends_no_goal(graph):
 
 def test_stop_while_driving_sends_a_goal_at_the_robots_pose(graph):
     menu, probe = confirming(graph)
-    probe.ask_and_answer('go')
+    go_and_send(probe)
     probe.wait_labels(['stop'])
     probe.robot_at(3.0, 8.0, 0.5)
     assert graph.spin_until(lambda: probe.progress.last.data.endswith('m left'), 10.0)
@@ -424,7 +435,7 @@ def test_looking_away_neither_sends_nor_stops(graph):
     graph.spin_for(1.0)
     assert not probe.robot_goals.messages and probe.labels() == CONFIRM
     probe.on_screen.publish(Bool(data=True))
-    probe.ask_and_answer('go')
+    go_and_send(probe)
     probe.wait_labels(['stop'])
     probe.on_screen.publish(Bool(data=False))         # ... and it drives on
     probe.wait_state('paused')
@@ -452,7 +463,7 @@ def test_an_unanswered_confirmation_returns_to_the_tables_and_sends_nothing(grap
 
 def test_a_robot_that_does_not_move_is_reported(graph):
     menu, probe = confirming(graph, drive_timeout_s=1.0)
-    probe.ask_and_answer('go')
+    go_and_send(probe)
     probe.robot_at(2.0, 7.0, 0.0, frame='odom')       # not the map frame: ignored
     assert graph.spin_until(lambda: probe.progress.last is not None and 'did not move'
                             in probe.progress.last.data, 10.0)

@@ -23,7 +23,7 @@ from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.ros.conversions import gaze_batch, regions_to_marker_array
-from eye_bci_ros2.ros.topics import EVENT_QOS, GAZE_QOS, LATCHED_QOS
+from eye_bci_ros2.ros.topics import EVENT_QOS, GAZE_QOS, LATCHED_QOS, MENU_PROGRESS_TOPIC
 from eye_bci_ros2.tools import monitor as monitor_tool
 from eye_bci_ros2.tools.monitor import Monitor, Screen, status_line, status_lines
 
@@ -109,6 +109,32 @@ def test_status_shows_rate_gaps_gaze_region_options_and_choices(graph):
     assert 'in no option' in status_lines(monitor.status())[1]
 
 
+def test_the_robot_is_shown_as_the_menu_reports_it(graph):
+    """``choice_menu/progress`` (latched, the menu's words): driving, arrived, stopped."""
+    monitor = graph.add(Monitor)
+    menu = graph.node('monitor_test_menu')
+    progress = menu.create_publisher(String, MENU_PROGRESS_TOPIC, LATCHED_QOS)
+    assert monitor.status()['robot'] is None
+    for text in ("driving to 'table_2': 1.4 m left", "arrived at 'table_2'",
+                 "stopped on the way to 'table_1'"):
+        progress.publish(String(data=text))
+        assert graph.spin_until(lambda: monitor.status()['robot'] == text, 10.0), \
+            monitor.status()['robot']
+        assert f'robot    {text}' in status_lines(monitor.status())
+    line = status_line(monitor.status(), 1.0)
+    assert " robot=stopped_on_the_way_to_'table_1' " in line, line
+
+
+def test_a_monitor_started_later_sees_the_robot_at_once(graph):
+    """Latched: a monitor started while the robot drives shows it without waiting for news."""
+    menu = graph.node('monitor_test_menu')
+    progress = menu.create_publisher(String, MENU_PROGRESS_TOPIC, LATCHED_QOS)
+    progress.publish(String(data="driving to 'table_1': 3.0 m left"))
+    monitor = graph.add(Monitor)
+    assert graph.spin_until(
+        lambda: monitor.status()['robot'] == "driving to 'table_1': 3.0 m left", 10.0)
+
+
 def test_unreadable_batch_is_counted_and_shown_not_fatal(graph):
     monitor = graph.add(Monitor)
     sender = Sender(graph)
@@ -127,7 +153,7 @@ def test_nothing_yet_and_stale_gaze_are_said_plainly(graph):
     monitor = graph.add(Monitor)
     lines = status_lines(monitor.status())
     assert lines == ['gaze     nothing on gaze/samples yet', 'looking  -',
-                     'options  none offered', 'choice   -',
+                     'options  none offered', 'choice   -', 'robot    -',
                      "nodes    none of the pipeline's seen (is eye_bci running, with this "
                      'ROS_DOMAIN_ID and namespace?)']
     sender = Sender(graph)
@@ -146,9 +172,9 @@ def test_terminal_output_redraws_in_place_and_pipe_output_appends_lines(graph):
     for _ in range(2):
         screen.show(monitor)
         plain.show(monitor)
-    first, second = terminal.getvalue().split('\n' + '\x1b[6F\x1b[J')
+    first, second = terminal.getvalue().split('\n' + '\x1b[7F\x1b[J')
     assert first.startswith('eye_bci monitor ') and '\x1b' not in first
-    assert second.count('\n') == 6
+    assert second.count('\n') == 7
     lines = pipe.getvalue().splitlines()
     assert len(lines) == 2 and all(line.startswith('t=') for line in lines)
     assert '\x1b' not in pipe.getvalue()

@@ -195,7 +195,8 @@ class Pipeline:
         """Return the ROS clock, s."""
         return self.driver.get_clock().now().nanoseconds * 1e-9
 
-    def offer(self, markers: Sequence[Marker], expect: Optional[Sequence[str]] = None) -> Dict:
+    def offer(self, markers: Sequence[Marker], expect: Optional[Sequence[str]] = None,
+              timeout: float = WAIT_S) -> Dict:
         """
         Publish ``markers`` and wait for the regions of the ``expect`` labels.
 
@@ -205,7 +206,7 @@ class Pipeline:
         if expect is None:
             expect = [m.text for m in markers if m.action == Marker.ADD]
         assert self.graph.spin_until(lambda: sorted(self.current()) == sorted(expect),
-                                     WAIT_S), \
+                                     timeout), \
             f'regions {sorted(self.current())[:10]}... never became {sorted(expect)}'
         return self.current()
 
@@ -273,8 +274,8 @@ class Pipeline:
         """Gaze points (count, 2) around the centre of a shown region."""
         return self.rng.normal(self.centre(label), spread, (count, 2))
 
-    def request(self) -> None:
-        """Start a fresh round and wait until the arbiter has."""
+    def request(self, timeout: float = WAIT_S) -> None:
+        """Start a fresh round and wait (at most ``timeout`` s) until the arbiter has."""
         asked = self.now()
         self.request_pub.publish(Empty())
 
@@ -283,7 +284,7 @@ class Pipeline:
             # that regions still on their way start (new choices) is stamped before it.
             start = self.arbiter.round_start
             return start is not None and start >= asked
-        assert self.graph.spin_until(started, WAIT_S), 'the request started no round'
+        assert self.graph.spin_until(started, timeout), 'the request started no round'
         # The round may end while the test waits for something else (a log line): the next
         # finish_round then waits past the decision before this round, not a later one.
         self._before_request = self.arbiter.last_decision
@@ -345,7 +346,7 @@ class Pipeline:
         self._accounted = len(self.choices.messages)
         return decision
 
-    def choose(self, label: Optional[str], new_round: bool = True):
+    def choose(self, label: Optional[str], new_round: bool = True, timeout: float = WAIT_S):
         """
         Run a round looking at ``label`` (None: at nothing) and check the outcome.
 
@@ -354,6 +355,8 @@ class Pipeline:
         exactly the supported choice (or none) is published since the last
         round :meth:`finish_round` ended: a late choice of anything before
         arrives ahead of this one, so a test ending with a choice sees it.
+        :param timeout: longest wait for the round's start and end, s (a hang: a test
+            whose nodes have far more to do than usual scales it to what it measured).
         :returns: the arbiter's Decision.
         """
         # Aim first: the round's window runs from the request.
@@ -362,11 +365,11 @@ class Pipeline:
         else:
             points = self.look_at_region(label)
         if new_round:
-            self.request()
+            self.request(timeout)
         since = self._accounted
         self.gaze_in_round(points)
         self.close_window()
-        decision = self.finish_round()
+        decision = self.finish_round(timeout)
         # Every choice since the last round this rig finished: a late one of that round
         # (published in order on the same topic, before this one) shows here.
         new = [message.data for message in self.choices.messages[since:]]

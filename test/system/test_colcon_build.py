@@ -38,7 +38,8 @@ print(json.dumps({'prefix': prefix, 'lib': lib, 'executables': executables,
                   'module': eye_bci_ros2.__file__}))
 """
 
-# Runs in the sourced workspace: each console script's target imports and is callable.
+# Runs in the sourced workspace: each console script's target imports and is callable, and
+# so does the ``main`` of the module it starts (the start-up imports it only when run).
 RESOLVE_ENTRY_POINTS = """
 import importlib, json, sys
 failures = {}
@@ -46,8 +47,12 @@ for entry in json.loads(sys.argv[1]):
     name, target = (part.strip() for part in entry.split('=', 1))
     module, _, attribute = target.partition(':')
     try:
-        if not callable(getattr(importlib.import_module(module), attribute)):
+        start = getattr(importlib.import_module(module), attribute)
+        if not callable(start):
             failures[name] = target + ' is not callable'
+        runs = getattr(start, 'executable_module', None)
+        if runs and not callable(getattr(importlib.import_module(runs), 'main', None)):
+            failures[name] = runs + ' has no main()'
     except Exception as error:
         failures[name] = '%s: %s: %s' % (target, type(error).__name__, error)
 print(json.dumps(failures))

@@ -14,7 +14,7 @@ from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.experiments import demo
 from eye_bci_ros2.experiments.render import png_size
 from eye_bci_ros2.ros.package_files import default_scene_path
-from eye_bci_ros2.task.menu import BACK_LABEL, GO_LABEL
+from eye_bci_ros2.task.menu import BACK_LABEL, GO_LABEL, SEND_LABEL
 from eye_bci_ros2.task.scene import load_scene
 
 SCENE = load_scene(default_scene_path())
@@ -94,14 +94,14 @@ def test_quick_demo_finishes_with_every_choice_right(quick_run):
     assert code == 0
     # The node's default rule, named as the pictures' legend names it.
     assert 'decision rule: fixation rule: a still fixation of 0.15 s' in printed
-    assert 'summary: 3 selections, 3 correct: accuracy 100.0 %' in printed
+    assert 'summary: 4 selections, 4 correct: accuracy 100.0 %' in printed
     assert 'ITR' in printed
     for row in summary['selections']:
         # The picture shows exactly the samples the decision weighed, classified by its rule.
         assert (row['picture_samples'], row['picture_counted']) == (
             row['samples_used'], row['in_region_samples']), row
     selections = summary['selections']
-    assert [s['correct'] for s in selections] == [True, True, True]
+    assert [s['correct'] for s in selections] == [True, True, True, True]
     assert summary['accuracy'] == 1.0
     assert summary['itr_bits_per_min'] > 0
     for selection in selections:
@@ -120,7 +120,7 @@ def test_quick_demo_finishes_with_every_choice_right(quick_run):
 def test_menu_goes_from_rooms_to_the_room_view_to_its_tables(quick_run):
     _, _, _, summary = quick_run
     (room, table), = [entry.split('/') for entry in summary['script']]
-    rooms, tables, confirm = summary['selections']
+    rooms, tables, confirm, send = summary['selections']
     assert rooms['step'] == 'rooms' and rooms['intended'] == room
     assert sorted(rooms['offered']) == sorted(SCENE.room_labels)
     assert np.allclose(rooms['camera_eye'], SCENE.overview.eye, atol=1e-3)
@@ -135,10 +135,13 @@ def test_menu_goes_from_rooms_to_the_room_view_to_its_tables(quick_run):
     assert confirm['step'] == 'confirm' and confirm['intended'] == confirm['chosen'] == GO_LABEL
     assert sorted(confirm['offered']) == sorted([GO_LABEL, BACK_LABEL])
     assert np.allclose(confirm['camera_eye'], SCENE.room(room).view.eye, atol=1e-3)
+    # ... and 'go' by the second look, at 'send', which appeared then (send_rounds).
+    assert send['step'] == 'send' and send['intended'] == send['chosen'] == SEND_LABEL
+    assert send['offered'] == [SEND_LABEL]
     robot = tables['robot']
     assert robot['arrived'] and len(robot['goal']) == 3
     assert robot['drive_s'] > 0 and robot['path_m'] > 0
-    assert rooms['robot'] is None and confirm['robot'] is None
+    assert rooms['robot'] is None and confirm['robot'] is None and send['robot'] is None
 
 
 @pytest.mark.ros
@@ -147,13 +150,13 @@ def test_quick_demo_writes_a_screen_picture_per_selection(quick_run):
     _, _, out, summary = quick_run
     pictures = [s['picture'] for s in summary['selections']]
     assert [os.path.basename(p) for p in pictures] == ['round1_rooms.png', 'round1_tables.png',
-                                                       'round1_confirm.png']
+                                                       'round1_confirm.png', 'round1_send.png']
     for picture in pictures:
         assert png_size(picture) == demo.SCREEN_SIZE
         assert os.path.getsize(picture) > 20000
     with open(out / 'selections.csv', newline='') as stream:
         rows = list(csv.DictReader(stream))
-    assert [row['correct'] for row in rows] == ['True', 'True', 'True']
+    assert [row['correct'] for row in rows] == ['True', 'True', 'True', 'True']
     assert rows[0]['picture'] == 'round1_rooms.png'
     # The drive, from above: the map, the path driven, the goal and the robot.
     drive = summary['selections'][1]['robot']['picture']
@@ -183,6 +186,8 @@ def test_quick_demo_with_ssvep_input_chooses_right(tmp_path, mode):
     printed = stdout.getvalue()
     assert code == 0, printed[-2000:]
     summary = json.loads((tmp_path / 'summary.json').read_text())
+    # No 'send' with SSVEP input (one option: nothing to tell it from; the demo sets
+    # send_rounds 0): the room, the table and 'go'.
     assert [s['correct'] for s in summary['selections']] == [True, True, True]
     assert {s['method'] for s in summary['selections']} == {mode}
     assert summary['selections'][1]['robot']['arrived']
@@ -203,7 +208,9 @@ def test_make_demo_confirms_every_table_and_the_robot_arrives(tmp_path):
               and s['chosen'] != BACK_LABEL]
     assert [s['chosen'] for s in tables] == summary['script'] == summary['outcomes']
     for table in tables:
-        later = summary['selections'][summary['selections'].index(table) + 1]
-        assert (later['step'], later['chosen']) == ('confirm', GO_LABEL)
+        index = summary['selections'].index(table)
+        later = summary['selections'][index + 1:index + 3]
+        assert [(s['step'], s['chosen']) for s in later] == [('confirm', GO_LABEL),
+                                                             ('send', SEND_LABEL)]
         assert table['robot']['arrived'], table['robot']
     assert printed.count('arrived after') == 4

@@ -23,6 +23,7 @@ from ros_harness import Collector
 from watched_process import Process
 
 from eye_bci_ros2.ros.runner import CLEANUP_LIMIT_S, HARD_LIMIT_S
+from eye_bci_ros2.ros.startup import LSL_QUIET_CONFIG
 from eye_bci_ros2.ros.topics import LATCHED_QOS, VALIDATION_TARGET_TOPIC
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -240,7 +241,9 @@ import signal
 import sys
 import time
 
-import eye_bci_ros2    # first, as in every console script: the SIGINT handler, the quiet hook
+from eye_bci_ros2.ros.startup import prepare_process
+
+prepare_process()    # first, as every console script: the SIGINT handler, the quiet hook
 
 case = sys.argv.pop(1)
 
@@ -327,3 +330,34 @@ def test_a_ctrl_c_while_importing_ends_quietly_even_when_it_comes_twice(gap_ms):
             out, err = process.communicate(timeout=30)
     assert process.returncode == 0, err[-2000:]
     assert 'Traceback' not in err and 'KeyboardInterrupt' not in err, err[-2000:]
+
+
+def test_an_executable_gets_the_quiet_liblsl_and_the_quiet_ctrl_c(tmp_path):
+    """
+    The console script prepares its process (``eye_bci_ros2.ros.startup``), the import does not.
+
+    ``lsl_gaze_bridge`` as ``ros2 run`` starts it, for a user without a liblsl
+    configuration of their own: liblsl's INFO lines stay off the terminal (its
+    configuration is written to the temporary folder), and Ctrl-C ends it with status 0.
+    """
+    script = os.path.join(os.path.dirname(sys.executable), 'lsl_gaze_bridge')
+    if not os.path.exists(script):
+        pytest.skip(f'no console script {script} (pip install -e . makes it)')
+    temporary, home = tmp_path / 'tmp', tmp_path / 'home'
+    temporary.mkdir()
+    home.mkdir()
+    env = {key: value for key, value in os.environ.items() if key != 'LSLAPICFG'}
+    env.update(TMPDIR=str(temporary), HOME=str(home))
+    with domain_id() as domain:
+        bridge = Process([script, '--ros-args', '-p', f'source_id:={unique_id("nobody")}',
+                          '-p', 'resolve_period_s:=0.2'], env, domain, tmp_path / 'bridge.log')
+        with killed_if_left(bridge.process):
+            looking = bridge.wait_for('looking for an LSL gaze stream')
+            bridge.process.send_signal(signal.SIGINT)
+            status = bridge.finish(timeout=30)
+    text = bridge.output()
+    assert looking and status == 0, text[-3000:]
+    assert 'INFO|' not in text and 'Loaded default config' not in text, text[-3000:]
+    assert 'Traceback' not in text and 'KeyboardInterrupt' not in text, text[-3000:]
+    written = list(temporary.glob('eye_bci_ros2_lsl_api_*.cfg'))
+    assert len(written) == 1 and written[0].read_text() == LSL_QUIET_CONFIG, written

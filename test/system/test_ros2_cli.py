@@ -345,8 +345,8 @@ def test_launch_refuses_a_missing_params_file_and_rviz2_before_starting_anything
 
 
 def test_a_failed_node_is_seen_as_the_readme_says_though_launch_exits_0(ros2, env, tmp_path):
-    """README, "What to expect": ``echo $?`` gives 0; the "process has died" line tells."""
-    readme = (Path(__file__).resolve().parents[2] / 'README.md').read_text()
+    """docs/running.md, "What to expect": ``echo $?`` gives 0; "process has died" tells."""
+    readme = (Path(__file__).resolve().parents[2] / 'docs' / 'running.md').read_text()
     for said in ('; echo $?` prints `0`', 'process has died [pid N, exit code 1',
                  "2>&1 | tee launch.log` then\n  `grep 'process has died' launch.log`"):
         assert said in readme, said

@@ -270,3 +270,34 @@ def test_a_resting_gaze_is_never_due():
     evidence = SETTINGS.evidence(0.0)
     evidence.add(points, stamps, options(), SETTINGS.confidence)
     assert evidence.next_due() is None
+
+
+def _stop_options(stamp=0.0):
+    """Return the drive step's one option, 'stop' (the arbiter's urgent_label)."""
+    return options(stamp, {'stop': CENTRES['left']})
+
+
+def test_a_gaze_resting_on_stop_chooses_it_as_fast_as_a_fresh_look():
+    # Resting on 'stop' from before the round: chosen dwell_s into the round (the samples
+    # since its start), as a look that lands on it at the start would be.
+    resting = decide(*path([(1.0, CENTRES['left'], CENTRES['left'])]),
+                     regions=_stop_options())
+    assert resting.label == 'stop'
+    fresh = decide(*path([(0.1, AWAY, AWAY), (0.04, AWAY, CENTRES['left']),
+                          (0.86, CENTRES['left'], CENTRES['left'])]),
+                   regions=_stop_options())
+    assert fresh.label == 'stop'
+    landed = 0.14   # when the fresh look's fixation began
+    assert resting.time_s <= SETTINGS.dwell_s + 2 / 60 + 1e-9
+    assert resting.time_s - 0.0 <= fresh.time_s - landed + 1e-9
+    # At the window end too (early decision off), and only 'stop': another option waits.
+    late = ArbiterSettings(early_decision=False)
+    assert decide(*path([(1.0, CENTRES['left'], CENTRES['left'])]), late,
+                  regions=_stop_options()).label == 'stop'
+    other = decide(*path([(1.0, CENTRES['left'], CENTRES['left'])]),
+                   regions=options(0.0, {'go': CENTRES['left']}))
+    assert other.label is None and 'rested' in other.decision.reason
+    # urgent_label '' restores "look away and back" for every option.
+    none = decide(*path([(1.0, CENTRES['left'], CENTRES['left'])]),
+                  ArbiterSettings(urgent_label=''), regions=_stop_options())
+    assert none.label is None

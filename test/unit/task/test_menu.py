@@ -9,7 +9,8 @@ from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.task.menu import (Answer, ASKING, BACK_LABEL, back_marker, confirm_markers,
                                     DRIVING, FINISHED, GO_LABEL, Log, LOOK_AWAY, MenuProtocol,
                                     Offer, PAUSED, Progress, ProtocolSettings, READY, Request,
-                                    Result, SendGoal, STOP_LABEL, WAITING_FOR_CAMERA)
+                                    Result, SEND_DOWN, SEND_LABEL, send_marker, SendGoal,
+                                    STOP_LABEL, WAITING_FOR_CAMERA)
 from eye_bci_ros2.task.scene import load_scene
 
 SCENE = load_scene(default_scene_path())
@@ -263,9 +264,13 @@ TABLE = 'kitchen/table_2'
 
 
 def confirming(**settings):
-    """Return a menu asking 'go' or 'back' after kitchen/table_2 was chosen, and the time."""
-    menu = MenuProtocol(SCENE, ProtocolSettings(**{'look_away_s': 0.2, **settings}),
-                        GOALS)
+    """
+    Return a menu asking 'go' or 'back' after kitchen/table_2 was chosen, and the time.
+
+    'go' sends at once here (send_rounds 0); the second look, 'send', has its own tests.
+    """
+    menu = MenuProtocol(SCENE, ProtocolSettings(
+        **{'look_away_s': 0.2, 'send_rounds': 0, **settings}), GOALS)
     menu.start(0.0)
     arrive(menu, SCENE.overview, 0.5)
     menu.on_choice('kitchen', 1.0)
@@ -319,6 +324,50 @@ def test_an_unanswered_confirmation_returns_to_the_tables_without_a_goal():
     assert menu.on_no_choice('no fixation', 4.0) == [] and menu.pending == TABLE
     with pytest.raises(ValueError, match='confirm_rounds must be an integer >= 1'):
         ProtocolSettings(confirm_rounds=0)
+
+
+def test_go_offers_send_where_the_gaze_was_not_and_only_send_sends_the_robot():
+    menu, now = confirming(send_rounds=1)
+    menu.on_odometry(2.0, 7.0, 0.0, now)
+    actions = menu.on_choice(GO_LABEL, now)
+    assert not kinds(actions, SendGoal) and not kinds(actions, Result)
+    assert menu.options == (SEND_LABEL,) and menu.pending == TABLE
+    # Asked at once (no look-away gate: 'send' is not where the gaze is), in the same view.
+    assert kinds(actions, Request) and menu.state == ASKING
+    assert kinds(actions, Offer)[0].view is not None and \
+        kinds(actions, Offer)[0].view is KITCHEN.view
+    # 'send' lies SEND_DOWN half-heights from 'go', far from 'back' and every table.
+    intrinsic = rviz_intrinsic(1280, 720)
+    go, back = confirm_markers(KITCHEN.view, KITCHEN.table(TABLE).marker)
+    send = kinds(actions, Offer)[0].markers[0]
+    assert send.text == SEND_LABEL
+    uv, depth = project_points(np.array([go.position, back.position, send.position]
+                                        + [t.marker.position for t in KITCHEN.tables]),
+                               intrinsic, KITCHEN.view.external())
+    assert np.all(depth > 0) and np.all((uv >= 0) & (uv <= [1280, 720]))
+    assert np.hypot(*(uv[2] - uv[0])) >= 0.75 * SEND_DOWN * 360       # its own saccade
+    assert np.hypot(*(uv[[1, 3, 4, 5]] - uv[2]).T).min() > 0.5 * 640
+    actions = menu.on_choice(SEND_LABEL, now + 0.5)
+    assert [g.label for g in kinds(actions, SendGoal)] == [TABLE]
+    assert [r.label for r in kinds(actions, Result)] == [TABLE]
+    assert menu.options == (STOP_LABEL,) and menu.state == DRIVING
+
+
+def test_send_unanswered_returns_to_the_tables_without_a_goal():
+    menu, now = confirming(send_rounds=1)
+    menu.on_choice(GO_LABEL, now)
+    actions = menu.on_no_choice('no fixation', now + 1.0)
+    assert f"no answer to '{SEND_LABEL}' in 1 rounds" in [a.text for a in kinds(actions, Log)]
+    assert not kinds(actions, SendGoal) and menu.options == TABLES and menu.pending is None
+    # A late 'send' is no answer; the next table's confirmation starts with 'go' again.
+    assert not kinds(menu.on_choice(SEND_LABEL, now + 1.2), SendGoal)
+    menu.tick(now + 2.0)
+    menu.on_choice(TABLE, now + 2.5)
+    assert menu.options == (GO_LABEL, BACK_LABEL)
+    with pytest.raises(ValueError, match='send_rounds must be an integer >= 0'):
+        ProtocolSettings(send_rounds=-1)
+    # The menu's defaults: a second look, asked one round; the confirmation two.
+    assert (ProtocolSettings().send_rounds, ProtocolSettings().confirm_rounds) == (1, 2)
 
 
 def test_back_in_the_confirmation_sends_nothing_and_offers_the_tables():
@@ -436,8 +485,31 @@ def test_confirmation_layout_go_is_far_from_the_chosen_table():
         assert (go.text, back.text) == (GO_LABEL, BACK_LABEL)
 
 
+def test_send_is_its_own_saccade_from_go_and_far_from_the_tables_in_every_room():
+    intrinsic = rviz_intrinsic(1280, 720)
+    for room in SCENE.rooms:
+        tables = [t.marker for t in room.tables]
+        for table in tables:
+            go, back = confirm_markers(room.view, table)
+            send = send_marker(room.view, go, [back] + tables)
+            uv, depth = project_points(np.array([go.position, send.position]
+                                                + [m.position for m in [back] + tables]),
+                                       intrinsic, room.view.external())
+            assert np.all(depth > 0) and np.all((uv[1] >= 54) & (uv[1] <= [1226, 666]))
+            assert np.hypot(*(uv[1] - uv[0])) >= 0.75 * SEND_DOWN * 360, room.marker.text
+            # About 6 deg or more from 'back' and every table: outside their 3 sigma halo.
+            assert np.hypot(*(uv[2:] - uv[1]).T).min() >= 240, (room.marker.text, table.text)
+
+
 def test_arrival_tolerances_are_the_robots():
     from eye_bci_ros2.navigation.robot_settings import GOAL_TOLERANCE_DEG, GOAL_TOLERANCE_M
     settings = ProtocolSettings()
     assert (settings.goal_tolerance_m, settings.goal_tolerance_deg) == (GOAL_TOLERANCE_M,
                                                                         GOAL_TOLERANCE_DEG)
+
+
+def test_the_arbiters_urgent_option_is_the_menus_stop():
+    # The fixation rule lets a resting gaze choose 'stop' (no look away and back): the
+    # arbiter's default must name the menu's stop (decision may not import task).
+    from eye_bci_ros2.decision.rounds import ArbiterSettings
+    assert ArbiterSettings().urgent_label == STOP_LABEL
