@@ -15,9 +15,11 @@ starts no RViz2 (one already running with the same file); a value that is
 not a boolean (``rviz:=maybe``) is refused with the accepted ones
 (:mod:`eye_bci_ros2.ros.launch_arguments`).  ``robot:=sim``
 (the default) starts ``sim_robot``, the simulated robot on the scene's map
-(``map``, ``odom``, ``plan``; goals on ``goal_pose``); ``robot:=none`` starts no
-robot: a real one (nav2) gives ``map`` and ``odom`` and takes ``goal_pose``
-(README, "Robot").  Another value is refused, naming the accepted ones.
+(``map``, ``plan``, TF; the NavigateToPose action ``navigate_to_pose``);
+``robot:=none`` starts no robot: a real one (nav2's bt_navigator) serves
+``navigate_to_pose`` to the menu (README, "Robot").  Ctrl-C (launch's
+shutdown) cancels the menu's goal: the robot stops when the menu ends.
+Another value is refused, naming the accepted ones.
 
 Nothing starts when RViz2 is asked for but not installed, or ``params_file``
 does not exist (one line says which).  Every node is required: when one
@@ -110,7 +112,7 @@ def generate_launch_description():
         DeclareLaunchArgument(
             'robot', default_value=ROBOTS[0],
             description='the robot: sim (sim_robot, the simulated robot on the scene map) or '
-                        'none (a real robot: its nav2 gives map and odom, takes goal_pose)'),
+                        'none (a real robot: its nav2 serves the navigate_to_pose action)'),
         # Checked before anything starts (actions run in this order).
         *boolean_arguments(('rviz', True, 'start RViz2')),
         OpaqueFunction(function=_check_robot),

@@ -66,8 +66,9 @@ from typing import Dict, Iterator, List, Optional, Sequence, Tuple
 import uuid
 
 from domain_coordinator import domain_id
-from geometry_msgs.msg import Pose, PoseStamped
-from nav_msgs.msg import OccupancyGrid, Odometry, Path
+from geometry_msgs.msg import Pose
+from nav2_msgs.action import NavigateToPose
+from nav_msgs.msg import OccupancyGrid, Path
 import numpy as np
 import pylsl
 import rclpy
@@ -102,13 +103,13 @@ from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.ros.runner import make_executor, spin_for, spin_until as _spin_until
 from eye_bci_ros2.ros.ssvep_messages import msg_to_stimulus_map
 from eye_bci_ros2.ros.startup import quiet_liblsl
-from eye_bci_ros2.ros.topics import (CHOICES_TOPIC, EVENT_QOS, FEEDBACK_QOS, FEEDBACK_TOPIC,
-                                     GAZE_QOS, GAZE_SAMPLES_TOPIC, GOAL_POSE_TOPIC, GOAL_QOS,
-                                     LATCHED_QOS, MAP_QOS, MAP_TOPIC, MENU_ANSWER_TOPIC,
-                                     MENU_PROGRESS_TOPIC, MENU_RESULT_TOPIC, ODOM_QOS,
-                                     ODOM_TOPIC, PLAN_QOS, PLAN_TOPIC, REGIONS_TOPIC,
-                                     REQUEST_TOPIC, RVIZ_CAMERA_POSE_TOPIC, SSVEP_STIMULI_TOPIC)
-from eye_bci_ros2.ros.topics import CUE_TOPIC
+from eye_bci_ros2.ros.topics import (ACTION_FEEDBACK_QOS, CHOICES_TOPIC, CUE_TOPIC, EVENT_QOS,
+                                     FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_QOS,
+                                     GAZE_SAMPLES_TOPIC, LATCHED_QOS, MAP_QOS, MAP_TOPIC,
+                                     MENU_ANSWER_TOPIC, MENU_PROGRESS_TOPIC, MENU_RESULT_TOPIC,
+                                     NAVIGATE_TO_POSE_FEEDBACK_TOPIC, PLAN_QOS, PLAN_TOPIC,
+                                     REGIONS_TOPIC, REQUEST_TOPIC, RVIZ_CAMERA_POSE_TOPIC,
+                                     SSVEP_STIMULI_TOPIC)
 from eye_bci_ros2.sim.eeg import EegSimulator, SUBJECTS
 from eye_bci_ros2.sim.eeg_outlet import EegStreamer
 from eye_bci_ros2.sim.gaze_outlet import GazeStreamer
@@ -126,6 +127,8 @@ PANEL_SIZE = DEFAULT_IMAGE_SIZE
 PANEL_OFFSET = DEFAULT_PANEL_OFFSET
 #: Vertical field of view RViz renders with, degrees.
 FOV_Y_DEG = RVIZ_FOV_Y_DEG
+#: The longest a drive may take, wall-clock s (a cross-scene drive at real speed: ~40 s).
+DRIVE_LIMIT_S = 180.0
 #: Where the person looks before and after the experiment: a corner of the
 #: screen, off the render panel, so no question can be answered by accident.
 REST_XY = (160.0, 90.0)
@@ -332,6 +335,12 @@ def person_params(name: str) -> GazeParams:
     return presets[name]
 
 
+def _length(points: np.ndarray) -> float:
+    """Return the length of a polyline (N, 2), m."""
+    steps = np.diff(np.asarray(points, dtype=float).reshape(-1, 2), axis=0)
+    return float(np.sum(np.hypot(steps[:, 0], steps[:, 1])))
+
+
 def _seconds(stamp) -> float:
     """builtin_interfaces/Time -> float s."""
     return stamp.sec + stamp.nanosec * 1e-9
@@ -421,19 +430,23 @@ class ExperimentDriver(Node):
         self.eeg = eeg
         # Answers the menu acted on, not yet recorded (label, ROS time s).
         self._answers: List[Tuple[str, float]] = []
-        # The robot: goals sent (ROS time s, [x, y, yaw]), odometry (t, x, y, yaw), the
-        # newest plan (M, 2) and map, the menu's progress lines; the table waiting for
-        # 'go' and the drive under way (its table selection and when 'go' was answered).
-        self.robot_goals: List[Tuple[float, np.ndarray]] = []
-        self.odometry: List[Tuple[float, float, float, float]] = []
+        # The robot: where the navigation's feedback put it (ROS time s, x, y, yaw in the
+        # map frame), the newest plan (M, 2) and map, the menu's progress lines; the table
+        # waiting for 'go' and the drive under way (its table selection and when 'go' was
+        # answered).
+        self.robot_path: List[Tuple[float, float, float, float]] = []
         self.plan = np.zeros((0, 2))
         self.map: Optional[OccupancyGrid] = None
         self.progress: List[str] = []
         self._pending: Optional[str] = None
-        self._drive: Optional[Tuple[Selection, float]] = None
+        # ... and the number of progress lines before it.
+        self._drive: Optional[Tuple[Selection, float, int]] = None
         self._withdrawn_at = math.nan
-        self.create_subscription(PoseStamped, GOAL_POSE_TOPIC, self._on_robot_goal, GOAL_QOS)
-        self.create_subscription(Odometry, ODOM_TOPIC, self._on_odometry, ODOM_QOS)
+        # The action's feedback topic: any node may listen (as `ros2 action send_goal
+        # --feedback` shows it); current_pose is the robot in the map frame.
+        self.create_subscription(NavigateToPose.Impl.FeedbackMessage,
+                                 NAVIGATE_TO_POSE_FEEDBACK_TOPIC, self._on_robot_feedback,
+                                 ACTION_FEEDBACK_QOS)
         self.create_subscription(Path, PLAN_TOPIC, self._on_plan, PLAN_QOS)
         self.create_subscription(OccupancyGrid, MAP_TOPIC, self._on_map, MAP_QOS)
         self.create_subscription(String, MENU_PROGRESS_TOPIC, self._on_progress, LATCHED_QOS)
@@ -514,41 +527,43 @@ class ExperimentDriver(Node):
     def _on_result(self, message: String) -> None:
         self.outcomes.append(message.data)
 
-    def _on_robot_goal(self, message: PoseStamped) -> None:
-        position, quaternion = pose_to_arrays(message.pose)
-        self.robot_goals.append((self.now_s(), np.array([position[0], position[1],
-                                                         yaw_of(quaternion)])))
-
-    def _on_odometry(self, message: Odometry) -> None:
-        position, quaternion = pose_to_arrays(message.pose.pose)
-        self.odometry.append((self.now_s(), float(position[0]), float(position[1]),
-                              yaw_of(quaternion)))
+    def _on_robot_feedback(self, message) -> None:
+        position, quaternion = pose_to_arrays(message.feedback.current_pose.pose)
+        self.robot_path.append((self.now_s(), float(position[0]), float(position[1]),
+                                yaw_of(quaternion)))
 
     def _on_plan(self, message: Path) -> None:
-        self.plan = np.array([[p.pose.position.x, p.pose.position.y] for p in message.poses]
-                             ).reshape(-1, 2)
+        if message.poses:       # the drive's plan (an empty one clears RViz's after a stop)
+            self.plan = np.array([[p.pose.position.x, p.pose.position.y]
+                                  for p in message.poses]).reshape(-1, 2)
 
     def _on_map(self, message: OccupancyGrid) -> None:
         self.map = message
 
     def _on_progress(self, message: String) -> None:
-        """Take the menu's word on the robot: when the drive ended (arrived, stopped, stuck)."""
+        """Take the menu's word on the robot: when the drive ended (arrived, stopped, failed)."""
         self.progress.append(message.data)
-        if self._drive is None or message.data.startswith('driving'):
-            return
-        selection, sent_at = self._drive
+        if self._drive is None or self.menu is None or self.menu.driving:
+            return      # on its way ("driving to", "no feedback from the robot", ...)
+        selection, sent_at, lines_before = self._drive
         self._drive = None
+        # What the menu said on the way: a silence ("no feedback from the robot ...").
+        said = [line for line in self.progress[lines_before:]
+                if line.startswith(('no feedback', 'no answer'))]
         now = self.now_s()
-        goals = [pose for t, pose in self.robot_goals if t >= sent_at - 0.5]
-        driven = np.array([o[1:] for o in self.odometry if sent_at <= o[0] <= now]
+        goal = self.menu.robot_goals.get(selection.chosen)
+        goals = [] if goal is None else [np.asarray(goal, dtype=float)]
+        driven = np.array([o[1:] for o in self.robot_path if sent_at <= o[0] <= now]
                           ).reshape(-1, 3)
-        steps = np.diff(driven[:, :2], axis=0)
-        path_m = float(np.sum(np.hypot(steps[:, 0], steps[:, 1]))) if len(steps) else 0.0
+        if len(self.plan) and len(driven):
+            # From where the robot started (the plan's start) to where feedback last put it.
+            driven = np.vstack([[*self.plan[0], driven[0, 2]], driven])
         arrived = message.data.startswith('arrived')
         selection.robot = {
             'goal': [round(float(v), 4) for v in goals[0]] if goals else None,
             'arrived': arrived, 'drive_s': (now - sent_at) * self.options.robot_time_scale,
-            'path_m': path_m, 'picture': '', 'progress': message.data}
+            'path_m': _length(driven[:, :2]), 'plan_m': _length(self.plan),
+            'silences': said, 'picture': '', 'progress': message.data}
         selection.drive = self._drive_picture(selection, driven, goals)
         if arrived:
             self.round_index += 1
@@ -667,7 +682,11 @@ class ExperimentDriver(Node):
             if decision is not None and decision.label is None and self.asked_at is not None:
                 self._no_choice += 1
         if not self._answers and self.step == 'drive':
-            return None     # the menu's drive_timeout_s bounds a drive that gets nowhere
+            if self._drive is not None and self.now_s() - self._drive[1] > DRIVE_LIMIT_S:
+                raise DemoError(f'the robot has not ended its drive to '
+                                f"'{self._drive[0].chosen}' within {DRIVE_LIMIT_S:g} s "
+                                f'(menu: {self.progress[-1:]})')
+            return None     # the navigation's result ends the drive
         if not self._answers:
             elapsed = self.now_s() - self.shown_at
             # SSVEP waits for the response to build up (the decoder's onset_s) and a
@@ -694,7 +713,7 @@ class ExperimentDriver(Node):
         elif (self.step == 'confirm' and label == GO_LABEL and not self._send_rounds()) or (
                 self.step == 'send' and label == SEND_LABEL):
             table = next(s for s in reversed(self.selections) if s.step == 'tables')
-            self._drive = (table, answered_at)
+            self._drive = (table, answered_at, len(self.progress))
         # The round ends when the robot has arrived (_on_progress).
         return selection
 
@@ -1035,7 +1054,8 @@ def _print_drive(selection: Selection, log) -> None:
              f'goal ({goal[0]:.2f}, {goal[1]:.2f}) m, {math.degrees(goal[2]):.0f} deg')
     log(f"  robot to '{selection.chosen}': {where}; "
         f"{'arrived' if robot['arrived'] else 'NOT arrived'} after {robot['drive_s']:.1f} s "
-        f"(robot time), {robot['path_m']:.1f} m driven")
+        f"(robot time), {robot['path_m']:.1f} m driven (plan {robot['plan_m']:.1f} m)"
+        + ''.join(f'; menu: {line}' for line in robot['silences']))
 
 
 def _summarise(options: DemoOptions, person: GazeParams, source_id: str,

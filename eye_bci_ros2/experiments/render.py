@@ -212,7 +212,7 @@ class DrivePicture:
     :ivar origin: the map's lower-left corner (x, y), m.
     :ivar resolution: the map's cell size, m.
     :ivar tables: (label, (x, y)) of the tables, for orientation.
-    :ivar path: the robot's positions from odometry (N, 2), m.
+    :ivar path: the robot's positions in the map frame (the navigation's feedback), (N, 2), m.
     :ivar plan: the planned path (M, 2), m.
     :ivar goal: the goal x, y (m), yaw (rad), or None.
     :ivar robot: the robot's last pose x, y, yaw, or None.
@@ -253,7 +253,7 @@ def render_drive(picture: DrivePicture, path: str, size: Tuple[int, int] = (1400
                   label='plan')
     if len(picture.path):
         axes.plot(picture.path[:, 0], picture.path[:, 1], '-', color=CORRECT_COLOUR, lw=3,
-                  label='driven (odom)')
+                  label='driven (feedback)')
         axes.plot(*picture.path[0], 'o', color='#606060', ms=8, label='start')
     for pose, colour, name in ((picture.goal, TARGET_COLOUR, 'goal'),
                                (picture.robot, MEAN_COLOUR, 'robot')):

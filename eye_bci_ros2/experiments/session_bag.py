@@ -29,7 +29,8 @@ from eye_bci_ros2.ros.feedback_markers import option_label
 from eye_bci_ros2.ros.message_types import message_class
 from eye_bci_ros2.ros.topics import (CHOICE_TOPIC, CHOICES_TOPIC, CUE_TOPIC, GAZE_SAMPLES_TOPIC,
                                      GOAL_POSE_TOPIC, MAP_TOPIC, MENU_ANSWER_TOPIC,
-                                     MENU_PROGRESS_TOPIC, MENU_RESULT_TOPIC, MENU_STATE_TOPIC,
+                                     MENU_GOAL_TOPIC, MENU_PROGRESS_TOPIC, MENU_RESULT_TOPIC,
+                                     MENU_STATE_TOPIC,
                                      NAVIGATE_TO_POSE_ACTION, NO_CHOICE_TOPIC, ODOM_TOPIC,
                                      PLAN_TOPIC, REGIONS_TOPIC, REQUEST_TOPIC,
                                      VALIDATION_RESULT_TOPIC)
@@ -64,7 +65,7 @@ class Session:
     :ivar regions: every ``choices/regions`` set, stamped, in order.
     :ivar colours: option label -> (r, g, b, a) from ``choices``.
     :ivar requests: times of ``choice/request`` (a question asked).
-    :ivar goals: (time, [x, y, yaw]) of ``goal_pose``.
+    :ivar goals: (time, [x, y, yaw]) of ``goal_pose`` and ``choice_menu/goal``.
     :ivar odometry: shape (M, 4): time, x, y, yaw of ``odom``.
     :ivar robot_poses: shape (F, 4): time, x, y, yaw of the action's feedback.
     :ivar plans: (time, (K, 2) path) of ``plan``.
@@ -169,7 +170,7 @@ def read_session(path) -> Session:
                 for marker in message.markers:
                     session.colours[option_label(marker)] = (
                         marker.color.r, marker.color.g, marker.color.b, marker.color.a)
-            elif topic == GOAL_POSE_TOPIC:
+            elif topic in (GOAL_POSE_TOPIC, MENU_GOAL_TOPIC):
                 session.goals.append((stamp, np.array(_pose_row(stamp, message.pose)[1:])))
             elif topic == ODOM_TOPIC:
                 odometry.append(_pose_row(stamp, message.pose.pose))

@@ -51,13 +51,15 @@ from eye_bci_ros2.experiments.session_bag import read_session, Session
 from eye_bci_ros2.experiments.session_xdf import cross_check, read_xdf_session, XDF_SUFFIXES
 from eye_bci_ros2.projection.camera_model import DEFAULT_IMAGE_SIZE, DEFAULT_PANEL_OFFSET
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING
+from eye_bci_ros2.recordings.session_markers import ARRIVED, FAILED, progress_event, STOPPED
 
 #: The screen and RViz panel the pictures draw when not told (the package's defaults).
 SCREEN_SIZE = (DEFAULT_VIEWING.width_px, DEFAULT_VIEWING.height_px)
 PANEL = (float(DEFAULT_PANEL_OFFSET[0]), float(DEFAULT_PANEL_OFFSET[1]),
          float(DEFAULT_IMAGE_SIZE[0]), float(DEFAULT_IMAGE_SIZE[1]))
-#: Words of ``choice_menu/progress`` while a drive goes on (any other ends it).
-DRIVING_WORD = 'driving'
+#: The ``choice_menu/progress`` events that end a drive (sending, driving, stopping, no
+#: feedback yet: the drive goes on).
+DRIVE_ENDS = (ARRIVED, STOPPED, FAILED)
 #: Colours of the timeline.
 _CORRECT, _WRONG, _UNCUED, _NONE, _DRIVE = '#20c060', '#ff3030', '#4080ff', '#a0a0a0', '#ffb000'
 
@@ -210,7 +212,7 @@ def find_drives(session: Session) -> List[Drive]:
     for index, start in enumerate(starts):
         limit = starts[index + 1] if index + 1 < len(starts) else math.inf
         ending = [(t, text) for t, text in session.progress
-                  if start <= t < limit and not text.startswith(DRIVING_WORD)]
+                  if start <= t < limit and progress_event(text) in DRIVE_ENDS]
         end, outcome = ending[0] if ending else (min(limit, session.end), 'recording ended')
         poses = session.odometry if len(session.odometry) else session.robot_poses
         driven = poses[(poses[:, 0] >= start - 0.05) & (poses[:, 0] <= end + 0.05)]

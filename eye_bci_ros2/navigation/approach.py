@@ -21,6 +21,7 @@ from typing import Dict, Optional
 import numpy as np
 from scipy import ndimage
 
+from eye_bci_ros2.navigation.frames import wrap
 from eye_bci_ros2.navigation.occupancy import (
     DEFAULT_RESOLUTION_M, Grid, marker_box, scene_grid)
 from eye_bci_ros2.task.scene import Scene
@@ -50,7 +51,7 @@ def approach_candidates(center_xy: np.ndarray, yaw: float, size_xy: np.ndarray,
         outward = yaw + axis * math.pi / 2 + (math.pi if sign < 0 else 0.0)
         normal = np.array([math.cos(outward), math.sin(outward)])
         position = center + normal * (half[axis] + standoff_m + radius_m)
-        poses.append([position[0], position[1], _wrap(outward + math.pi)])
+        poses.append([position[0], position[1], wrap(outward + math.pi)])
     poses = np.array(poses)
     if toward_xy is not None:
         facing = (poses[:, :2] - center) @ (np.asarray(toward_xy, dtype=float)[:2] - center)
@@ -123,8 +124,3 @@ def scene_goals(scene: Scene, radius_m: float, standoff_m: float = DEFAULT_STAND
                     f'of radius {radius_m:g} m fits at {standoff_m:g} m and can get to')
             goals[table.marker.text] = candidates[int(np.argmax(fits))]
     return goals
-
-
-def _wrap(angle: float) -> float:
-    """Return ``angle`` in [-pi, pi), rad."""
-    return (angle + math.pi) % (2 * math.pi) - math.pi

@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from eye_bci_ros2.navigation.frames import wrap
 from eye_bci_ros2.navigation.robot_settings import RobotSettings
 
 #: The robot steers for a point this far ahead along its segment, m.
@@ -188,11 +189,6 @@ class Drive:
         after = self._path[corner + 1] - self._path[corner]
         turn = abs(wrap(math.atan2(after[1], after[0]) - math.atan2(before[1], before[0])))
         return turn > SHARP_TURN_RAD
-
-
-def wrap(angle: float) -> float:
-    """Return ``angle`` in [-pi, pi), rad."""
-    return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 def heading_error(pose: np.ndarray, goal: np.ndarray) -> float:

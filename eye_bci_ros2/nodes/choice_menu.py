@@ -10,10 +10,11 @@ the camera to that room's view and offers its tables and a ``back`` option
 table is confirmed first: the menu offers ``go`` and ``back`` (in the
 same view; 'go' away from where the person was looking), then, after
 ``go``, ``send`` (``send_rounds``: a second look, elsewhere); only that
-publishes the table's approach pose on ``goal_pose`` and reports the
-outcome; while the robot drives it offers ``stop`` and says the distance
-left on ``choice_menu/progress``; on arrival (``odom`` within
-``goal_tolerance_m`` and ``goal_tolerance_deg``) it offers the rooms again.
+sends the table's approach pose as a goal of nav2's NavigateToPose action
+and reports the outcome; while the robot drives it offers ``stop`` (a
+cancel of the goal) and says the distance left, from the action's feedback,
+on ``choice_menu/progress``; when the action reports the goal succeeded it
+offers the rooms again.
 When to ask and which choices count is the pure
 :class:`eye_bci_ros2.task.menu.MenuProtocol` (its module doc has the rules): the
 question (``choice/request``) is asked once the camera has arrived at the
@@ -37,18 +38,26 @@ Topics:
 * publishes ``choice_menu/state`` std_msgs/String (latched): what the menu
   waits for: ``waiting_for_camera``, ``waiting_for_look_away``, ``paused``,
   ``asking``, ``driving`` (the robot is on its way; ``stop`` offered), ``finished``;
-* publishes ``goal_pose`` geometry_msgs/PoseStamped (frame ``world_frame``,
-  the scene's map frame): a confirmed table's approach pose
+* is a client of the action ``navigate_to_pose``
+  (nav2_msgs/action/NavigateToPose, as nav2's bt_navigator and sim_robot
+  serve it): 'go' sends a confirmed table's approach pose
   (:func:`eye_bci_ros2.navigation.approach.scene_goals` for a robot of
-  ``robot_radius_m``), or a stop: a goal at the robot's pose from ``odom``.
-  nav2's bt_navigator takes it as a new goal that replaces the current one;
-  with nav2's action interface a stop would be a cancel: this node uses
-  topics only;
+  ``robot_radius_m``; frame ``world_frame``, the scene's map frame); no
+  server, or a rejected goal, is said at once; the feedback's
+  ``distance_remaining`` is the distance left; the result ends the drive
+  (aborted: nav2's error code in words, :mod:`eye_bci_ros2.navigation.nav2_codes`).
+  'stop' cancels the goal, and nothing else: no stop is ever a goal.  The menu
+  cancels its goal when it ends (Ctrl-C, SIGTERM, ``destroy_node``) and waits up
+  to :data:`CANCEL_WAIT_S` for the server to take the cancel;
+* subscribes ``navigate_to_pose/_action/status`` action_msgs/GoalStatusArray:
+  a goal this menu did not send (a menu restarted while its robot drives) is
+  met with 'stop' (a cancel of every goal) before anything else;
+* publishes ``choice_menu/goal`` geometry_msgs/PoseStamped: each goal sent, a
+  record for recorders (an action goal is on no topic; nothing moves on it);
 * publishes ``choice_menu/progress`` std_msgs/String (latched): what the
   robot is doing ("driving to 'kitchen/table_2': 3.1 m left", "arrived at
-  ...", "stopped ...", "the robot did not move toward ...");
-* subscribes ``odom`` nav_msgs/Odometry: the robot's pose in ``world_frame``
-  (other frames are ignored with a warning: there is no tf2 here);
+  ...", "stopped ...", "the robot did not reach ...: there is no path to
+  the goal", "no feedback from the robot for 3 s ...");
 * subscribes ``choice`` std_msgs/String: the label chosen; a choice that is
   not an answer (not asked, paused, made before the question) or not one of
   the current options is logged and ignored;
@@ -72,31 +81,41 @@ Topics:
 ``ask_on_arrival`` false restores the previous menu: every valid choice
 counts at once and it asks only after an unusable choice or an unchanged offer.
 
-A drive that comes no nearer for ``drive_timeout_s`` (a refused goal, no
-odometry) is reported in one line, the robot held at its pose (when known)
-and the room's tables offered again.  ``robot_goals`` false: a chosen
-table is the outcome at once and nothing is published on ``goal_pose``.
+No feedback for ``feedback_timeout_s`` is said in one line and 'stop' stays
+offered: silence never ends a drive (a goal never answered is given up then,
+and cancelled if accepted later).  The menu reads no odometry: where the
+robot is and whether it has arrived is the navigation server's word (nav2
+checks arrival with its own goal checker, in its own frames).  It never
+publishes ``goal_pose``: a goal on a topic cannot be cancelled, so a stop
+would have to be another goal (docs/DESIGN.md, "The robot").  ``robot_goals``
+false: a chosen table is the outcome at once and nothing is sent.
 
 Setting ``scene_file`` (even to its current value) reloads the scene and
 starts over at the rooms; a bad file is rejected with the reason and the
 current scene kept.
 """
 
+from collections import deque
 from dataclasses import fields, replace
 import math
 from typing import Any, Dict, List, Optional, Sequence
+import uuid
 
-
+from action_msgs.msg import GoalStatus, GoalStatusArray
+from action_msgs.srv import CancelGoal as CancelGoalService
 from geometry_msgs.msg import PointStamped, PoseStamped
-from nav_msgs.msg import Odometry
+from nav2_msgs.action import NavigateToPose
 import numpy as np
+from rclpy.action import ActionClient
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from std_msgs.msg import Bool, Empty, String
+from unique_identifier_msgs.msg import UUID
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.gaze.validation import ValidationOutcome
+from eye_bci_ros2.navigation import nav2_codes
 from eye_bci_ros2.navigation.approach import scene_goals
-from eye_bci_ros2.navigation.occupancy import yaw_of
 from eye_bci_ros2.navigation.robot_settings import RobotSettings
 from eye_bci_ros2.projection.camera_model import look_at_pose
 from eye_bci_ros2.projection.geometry import WORLD_FRAME
@@ -106,22 +125,41 @@ from eye_bci_ros2.ros.log_throttle import QuietRepeats, WARN_PERIOD_S
 from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.ros.parameters import check_frame_id, declare_parameters, ParamSpec
 from eye_bci_ros2.ros.runner import spin_node
-from eye_bci_ros2.ros.topics import (CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC, CHOICE_TOPIC,
-                                     CHOICES_TOPIC, EVENT_QOS, GAZE_ON_SCREEN_TOPIC,
-                                     GAZE_POINT_TOPIC, GOAL_POSE_TOPIC, GOAL_QOS, LATCHED_QOS,
-                                     MENU_ANSWER_TOPIC, MENU_PROGRESS_TOPIC, MENU_RESULT_TOPIC,
-                                     MENU_STATE_TOPIC, NO_CHOICE_TOPIC, ODOM_QOS, ODOM_TOPIC,
+from eye_bci_ros2.ros.topics import (ACTION_STATUS_QOS, CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC,
+                                     CHOICE_TOPIC, CHOICES_TOPIC, EVENT_QOS,
+                                     GAZE_ON_SCREEN_TOPIC, GAZE_POINT_TOPIC, LATCHED_QOS,
+                                     MENU_ANSWER_TOPIC, MENU_GOAL_TOPIC, MENU_PROGRESS_TOPIC,
+                                     MENU_RESULT_TOPIC,
+                                     MENU_STATE_TOPIC, NAVIGATE_TO_POSE_ACTION,
+                                     NAVIGATE_TO_POSE_CANCEL_SERVICE,
+                                     NAVIGATE_TO_POSE_STATUS_TOPIC, NO_CHOICE_TOPIC,
                                      REGIONS_TOPIC, REQUEST_TOPIC, VALIDATION_RESULT_TOPIC,
                                      VALIDATION_START_TOPIC, VIEW_QOS)
-from eye_bci_ros2.task.menu import (Action, Answer, Log, MenuProtocol, Offer, Progress,
-                                    ProtocolSettings, Request, Result, ROOMS_NS, SendGoal,
-                                    TABLES_NS, Validate)
+from eye_bci_ros2.task.menu import (ABORTED, Action, Answer, CANCELED, CancelGoal, Log,
+                                    MenuProtocol, Offer, Progress, ProtocolSettings, Request,
+                                    Result, ROOMS_NS, SendGoal, SUCCEEDED, TABLES_NS, Validate)
 from eye_bci_ros2.task.scene import CubeMarker, load_scene, Scene, View
 
 __all__ = ['ChoiceMenu', 'main', 'resolve_scene_path', 'ROOMS_NS', 'TABLES_NS']
 
 #: How often the timed rules (settle, look-away time, pause) are applied, s.
 TICK_S = 0.05
+#: The longest the menu, when it ends, waits for the server to take its cancel, s (well
+#: inside the runner's clean-up limit).
+CANCEL_WAIT_S = 2.0
+#: How a goal ended, by its GoalStatus (anything else is an abort).
+_OUTCOMES = {GoalStatus.STATUS_SUCCEEDED: SUCCEEDED, GoalStatus.STATUS_CANCELED: CANCELED,
+             GoalStatus.STATUS_ABORTED: ABORTED}
+#: The goals whose status the menu keeps (the finished ones are forgotten beyond this).
+MAX_GOALS_KEPT = 200
+#: A goal whose status is one of these may move the robot.
+_ACTIVE = (GoalStatus.STATUS_ACCEPTED, GoalStatus.STATUS_EXECUTING,
+           GoalStatus.STATUS_CANCELING)
+#: A cancel's return codes in words (action_msgs/srv/CancelGoal).
+_CANCEL_WORDS = {
+    CancelGoalService.Response.ERROR_REJECTED: 'the server rejected it',
+    CancelGoalService.Response.ERROR_UNKNOWN_GOAL_ID: 'the server does not know the goal',
+    CancelGoalService.Response.ERROR_GOAL_TERMINATED: 'the goal had already ended'}
 
 #: Protocol parameters: name -> (description, range); defaults from ProtocolSettings.
 _PROTOCOL_PARAMETERS = {
@@ -150,15 +188,12 @@ _PROTOCOL_PARAMETERS = {
                        None),
     'validation_retries': ('A refused validation is run again this many times, then the menu '
                            'goes on with the correction as it was', None),
-    'robot_goals': ("A chosen table is confirmed ('go' / 'back') and its approach pose sent on "
-                    "goal_pose; 'stop' while the robot drives (false: the table is the "
-                    'outcome at once, nothing moves)', None),
-    'goal_tolerance_m': ('The robot (odom) within this distance of its goal has arrived, m',
-                         (0.01, 2.0)),
-    'goal_tolerance_deg': ("... and within this angle of the goal's heading, degrees",
-                           (0.5, 180.0)),
-    'drive_timeout_s': ('A robot that comes no nearer to its goal for this long (refused, no '
-                        'odometry) is reported and the tables offered again, s', (1.0, 600.0)),
+    'robot_goals': ("A chosen table is confirmed ('go' / 'back') and its approach pose sent as "
+                    "a NavigateToPose goal; 'stop' (a cancel) while the robot drives (false: "
+                    'the table is the outcome at once, nothing moves)', None),
+    'feedback_timeout_s': ('No feedback from the navigation (or no answer to a goal) for this '
+                           "long is said; 'stop' stays offered and the drive goes on, s",
+                           (0.5, 600.0)),
     'confirm_rounds': ("A confirmation ('go' / 'back') asked this many times without an "
                        'answer (choice/none) returns to the tables, no goal (a stray look '
                        'answers it late)', None),
@@ -198,7 +233,7 @@ class ChoiceMenu(Node):
                       check=self._check_scene_file),
             ParamSpec('repeat', defaults.repeat, _PROTOCOL_PARAMETERS['repeat'][0]),
             ParamSpec('world_frame', WORLD_FRAME,
-                      'Frame of the markers, camera goals, goal_pose and odom; must match the '
+                      'Frame of the markers, camera goals and robot goals; must match the '
                       "scene's frame_id", check=check_frame_id),
             ParamSpec('robot_radius_m', _ROBOT.radius_m,
                       "Radius of the robot's footprint, m: each table's goal is where a robot "
@@ -229,9 +264,22 @@ class ChoiceMenu(Node):
         self._answer_pub = self.create_publisher(String, MENU_ANSWER_TOPIC, EVENT_QOS)
         self._request_pub = self.create_publisher(Empty, REQUEST_TOPIC, EVENT_QOS)
         self._state_pub = self.create_publisher(String, MENU_STATE_TOPIC, LATCHED_QOS)
-        self._robot_goal_pub = self.create_publisher(PoseStamped, GOAL_POSE_TOPIC, GOAL_QOS)
         self._progress_pub = self.create_publisher(String, MENU_PROGRESS_TOPIC, LATCHED_QOS)
-        self.create_subscription(Odometry, ODOM_TOPIC, self._on_odometry, ODOM_QOS)
+        self._sent_goal_pub = self.create_publisher(PoseStamped, MENU_GOAL_TOPIC, EVENT_QOS)
+        # The robot: nav2's NavigateToPose.  The goal the protocol follows (its id and, once
+        # accepted, its handle); every goal id this node sent (the status topic's other
+        # goals are not the menu's); a cancel-all client for those.
+        self._navigator = ActionClient(self, NavigateToPose, NAVIGATE_TO_POSE_ACTION)
+        self._cancel_all = self.create_client(CancelGoalService,
+                                              NAVIGATE_TO_POSE_CANCEL_SERVICE)
+        self._goal_id: Optional[bytes] = None
+        self._goal_handle = None
+        self._sent_ids = deque(maxlen=100)
+        self._others_active = False
+        self._goal_states: Dict[bytes, int] = {}    # goal id -> its last status
+        self._cancelling = None             # the last cancel's future
+        self.create_subscription(GoalStatusArray, NAVIGATE_TO_POSE_STATUS_TOPIC,
+                                 self._on_goal_status, ACTION_STATUS_QOS)
         self.create_subscription(String, CHOICE_TOPIC, self._on_choice, EVENT_QOS)
         self.create_subscription(String, NO_CHOICE_TOPIC, self._on_no_choice, EVENT_QOS)
         self.create_subscription(PoseStamped, CAMERA_POSE_TOPIC, self._on_pose, LATCHED_QOS)
@@ -257,6 +305,16 @@ class ChoiceMenu(Node):
     def options(self) -> Sequence[str]:
         """Return the labels offered now (empty once finished)."""
         return self._protocol.options
+
+    @property
+    def driving(self) -> bool:
+        """Tell whether the menu follows a drive (from 'go' until the goal has ended)."""
+        return self._protocol.drive is not None
+
+    @property
+    def robot_goals(self) -> Dict[str, np.ndarray]:
+        """Return each table's robot goal: label -> x, y (m), yaw (rad) in the map frame."""
+        return dict(self._protocol.goals)
 
     @property
     def state(self) -> str:
@@ -297,17 +355,6 @@ class ChoiceMenu(Node):
         self._guard('camera/pose', lambda: self._protocol.on_camera_pose(
             *pose_to_arrays(message.pose), self._now()))
 
-    def _on_odometry(self, message: Odometry) -> None:
-        frame = message.header.frame_id
-        if frame and frame != self._world_frame:
-            self.get_logger().warning(
-                f"odom in frame '{frame}', not '{self._world_frame}': ignored (the robot's pose "
-                'must be in the map frame)', throttle_duration_sec=WARN_PERIOD_S)
-            return
-        position, quaternion = pose_to_arrays(message.pose.pose)
-        self._guard('odom', lambda: self._protocol.on_odometry(
-            position[0], position[1], yaw_of(quaternion), self._now()))
-
     def _on_regions(self, message: MarkerArray) -> None:
         def take():
             self._protocol.on_regions(*marker_array_to_regions(message))
@@ -333,6 +380,10 @@ class ChoiceMenu(Node):
             outcome.accepted, outcome.summary(), self._now()))
 
     def _on_tick(self) -> None:
+        if self._others_active and not self._navigator.server_is_ready():
+            # The server is gone (and every goal with it): no goal of its drives any more.
+            self._goal_states = {}
+            self._update_other_goals()
         if self._validation_due:
             if self._validation_pub.get_subscription_count() > 0:
                 self._validation_due = False
@@ -346,7 +397,11 @@ class ChoiceMenu(Node):
     # -- outputs ----------------------------------------------------------------------------
 
     def _perform(self, actions: List[Action]) -> None:
-        for action in actions:
+        # The protocol's answers to what an action started (a goal refused at once) come
+        # after the rest of the actions that started it.
+        queue = deque(actions)
+        while queue:
+            action = queue.popleft()
             if isinstance(action, Offer):
                 if action.view is not None:
                     self._publish_goal(action.view)
@@ -358,7 +413,9 @@ class ChoiceMenu(Node):
             elif isinstance(action, Result):
                 self._result_pub.publish(String(data=action.label))
             elif isinstance(action, SendGoal):
-                self._publish_robot_goal(action.pose)
+                queue.extend(self._send_goal(action.pose))
+            elif isinstance(action, CancelGoal):
+                self._cancel_goal(action.every)
             elif isinstance(action, Progress):
                 self._progress_pub.publish(String(data=action.text))
             elif isinstance(action, Answer):
@@ -381,15 +438,181 @@ class ChoiceMenu(Node):
         goal.pose = arrays_to_pose(*look_at_pose(*view.as_tuple()))
         self._goal_pub.publish(goal)
 
-    def _publish_robot_goal(self, pose: np.ndarray) -> None:
-        """Publish ``goal_pose``: x, y (m), yaw (rad) in the map frame, on the floor."""
-        goal = PoseStamped()
-        goal.header.frame_id = self._world_frame
-        goal.header.stamp = self.get_clock().now().to_msg()
+    # -- the robot: NavigateToPose ----------------------------------------------------------
+
+    def _send_goal(self, pose: np.ndarray) -> List[Action]:
+        """Send a NavigateToPose goal: x, y (m), yaw (rad) in the map frame, on the floor."""
+        now = self._now()
+        if not self._navigator.server_is_ready():
+            self._goal_id = None
+            return self._protocol.on_goal_response(
+                False, f'no navigation server on {self._navigator_name()}', now)
+        goal = NavigateToPose.Goal()
+        goal.pose.header.frame_id = self._world_frame
+        goal.pose.header.stamp = self.get_clock().now().to_msg()
         half = float(pose[2]) / 2.0
-        goal.pose = arrays_to_pose([pose[0], pose[1], 0.0],
-                                   [0.0, 0.0, math.sin(half), math.cos(half)])
-        self._robot_goal_pub.publish(goal)
+        goal.pose.pose = arrays_to_pose([pose[0], pose[1], 0.0],
+                                        [0.0, 0.0, math.sin(half), math.cos(half)])
+        # The id is made here, before the goal leaves: the status topic may name it first.
+        goal_id = uuid.uuid4().bytes
+        self._goal_id, self._goal_handle = goal_id, None
+        self._sent_ids.append(goal_id)
+        future = self._navigator.send_goal_async(
+            goal, feedback_callback=self._on_feedback, goal_uuid=UUID(uuid=list(goal_id)))
+        self._sent_goal_pub.publish(goal.pose)      # the record; nothing moves on it
+        future.add_done_callback(lambda done: self._on_goal_response(goal_id, done))
+        return []
+
+    def _navigator_name(self) -> str:
+        return self.resolve_topic_name(NAVIGATE_TO_POSE_ACTION)
+
+    def _on_goal_response(self, goal_id: bytes, future) -> None:
+        try:
+            handle = future.result()
+        except Exception as error:  # noqa: B902 - the server vanished while answering
+            handle, reason = None, f'no answer from {self._navigator_name()} ({error})'
+        else:
+            reason = f'{self._navigator_name()} rejected it'
+        if goal_id != self._goal_id:
+            # A goal the menu no longer follows (a new scene, a stop before the answer):
+            # it must not drive the robot.
+            if handle is not None and handle.accepted:
+                self.get_logger().warning('a goal accepted after the menu gave it up: '
+                                          'cancelling it')
+                handle.cancel_goal_async()
+            return
+        accepted = handle is not None and handle.accepted
+        if accepted:
+            self._goal_handle = handle
+            handle.get_result_async().add_done_callback(
+                lambda done: self._on_result(goal_id, done))
+        else:
+            self._goal_id = None
+        self._guard('the goal response', lambda: self._protocol.on_goal_response(
+            accepted, reason, self._now()))
+
+    def _on_feedback(self, message) -> None:
+        if bytes(message.goal_id.uuid) != self._goal_id:
+            return
+        self._guard('navigation feedback', lambda: self._protocol.on_feedback(
+            float(message.feedback.distance_remaining), self._now()))
+
+    def _on_result(self, goal_id: bytes, future) -> None:
+        if goal_id != self._goal_id:
+            return
+        self._goal_id, self._goal_handle = None, None
+        try:
+            response = future.result()
+        except Exception as error:  # noqa: B902 - the server vanished
+            outcome, reason = ABORTED, f'no result from {self._navigator_name()} ({error})'
+        else:
+            outcome = _OUTCOMES.get(response.status, ABORTED)
+            code, message = response.result.error_code, response.result.error_msg
+            # nav2 aborts a goal that another goal preempts with an empty result.
+            reason = nav2_codes.describe(code, message) if code or message else \
+                'it ended without a reason (another goal may have taken its place)'
+
+        self._guard('the navigation result', lambda: self._protocol.on_goal_result(
+            outcome, reason, self._now()))
+        # Another goal may still drive the robot (it preempted this one).
+        self._guard('the goal status', lambda: self._protocol.on_other_goals(
+            self._others_active, self._now()))
+
+    def _cancel_goal(self, every: bool) -> None:
+        """Cancel the followed goal (or every goal of the server)."""
+        if every:
+            if not self._cancel_all.service_is_ready():
+                self.get_logger().warning(f'cannot stop the robot: no navigation server on '
+                                          f'{self._navigator_name()}')
+                return
+            # A zero goal id and stamp: every goal (action_msgs/srv/CancelGoal).
+            future = self._cancel_all.call_async(CancelGoalService.Request())
+        elif self._goal_handle is not None:
+            future = self._goal_handle.cancel_goal_async()
+        else:
+            return
+        self._cancelling = future
+        future.add_done_callback(self._on_cancel_response)
+
+    def _on_cancel_response(self, future) -> None:
+        try:
+            response = future.result()
+        except Exception as error:  # noqa: B902 - the server vanished
+            accepted, reason = False, f'no answer ({error})'
+        else:
+            # rclpy's server answers a cancel its callback refused with no error and no goal.
+            accepted = response.return_code == CancelGoalService.Response.ERROR_NONE and \
+                len(response.goals_canceling) > 0
+            reason = _CANCEL_WORDS.get(response.return_code or
+                                       CancelGoalService.Response.ERROR_REJECTED,
+                                       f'code {response.return_code}')
+        self._guard('the cancel response', lambda: self._protocol.on_cancel_response(
+            accepted, reason, self._now()))
+
+    def _on_goal_status(self, message: GoalStatusArray) -> None:
+        """
+        Take the action's status: whether a goal this menu did not send is active.
+
+        Each goal's last known status is kept: a message of another publisher on the
+        topic (a server gone but not yet seen gone) does not end a goal it does not list.
+        """
+        for status in message.status_list:
+            self._goal_states[bytes(status.goal_info.goal_id.uuid)] = status.status
+        if len(self._goal_states) > MAX_GOALS_KEPT:
+            self._goal_states = {goal: state for goal, state in self._goal_states.items()
+                                 if state in _ACTIVE}
+        self._update_other_goals()
+
+    def _update_other_goals(self) -> None:
+        own = set(self._sent_ids)
+        self._others_active = any(state in _ACTIVE and goal not in own
+                                  for goal, state in self._goal_states.items())
+        self._guard('the goal status', lambda: self._protocol.on_other_goals(
+            self._others_active, self._now()))
+
+    def destroy_node(self) -> None:
+        """Cancel the menu's goal (the robot stops when the menu ends), then destroy."""
+        try:
+            self._cancel_on_exit()
+        except Exception as error:  # noqa: B902 - the node must still be destroyed
+            self.get_logger().error(f'could not cancel the robot goal: {error}')
+        if hasattr(self, '_navigator'):
+            self._navigator.destroy()   # rclpy's destroy_node leaves an action client
+        super().destroy_node()
+
+    def _cancel_on_exit(self) -> None:
+        """Cancel the followed goal and wait for the server to take it (CANCEL_WAIT_S)."""
+        if not hasattr(self, '_protocol') or not self.context.ok():
+            return
+        self._cancelling = None
+        drive = self._protocol.drive
+        # A goal sent but not answered yet has no handle: cancelled by its id.
+        in_flight = self._goal_id if self._goal_handle is None else None
+        self._perform(self._protocol.cancel_drive('the menu ends', self._now(), own_only=True))
+        future, self._goal_id, self._goal_handle = self._cancelling, None, None
+        if future is None and in_flight is not None and drive is not None and \
+                not drive.other and self._cancel_all.service_is_ready():
+            request = CancelGoalService.Request()
+            request.goal_info.goal_id.uuid = list(in_flight)
+            future = self._cancel_all.call_async(request)
+        if future is None:
+            return
+        # The executor that ran the node has stopped: a private one takes the answer, so
+        # the request has left the process when destroy_node returns.
+        executor = SingleThreadedExecutor(context=self.context)
+        try:
+            executor.add_node(self)
+            executor.spin_until_future_complete(future, timeout_sec=CANCEL_WAIT_S)
+        finally:
+            executor.remove_node(self)
+            executor.shutdown()
+        response = future.result() if future.done() else None
+        if response is not None and response.return_code == \
+                CancelGoalService.Response.ERROR_NONE and response.goals_canceling:
+            self.get_logger().info('the robot goal is cancelled: the menu ends')
+        else:
+            self.get_logger().warning(f'the navigation server did not confirm the cancel '
+                                      f'within {CANCEL_WAIT_S:g} s')
 
     def _publish_choices(self, markers: Sequence[CubeMarker], ns: str) -> None:
         stamp = self.get_clock().now().to_msg()

@@ -22,8 +22,8 @@ It listens to the pipeline's topics and never publishes:
   last gaze sample the decision used;
 * ``choice_menu/answer`` -> ``answer`` (a room, a table, back), ``go`` (the
   confirmation, with ``goal``: the table answered before it), ``stop``;
-  ``choice_menu/result`` -> ``outcome``; ``goal_pose`` (when something publishes it:
-  RViz's "2D Goal Pose", a topic-mode menu) -> ``goal`` (frame, x, y, yaw);
+  ``choice_menu/result`` -> ``outcome``; ``choice_menu/goal`` (the menu's NavigateToPose
+  goals) and ``goal_pose`` (RViz's "2D Goal Pose") -> ``goal`` (frame, x, y, yaw);
 * ``choice_menu/progress`` -> ``driving``, ``arrived``, ``stopped``, ``failed``
   (a line that asks to choose again), else ``robot``, the text kept
   (:func:`~eye_bci_ros2.recordings.session_markers.progress_event`);
@@ -65,7 +65,8 @@ from eye_bci_ros2.ros.parameters import declare_parameters, ParamSpec
 from eye_bci_ros2.ros.runner import spin_node
 from eye_bci_ros2.ros.ssvep_messages import msg_to_stimulus_map
 from eye_bci_ros2.ros.topics import (CHOICE_DETAIL_TOPIC, EVENT_QOS, GOAL_POSE_TOPIC, GOAL_QOS,
-                                     LATCHED_QOS, MENU_ANSWER_TOPIC, MENU_PROGRESS_TOPIC,
+                                     LATCHED_QOS, MENU_ANSWER_TOPIC, MENU_GOAL_TOPIC,
+                                     MENU_PROGRESS_TOPIC,
                                      MENU_RESULT_TOPIC, MENU_STATE_TOPIC, REGIONS_TOPIC,
                                      REQUEST_TOPIC, SSVEP_STIMULI_TOPIC, VALIDATION_RESULT_TOPIC)
 from eye_bci_ros2.streams.lsl_connection import clock_pair
@@ -112,6 +113,7 @@ class SessionMarkers(Node):
         self.create_subscription(String, MENU_PROGRESS_TOPIC, self._on_progress, LATCHED_QOS)
         self.create_subscription(String, MENU_STATE_TOPIC, self._on_state, LATCHED_QOS)
         self.create_subscription(PoseStamped, GOAL_POSE_TOPIC, self._on_goal, GOAL_QOS)
+        self.create_subscription(PoseStamped, MENU_GOAL_TOPIC, self._on_goal, EVENT_QOS)
         self.create_subscription(String, VALIDATION_RESULT_TOPIC, self._on_validation,
                                  EVENT_QOS)
         self.create_subscription(JointState, SSVEP_STIMULI_TOPIC, self._on_stimuli,

@@ -13,6 +13,7 @@ Each module is one piece of the adapters' common ground, not a node:
 * ``session_topics``: the topics a study records (``session_record``, ``ros2 bag record``);
 * ``message_types``: a message class by its type name, and its .msg definition;
 * ``conversions``: message <-> numpy at the node edges;
+* ``robot_messages``: planar poses <-> Pose, PoseStamped, TF transforms, Path;
 * ``ssvep_messages``: SSVEP messages <-> the pure stimulus and score objects;
 * ``feedback_markers``: the ``choices/feedback`` halos as a MarkerArray;
 * ``marker_store``: RViz2's MarkerArray semantics, markers by (ns, id);

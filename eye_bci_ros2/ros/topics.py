@@ -5,7 +5,8 @@ Every name is relative, so a namespace (``--ros-args -r __ns:=/left``) moves a
 whole pipeline.  docs/DESIGN.md ("Topics") says what each carries.
 """
 
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import (DurabilityPolicy, HistoryPolicy, qos_profile_action_status_default,
+                       QoSProfile, ReliabilityPolicy)
 
 #: Every gaze sample, batched: sensor_msgs/PointCloud2, one message per LSL chunk
 #: (see :mod:`eye_bci_ros2.ros.conversions`, "Gaze batches").
@@ -35,6 +36,10 @@ MENU_RESULT_TOPIC = 'choice_menu/result'
 MENU_STATE_TOPIC = 'choice_menu/state'
 MENU_ANSWER_TOPIC = 'choice_menu/answer'
 MENU_PROGRESS_TOPIC = 'choice_menu/progress'
+#: Each robot goal the menu sent as a NavigateToPose goal (geometry_msgs/PoseStamped, map
+#: frame, EVENT_QOS): a record for recorders and people (an action goal is on no topic);
+#: nothing moves on it.
+MENU_GOAL_TOPIC = 'choice_menu/goal'
 
 #: The arbiter's choice (std_msgs/String, the label) and a round that ended without one
 #: (std_msgs/String, the reason; input mode gaze), both EVENT_QOS; ``choice/request``
@@ -86,19 +91,32 @@ SSVEP_CHOICE_TOPIC = 'ssvep/choice'
 
 #: The robot (eye_bci_ros2.navigation, sim_robot; nav2's names): the goal
 #: (geometry_msgs/PoseStamped in the map frame, what nav2's bt_navigator and RViz's
-#: "2D Goal Pose" use; GOAL_QOS), the robot's odometry (nav_msgs/Odometry, pose in the map
-#: frame; ODOM_QOS), the map (nav_msgs/OccupancyGrid; MAP_QOS, as map_server), the planned
-#: path (nav_msgs/Path; PLAN_QOS) and the robot drawn for RViz (visualization_msgs/MarkerArray:
-#: its body and heading, and its footprint; ROBOT_MARKER_QOS).
+#: "2D Goal Pose" use: each one becomes a NavigateToPose goal; GOAL_QOS), the robot's
+#: odometry (nav_msgs/Odometry in frame ``odom``, child ``base_link``, REP-105; ODOM_QOS),
+#: the map (nav_msgs/OccupancyGrid; MAP_QOS, as map_server), the planned path (nav_msgs/Path,
+#: a heading on every pose; PLAN_QOS) and the robot drawn for RViz
+#: (visualization_msgs/MarkerArray in ``base_link``: its body and heading, and its footprint;
+#: ROBOT_MARKER_QOS).
 GOAL_POSE_TOPIC = 'goal_pose'
 #: nav2's NavigateToPose action (nav2_msgs/action/NavigateToPose, as bt_navigator serves it;
 #: rclpy's default action QoS): the menu is its client, sim_robot its server.  Its goal
 #: status is on ``navigate_to_pose/_action/status``.
 NAVIGATE_TO_POSE_ACTION = 'navigate_to_pose'
+#: Its hidden parts any node may use: the goals' status (action_msgs/GoalStatusArray,
+#: ACTION_STATUS_QOS; the menu sees a goal it did not send), the feedback
+#: (NavigateToPose.Impl.FeedbackMessage; the demo records the drive) and the cancel
+#: service (action_msgs/srv/CancelGoal; a zero goal id cancels every goal).
+NAVIGATE_TO_POSE_STATUS_TOPIC = NAVIGATE_TO_POSE_ACTION + '/_action/status'
+NAVIGATE_TO_POSE_FEEDBACK_TOPIC = NAVIGATE_TO_POSE_ACTION + '/_action/feedback'
+NAVIGATE_TO_POSE_CANCEL_SERVICE = NAVIGATE_TO_POSE_ACTION + '/_action/cancel_goal'
 #: TF (tf2_msgs/TFMessage; REP-105 frames map -> odom -> base_link): ``tf`` volatile,
 #: ``tf_static`` latched as tf2_ros's static broadcaster.
 TF_TOPIC = '/tf'
 TF_STATIC_TOPIC = '/tf_static'
+#: ``/tf``: as tf2_ros's TransformBroadcaster publishes (reliable, volatile, depth 100).
+TF_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=100,
+    reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 ODOM_TOPIC = 'odom'
 MAP_TOPIC = 'map'
 PLAN_TOPIC = 'plan'
@@ -176,3 +194,9 @@ PLAN_QOS = LATCHED_QOS
 #: ``robot/marker``: reliable and volatile, like the feedback halos (what RViz's
 #: MarkerArray display asks for), a few messages deep.
 ROBOT_MARKER_QOS = FEEDBACK_QOS
+
+#: An action's status topic, as rclpy's and rclcpp's action servers publish it (reliable,
+#: transient local, depth 1: a client that starts later sees the goals at once).
+ACTION_STATUS_QOS = qos_profile_action_status_default
+#: An action's feedback topic, as rclpy's action servers publish it.
+ACTION_FEEDBACK_QOS = EVENT_QOS

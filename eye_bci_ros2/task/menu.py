@@ -59,8 +59,9 @@ camera is already there, they are shown at once.
 **The robot** (``robot_goals``, :data:`GO_LABEL`, :data:`STOP_LABEL`): a chosen
 table is a destination; it is *not* acted on yet: the menu offers a
 confirmation step, ``go`` and ``back`` (:func:`confirm_markers`, in the same
-view).  Only ``go`` sends the table's approach pose (:class:`SendGoal`,
-``goals``: label -> x, y, yaw in the scene's frame) and is the outcome
+view).  Only ``go`` sends the table's approach pose as a navigation goal
+(:class:`SendGoal`, ``goals``: label -> x, y, yaw in the scene's frame; the
+node sends it as nav2's NavigateToPose action) and is the outcome
 (:class:`Result`); ``back`` offers the tables again.  Rooms and ``back`` are
 not destinations: no goal.  A confirmation asked ``confirm_rounds`` times
 without an answer (rounds reported on ``choice/none``; the same chances in
@@ -76,19 +77,29 @@ else back to the tables.  A person who means 'go' looks at 'send' next (one
 short saccade and fixation); a wandering gaze that chose 'go' by chance
 seldom lands on a target that just appeared elsewhere within a second
 (docs/selection.md, "Looking around without intent": each step's share on
-real gaze).  While the robot drives, the menu offers
-``stop`` (:func:`stop_marker`) and asks at once and again after each round
-without a choice; ``stop`` sends a goal at the robot's pose from odometry
-(:meth:`MenuProtocol.on_odometry`).  Looking away chooses nothing: the robot
-goes on, and it never starts without ``go``.  :class:`Progress` says the
-distance left; the robot has arrived when its pose is within
-``goal_tolerance_m`` and ``goal_tolerance_deg`` of the goal, and the menu then
-offers the next task (the rooms, or finishes).  A robot that comes no nearer
-(by :data:`PROGRESS_M` or :data:`PROGRESS_DEG`) for ``drive_timeout_s`` (a
-refused goal, no odometry) is reported in one line, held where it is (a goal
-at its pose, when known) and the room's tables are offered again: the menu
-never waits for ever.  A new scene (``start``) while driving stops the robot
-first.
+real gaze).
+
+**The drive** follows the navigation action, never a guess from odometry.  From
+the goal sent until it ends the menu offers ``stop`` (:func:`stop_marker`) and
+asks at once and again after each round without a choice.  A refused goal
+(:meth:`MenuProtocol.on_goal_response`: no action server, or rejected) is said
+at once and the tables offered again.  :class:`Progress` says the distance left
+from the action's feedback (:meth:`MenuProtocol.on_feedback`); the result
+(:meth:`MenuProtocol.on_goal_result`) ends the drive: arrived (the next task:
+the rooms, or finish), failed (nav2's reason in words; the tables again) or
+cancelled.  ``stop`` is a cancel and nothing else (:class:`CancelGoal`; no
+stop, hold or timeout is ever a goal): the stop stays offered until the robot
+reports the goal ended, a refused cancel is said and a second ``stop`` cancels
+again.  No feedback on an accepted goal for ``feedback_timeout_s`` is said in
+one line and 'stop' stays offered: silence never ends a drive, and progress is
+never called a failure.  A goal with no answer at all for as long (a server
+gone but not yet seen gone) is given up and the tables offered again; should
+it be accepted later, it is cancelled.  Looking away
+chooses nothing: the robot goes on, and it never starts without ``go``.  A
+new scene (``start``) while driving cancels the goal first.  A goal this menu
+did not send (:meth:`MenuProtocol.on_other_goals`: a menu restarted while its
+robot drives) is met with ``stop`` before anything else; the menu starts over
+when that goal has ended.
 
 ``validate_first``: the experiment starts with a gaze validation
 (:class:`Validate`; the node sends ``validation/start`` to
@@ -124,12 +135,13 @@ ROOMS_NS = 'rooms'
 TABLES_NS = 'tables'
 CONFIRM_NS = 'confirm'
 DRIVE_NS = 'drive'
-#: A drive makes progress when the distance left shrinks by this much, m, or the
-#: heading error by :data:`PROGRESS_DEG`, degrees (odometry noise is far smaller).
-PROGRESS_M = 0.05
-PROGRESS_DEG = 5.0
 #: The progress line is renewed when the distance left changes by this much, m.
 PROGRESS_STEP_M = 0.1
+#: How a navigation goal ended (:meth:`MenuProtocol.on_goal_result`; the node maps the
+#: action's GoalStatus to these).
+SUCCEEDED = 'succeeded'
+ABORTED = 'aborted'
+CANCELED = 'canceled'
 #: What the protocol waits for (:attr:`MenuProtocol.state`).
 WAITING_FOR_CAMERA = 'waiting_for_camera'
 LOOK_AWAY = 'waiting_for_look_away'
@@ -163,9 +175,8 @@ class ProtocolSettings:
     :param validation_retries: a refused validation is run again this many times.
     :param robot_goals: a chosen table is confirmed ('go'/'back') and sent to the robot
         (module doc); False: the table is the outcome at once and nothing moves.
-    :param goal_tolerance_m: the robot within this of its goal has arrived, m.
-    :param goal_tolerance_deg: ... and its heading within this, degrees.
-    :param drive_timeout_s: a robot that comes no nearer for this long is reported, s.
+    :param feedback_timeout_s: no word from the robot (feedback, an answer to the goal)
+        for this long is said, s; 'stop' stays offered and the drive goes on.
     :param confirm_rounds: a confirmation asked this many times without an answer
         returns to the tables, no goal.
     :param send_rounds: 'go' is confirmed by a second look, at 'send' (module doc), asked
@@ -185,11 +196,9 @@ class ProtocolSettings:
     validate_first: bool = False
     validation_retries: int = 1
     robot_goals: bool = True
-    # Arrived as sim_robot counts it (navigation.robot_settings.GOAL_TOLERANCE_M, _DEG; the
-    # layers keep task from importing navigation: a unit test holds them equal).
-    goal_tolerance_m: float = 0.2
-    goal_tolerance_deg: float = 15.0
-    drive_timeout_s: float = 10.0
+    # nav2's bt_navigator sends feedback on every tick of its tree (100 Hz), sim_robot at
+    # 10 Hz or more: a few seconds of silence mean a robot or a link in trouble.
+    feedback_timeout_s: float = 3.0
     confirm_rounds: int = 2
     send_rounds: int = 1
 
@@ -208,7 +217,7 @@ class ProtocolSettings:
             raise ValueError(f'send_rounds must be an integer >= 0, got {self.send_rounds!r}')
         for name in ('arrive_tolerance_m', 'arrive_tolerance_deg', 'settle_s', 'look_away_s',
                      'look_away_margin_px', 'pause_after_s', 'min_answer_s',
-                     'goal_tolerance_m', 'goal_tolerance_deg', 'drive_timeout_s'):
+                     'feedback_timeout_s'):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f'{name} must be a finite number >= 0, got {value!r}')
@@ -250,15 +259,28 @@ class Answer:
 @dataclass(frozen=True, eq=False)
 class SendGoal:
     """
-    Send the robot a goal (``goal_pose``): a confirmed destination, or a stop.
+    Send the robot a navigation goal: a confirmed destination, never a stop.
 
-    :ivar label: the destination's label, or :data:`STOP_LABEL` (a goal at the
-        robot's own pose: it stops there).
+    The node answers with :meth:`MenuProtocol.on_goal_response`.
+
+    :ivar label: the destination's label.
     :ivar pose: x, y (m) and yaw (rad) in the scene's frame, shape (3,).
     """
 
     label: str
     pose: np.ndarray
+
+
+@dataclass(frozen=True)
+class CancelGoal:
+    """
+    Cancel the robot's goal: the only way the menu stops the robot.
+
+    :ivar every: cancel every goal of the navigation server (a goal this menu did
+        not send, :meth:`MenuProtocol.on_other_goals`); False: the menu's own goal.
+    """
+
+    every: bool = False
 
 
 @dataclass(frozen=True)
@@ -276,7 +298,7 @@ class Log:
     text: str
 
 
-Action = Union[Offer, Request, Result, Answer, Log, Validate, SendGoal, Progress]
+Action = Union[Offer, Request, Result, Answer, Log, Validate, SendGoal, CancelGoal, Progress]
 
 
 def _quaternion_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
@@ -462,26 +484,25 @@ class _LookAway:
 
 @dataclass
 class _Drive:
-    """A confirmed goal the robot is driving to."""
+    """A navigation goal the robot drives to: the menu's own (confirmed) or another's."""
 
-    label: str
-    goal: np.ndarray                        # x, y m, yaw rad
+    label: str                              # the destination; '' for another's goal
     sent_at: float
-    best_m: float = math.inf                # the nearest the robot came, m
-    best_deg: float = math.inf              # its smallest heading error there, degrees
-    progress_at: float = math.nan           # when it last came nearer (sent_at at first)
+    other: bool = False                     # a goal this menu did not send
+    accepted: bool = False                  # the robot accepted it
+    stopping: bool = False                  # 'stop' chosen: cancelled, the end not yet heard
+    heard_at: float = math.nan              # the robot's last word (accepted, feedback)
+    silent: bool = False                    # the silence was said
     shown_m: float = math.nan               # the distance in the last progress line
 
     def __post_init__(self):
-        """Count the wait for progress from the moment the goal was sent."""
-        self.progress_at = self.sent_at
+        """Count the robot's silence from the moment the goal was sent."""
+        self.heard_at = self.sent_at
 
-
-def pose_error(pose: np.ndarray, goal: np.ndarray) -> Tuple[float, float]:
-    """Return the distance (m) and heading error (degrees) of a pose (x, y, yaw) to a goal."""
-    distance = float(math.hypot(goal[0] - pose[0], goal[1] - pose[1]))
-    turn = (float(goal[2]) - float(pose[2]) + math.pi) % (2 * math.pi) - math.pi
-    return distance, abs(math.degrees(turn))
+    @property
+    def name(self) -> str:
+        """Say which goal this is, for the person."""
+        return 'a goal this menu did not send' if self.other else f"'{self.label}'"
 
 
 @dataclass
@@ -520,7 +541,6 @@ class MenuProtocol:
         self._unanswered = 0                         # its confirmation's rounds without one
         self._sending = False                        # 'go' chosen: 'send' offered
         self.drive: Optional[_Drive] = None
-        self._robot: Optional[np.ndarray] = None    # the robot's pose from odometry (3,)
 
     # -- state ------------------------------------------------------------------------------
 
@@ -590,10 +610,10 @@ class MenuProtocol:
         """Offer the current step again (e.g. in a new world frame); the question is asked anew."""
         if self.finished or self._validating:
             return []
-        if self.room is None:
-            return self._offer_rooms(now)
         if self.drive is not None:
             return self._offer_stop(now)
+        if self.room is None:
+            return self._offer_rooms(now)
         if self.pending is not None:
             return self._offer_send(now) if self._sending else self._offer_confirm(now)
         return self._offer_tables(self.room, now)
@@ -620,27 +640,99 @@ class MenuProtocol:
             goal.last_move = now
         return self.tick(now)
 
-    def on_odometry(self, x: float, y: float, yaw: float, now: float) -> List[Action]:
-        """Take the robot's pose (``odom``: x, y m, yaw rad in the scene's frame)."""
-        pose = np.array([x, y, yaw], dtype=float)
-        if not np.all(np.isfinite(pose)):
-            return [Log('warning', 'odometry with NaN or infinity ignored')]
-        self._robot = pose
+    def on_goal_response(self, accepted: bool, reason: str, now: float) -> List[Action]:
+        """
+        Take the robot's answer to the goal just sent (:class:`SendGoal`).
+
+        :param accepted: the navigation server accepted it.
+        :param reason: why not, in words (no server, rejected), when not accepted.
+        """
         drive = self.drive
-        if drive is None:
+        if drive is None or drive.other or drive.accepted:
+            if accepted:        # given up before the answer came: it must not drive
+                return [Log('warning', 'a goal the menu gave up was accepted late: '
+                                       'cancelling it'), CancelGoal()]
+            return [Log('info', f'a refusal of a goal no longer followed: {reason}')]
+        if not accepted:
+            self.drive = None
+            text = f'the robot refused the goal to {drive.name}: {reason}: choose again'
+            return [Log('warning', text), Progress(text), *self._offer_tables(self.room, now)]
+        drive.accepted, drive.heard_at, drive.silent = True, now, False
+        actions: List[Action] = [Log('info', f'the robot accepted the goal to {drive.name}')]
+        if drive.stopping:          # 'stop' was chosen before the answer came
+            actions.append(CancelGoal())
+        return actions
+
+    def on_feedback(self, distance_m: float, now: float) -> List[Action]:
+        """Take the navigation's feedback on the menu's goal: the distance left, m."""
+        drive = self.drive
+        if drive is None or drive.other:
             return []
-        distance, heading = pose_error(pose, drive.goal)
-        tol = self.settings
-        if distance <= tol.goal_tolerance_m and heading <= tol.goal_tolerance_deg:
-            return self._arrived(distance, heading, now)
-        if distance <= drive.best_m - PROGRESS_M or heading <= drive.best_deg - PROGRESS_DEG:
-            drive.progress_at = now
-        drive.best_m = min(drive.best_m, distance)
-        drive.best_deg = min(drive.best_deg, heading)
-        if not abs(distance - drive.shown_m) < PROGRESS_STEP_M:
-            drive.shown_m = distance
-            return [Progress(f"driving to '{drive.label}': {distance:.1f} m left")]
-        return []
+        actions = self._heard(drive, now)
+        if not (math.isfinite(distance_m) and distance_m >= 0):
+            return actions + [Log('warning', f'feedback with a distance left of {distance_m} '
+                                             'ignored')]
+        if not drive.stopping and not abs(distance_m - drive.shown_m) < PROGRESS_STEP_M:
+            drive.shown_m = distance_m
+            actions.append(Progress(f'driving to {drive.name}: {distance_m:.1f} m left'))
+        return actions
+
+    def on_goal_result(self, outcome: str, reason: str, now: float) -> List[Action]:
+        """
+        Take how the menu's goal ended: :data:`SUCCEEDED`, :data:`ABORTED` or :data:`CANCELED`.
+
+        :param reason: the robot's reason in words (nav2's error code and message) for
+            any end but success.
+        """
+        drive = self.drive
+        if drive is None or drive.other:
+            return [Log('info', f'the end of a goal no longer followed: {outcome}')]
+        self.drive = None
+        if outcome == SUCCEEDED:
+            return [Log('info', f'arrived at {drive.name}'), Progress(f'arrived at {drive.name}'),
+                    *self._next_task(now)]
+        if outcome == CANCELED and drive.stopping:
+            return [Log('info', f'the robot stopped on the way to {drive.name}'),
+                    Progress(f'stopped on the way to {drive.name}'), *self._next_task(now)]
+        if outcome == CANCELED:
+            text = f'the goal to {drive.name} was cancelled, not by this menu: choose again'
+        else:
+            text = f'the robot did not reach {drive.name}: {reason}: choose again'
+        return [Log('warning', text), Progress(text), *self._offer_tables(self.room, now)]
+
+    def on_cancel_response(self, accepted: bool, reason: str, now: float) -> List[Action]:
+        """Take the robot's answer to a cancel: a refused stop is said and 'stop' offered on."""
+        drive = self.drive
+        if drive is None or not drive.stopping:
+            return []
+        actions = self._heard(drive, now)
+        if accepted:
+            return actions + [Log('info', f'the robot is stopping on the way to {drive.name}')]
+        drive.stopping = False
+        text = (f'the robot refused the stop on the way to {drive.name} ({reason}): choose '
+                "'stop' again")
+        return actions + [Log('warning', text), Progress(text)]
+
+    def on_other_goals(self, active: bool, now: float) -> List[Action]:
+        """
+        Take whether the robot has a goal this menu did not send (the action's status).
+
+        Such a goal (a menu restarted while its robot drives, another client) is met
+        with 'stop' before anything else; when it has ended the menu starts over.
+        """
+        drive = self.drive
+        if active and drive is None:
+            self.pending = None
+            self._validating = False        # validated again when the menu starts over
+            self.drive = _Drive('', now, other=True, accepted=True)
+            text = "the robot drives to a goal this menu did not send: 'stop' is offered first"
+            return [Log('warning', text), Progress(text), *self._offer_stop(now)]
+        if active or drive is None or not drive.other:
+            return []
+        self.drive = None
+        text = ('the robot stopped' if drive.stopping else
+                'the goal this menu did not send has ended')
+        return [Log('info', text), Progress(text), *self.start(now)]
 
     def on_regions(self, labels: Sequence[str], polygons) -> None:
         """Take the current ``choices/regions`` (labels, polygons (R, K, 2) screen px)."""
@@ -698,12 +790,12 @@ class MenuProtocol:
         self._asked_at = None
         if self.settings.ask_on_arrival:
             self._look_away = _LookAway(now, self._region_of(label))
+        if self.drive is not None:
+            return [Answer(label), *self._stop(now)]
         if self.room is None:
             room = self.scene.room(label)
             return [Answer(label), Log('info', f"room chosen: '{label}'"),
                     *self._offer_tables(room, now)]
-        if self.drive is not None:
-            return [Answer(label), *self._stop(now)]
         if self.pending is not None:
             return [Answer(label), *self._confirm_answer(label, now)]
         if label == BACK_LABEL:
@@ -739,8 +831,20 @@ class MenuProtocol:
         """Apply the timed rules (settle, look-away time, pause, drive); call it periodically."""
         actions: List[Action] = []
         drive = self.drive
-        if drive is not None and now - drive.progress_at >= self.settings.drive_timeout_s:
-            return self._not_moving(now)
+        if drive is not None and not drive.other and not drive.accepted and \
+                now - drive.heard_at >= self.settings.feedback_timeout_s:
+            # A server that is gone but not yet seen gone: the goal is given up (a late
+            # acceptance is cancelled, on_goal_response), the tables offered again.
+            self.drive = None
+            text = (f'no answer to the goal to {drive.name} in '
+                    f'{now - drive.heard_at:.0f} s: choose again')
+            return [Log('warning', text), Progress(text), *self._offer_tables(self.room, now)]
+        if drive is not None and not drive.other and not drive.silent and \
+                now - drive.heard_at >= self.settings.feedback_timeout_s:
+            drive.silent = True
+            text = (f'no feedback from the robot for {now - drive.heard_at:.0f} s on the way '
+                    f"to {drive.name}: 'stop' is still offered")
+            actions += [Log('warning', text), Progress(text)]
         goal = self._goal
         if goal is not None and not goal.arrived and now - goal.last_move >= \
                 self.settings.settle_s:
@@ -766,13 +870,22 @@ class MenuProtocol:
                                        's: paused'))
         return actions + self._maybe_ask(now)
 
-    def cancel_drive(self, why: str, now: float) -> List[Action]:
-        """Stop a drive the menu no longer follows (a new scene, robot_goals off); [] if none."""
-        if self.drive is None:
+    def cancel_drive(self, why: str, now: float, own_only: bool = False) -> List[Action]:
+        """
+        Cancel a drive the menu no longer follows (a new scene, robot_goals off); [] if none.
+
+        :param own_only: only the menu's own goal (the menu ends: another's goal is not
+            its to stop).
+        """
+        drive = self.drive
+        if drive is None or (own_only and drive.other):
             return []
-        label, self.drive = self.drive.label, None
-        return [Log('warning', f"{why}: stopping the robot on its way to '{label}'"),
-                *self._hold(f"stopped on the way to '{label}' ({why})")]
+        self.drive = None
+        actions: List[Action] = [Log('warning', f'{why}: stopping the robot on its way to '
+                                                f'{drive.name}')]
+        if drive.accepted or drive.other:
+            actions.append(CancelGoal(every=drive.other))
+        return actions + [Progress(f'stopping on the way to {drive.name} ({why})')]
 
     # -- the robot --------------------------------------------------------------------------
 
@@ -783,48 +896,35 @@ class MenuProtocol:
             return [Log('info', f"'{label}' not confirmed: back to the tables"),
                     *self._offer_tables(self.room, now)]
         goal = np.asarray(self.goals[label], dtype=float).reshape(3)
-        self.drive = _Drive(label, goal, now)
+        self.drive = _Drive(label, now)
         # The stop is asked at once: no look-away gate (stop_marker is not where 'go' was).
         self._look_away = None
-        where = ''
-        if self._robot is not None:
-            self.drive.shown_m = pose_error(self._robot, goal)[0]
-            where = f': {self.drive.shown_m:.1f} m left'
         return [Result(label), SendGoal(label, goal.copy()),
                 Log('info', f"'{label}' confirmed: robot goal x {goal[0]:.2f} m, y "
                             f'{goal[1]:.2f} m, yaw {math.degrees(goal[2]):.0f} deg'),
-                Progress(f"driving to '{label}'{where}"), *self._offer_stop(now)]
+                Progress(f"sending the robot to '{label}'"), *self._offer_stop(now)]
 
     def _stop(self, now: float) -> List[Action]:
-        """'stop' chosen while driving: a goal at the robot's pose, then the next task."""
-        label, self.drive = self.drive.label, None
-        return [Log('info', f"stop chosen on the way to '{label}'"),
-                *self._hold(f"stopped on the way to '{label}'"), *self._next_task(now)]
+        """
+        'stop' chosen while driving: cancel the goal; 'stop' stays offered until it has ended.
 
-    def _hold(self, progress: str) -> List[Action]:
-        """Hold the robot where it is: a goal at its pose (topics only: no nav2 cancel)."""
-        if self._robot is None:
-            return [Log('warning', "no odometry: cannot send a goal at the robot's pose"),
-                    Progress(progress + ' (no odometry: pose unknown)')]
-        return [SendGoal(STOP_LABEL, self._robot.copy()), Progress(progress)]
+        A goal not yet accepted is cancelled when it is (:meth:`on_goal_response`).
+        """
+        drive = self.drive
+        drive.stopping = True
+        actions: List[Action] = [Log('info', f'stop chosen on the way to {drive.name}'),
+                                 Progress(f'stopping on the way to {drive.name}')]
+        if drive.accepted:
+            actions.append(CancelGoal(every=drive.other))
+        return actions
 
-    def _arrived(self, distance: float, heading: float, now: float) -> List[Action]:
-        label, self.drive = self.drive.label, None
-        return [Log('info', f"arrived at '{label}' ({distance:.2f} m, {heading:.0f} deg from "
-                            'the goal)'),
-                Progress(f"arrived at '{label}'"), *self._next_task(now)]
-
-    def _not_moving(self, now: float) -> List[Action]:
-        """Say the robot came no nearer for drive_timeout_s, hold it, offer the tables."""
-        drive, self.drive = self.drive, None
-        why = ('no odometry on odom' if self._robot is None or drive.best_m == math.inf
-               else f'{drive.best_m:.1f} m left, no nearer')
-        text = (f"the robot did not move toward '{drive.label}' within "
-                f'{self.settings.drive_timeout_s:g} s ({why}): choose again')
-        actions: List[Action] = [Log('warning', text)]
-        if self._robot is not None:
-            actions.append(SendGoal(STOP_LABEL, self._robot.copy()))
-        return actions + [Progress(text), *self._offer_tables(self.room, now)]
+    def _heard(self, drive: _Drive, now: float) -> List[Action]:
+        """Take a word from the robot: the silence (if it was said) has ended."""
+        drive.heard_at = now
+        if not drive.silent:
+            return []
+        drive.silent = False
+        return [Log('info', f'the robot answers again on the way to {drive.name}')]
 
     def _next_task(self, now: float) -> List[Action]:
         """After an outcome: the rooms again (repeat) or finish."""
@@ -913,6 +1013,12 @@ class MenuProtocol:
         return self._offer([go, back], CONFIRM_NS, self.room.view, now)
 
     def _offer_stop(self, now: float) -> List[Action]:
+        if self.drive.other or self.room is None:
+            # Nothing chosen here (a restarted menu): the stop in the middle of the
+            # overview, where the gaze rests; looking there can only stop the robot.
+            stop = view_square(self.scene.overview, STOP_LABEL, 0.0, 0.0, STEP_SIDE,
+                               STOP_COLOUR)
+            return self._offer([stop], DRIVE_NS, self.scene.overview, now)
         go, back = confirm_markers(self.room.view, self.room.table(self.drive.label).marker)
         return self._offer([stop_marker(go, back)], DRIVE_NS, self.room.view, now)
 

@@ -1,4 +1,4 @@
-"""bench.robot: the Python A* reference finds the planner's shortest lengths."""
+"""bench.robot: the A* reference finds the shortest lengths; the plan target binds."""
 
 import math
 
@@ -18,8 +18,13 @@ def test_astar_reference_finds_the_shortest_8_connected_length_around_a_wall():
     assert robot.astar_length(free, (0, 0), (0, 6)) == math.inf
 
 
-def test_plan_section_agrees_with_its_reference_and_reports_the_target():
+def test_plan_section_agrees_with_its_reference_and_meets_its_target():
     section = robot.plan_section(quick=True)
     assert section['agrees'] is True
     assert section['ms'] > 0 and section['reference_ms'] > 0 and section['path_m'] > 15.0
     assert section['target'] == '<= 50 ms'
+    # The target on the fastest of the runs (what the code costs; the median is make
+    # bench's, whose machine may be loaded): missing it fails here.
+    assert section['meets_target_best'], (
+        f"a plan across the scene took {section['ms_min']:.1f} ms at best, target "
+        f"{section['target']}")

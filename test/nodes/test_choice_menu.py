@@ -1,22 +1,30 @@
 """The room -> table menu and its protocol, driven through its topics and parameters."""
 
 import math
+import os
+import signal
+import subprocess
+import sys
 
 from geometry_msgs.msg import PointStamped, PoseStamped
-from nav_msgs.msg import Odometry
 import numpy as np
+from paths import REPO
 import pytest
 from rclpy.parameter import Parameter
 from ros_harness import Collector
+from scripted_navigator import GoalSender, ScriptedNavigator
 from std_msgs.msg import Bool, Empty, String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from eye_bci_ros2.navigation.approach import scene_goals
+from eye_bci_ros2.navigation.robot_settings import RobotSettings
 from eye_bci_ros2.nodes.choice_menu import ChoiceMenu
 from eye_bci_ros2.projection.camera_model import look_at_pose
 from eye_bci_ros2.ros.conversions import arrays_to_pose, pose_to_arrays, regions_to_marker_array
 from eye_bci_ros2.ros.package_files import default_scene_path
-from eye_bci_ros2.ros.topics import EVENT_QOS, GOAL_QOS, LATCHED_QOS, ODOM_QOS, VIEW_QOS
+from eye_bci_ros2.ros.topics import (EVENT_QOS, LATCHED_QOS, NAVIGATE_TO_POSE_ACTION,
+                                     VIEW_QOS)
+from eye_bci_ros2.sim.robot import SimRobot
 from eye_bci_ros2.task.scene import load_scene
 
 pytestmark = pytest.mark.ros
@@ -57,9 +65,7 @@ class Probe:
         self.results = Collector(node, String, 'choice_menu/result', EVENT_QOS)
         self.requests = Collector(node, Empty, 'choice/request', EVENT_QOS)
         self.states = Collector(node, String, 'choice_menu/state', LATCHED_QOS)
-        self.robot_goals = Collector(node, PoseStamped, 'goal_pose', GOAL_QOS)
         self.progress = Collector(node, String, 'choice_menu/progress', LATCHED_QOS)
-        self.odom = node.create_publisher(Odometry, 'odom', ODOM_QOS)
         self.publisher = node.create_publisher(String, 'choice', EVENT_QOS)
         self.no_choice = node.create_publisher(String, 'choice/none', EVENT_QOS)
         self.pose = node.create_publisher(PoseStamped, 'camera/pose', LATCHED_QOS)
@@ -100,14 +106,24 @@ class Probe:
         message.point.x, message.point.y = float(x), float(y)
         self.gaze.publish(message)
 
-    def robot_at(self, x, y, yaw, frame='map'):
-        """Publish the robot's odometry (what sim_robot or a nav2 robot does)."""
-        message = Odometry()
-        message.header.frame_id = frame
-        message.header.stamp = self.node.get_clock().now().to_msg()
-        message.pose.pose = arrays_to_pose([x, y, 0.0], [0.0, 0.0, math.sin(yaw / 2),
-                                                         math.cos(yaw / 2)])
-        self.odom.publish(message)
+    def progress_is(self, text, timeout=10.0):
+        """Wait until choice_menu/progress says ``text`` (or starts with it, ``...``)."""
+        def said():
+            last = self.progress.last
+            if last is None:
+                return False
+            if text.endswith('...'):
+                return last.data.startswith(text[:-3])
+            return last.data == text
+        assert self.graph.spin_until(said, timeout), self.progress.last
+
+    def answer_when_asked(self, menu, label):
+        """Answer the open question of the options shown now (asked maybe long ago)."""
+        assert self.graph.spin_until(lambda: menu._protocol.asked_at is not None, 10.0), \
+            self.state()
+        self.answered = len(self.requests.messages)
+        self.graph.spin_for(0.15)
+        self.choose(label)
 
     def ask_and_answer(self, label):
         """Wait for a question not answered yet, then answer it."""
@@ -337,14 +353,15 @@ def test_scene_file_parameter_reloads_or_rejects(graph, tmp_path):
     assert probe.results.last.data == 'lab/bench'
 
 
-# -- the robot: confirm, goal_pose, stop, progress, arrival ---------------------------------
+# -- the robot: confirm, NavigateToPose, stop (a cancel), feedback, the result ---------------
 
 GOALS = scene_goals(SCENE, 0.3)
 CONFIRM = ['go', 'back']
+TABLE = 'kitchen/table_2'
 
 
 def goal_pose(message):
-    """x, y, yaw of a goal_pose message."""
+    """x, y, yaw of a PoseStamped goal."""
     position, quaternion = pose_to_arrays(message.pose)
     return np.array([position[0], position[1],
                      2 * math.atan2(quaternion[2], quaternion[3])])
@@ -354,7 +371,7 @@ def same_heading(a, b):
     return abs((a - b + math.pi) % (2 * math.pi) - math.pi) < 1e-6
 
 
-def confirming(graph, table='kitchen/table_2', **overrides):
+def confirming(graph, table=TABLE, **overrides):
     """Start a menu and answer up to its 'go' or 'back' question after a table."""
     menu, probe = start(graph, **overrides)
     probe.ask_and_answer(table.split('/')[0])
@@ -371,82 +388,196 @@ def go_and_send(probe):
     probe.ask_and_answer('send')
 
 
-def test_go_then_send_sends_the_approach_pose_and_arrival_offers_the_rooms(graph):
+def driving(graph, **overrides):
+    """Return a menu whose 'go' the scripted navigator accepted and executes, probe, navigator."""
+    navigator = graph.add(ScriptedNavigator)
+    menu, probe = confirming(graph, **overrides)
+    assert graph.spin_until(lambda: menu._navigator.server_is_ready(), 10.0)
+    go_and_send(probe)
+    assert graph.spin_until(lambda: navigator.executing, 10.0)
+    probe.wait_labels(['stop'])
+    return menu, probe, navigator
+
+
+def test_go_then_send_sends_a_navigation_goal_and_its_success_offers_the_rooms(graph):
+    navigator = graph.add(ScriptedNavigator)
     menu, probe = confirming(graph)
     graph.spin_for(0.3)
-    assert not probe.robot_goals.messages and not probe.results.messages
-    probe.robot_at(2.0, 7.0, 0.0)
+    assert not navigator.goals and not probe.results.messages
     probe.ask_and_answer('go')
     probe.wait_labels(['send'])           # 'go' alone sends nothing: the second look
     graph.spin_for(0.3)
-    assert not probe.robot_goals.messages and not probe.results.messages
+    assert not navigator.goals and not probe.results.messages
     probe.ask_and_answer('send')
-    assert graph.spin_until(lambda: probe.robot_goals.messages, 10.0)
-    goal = probe.robot_goals.last
+    assert graph.spin_until(lambda: navigator.executing, 10.0)
+    goal = navigator.goals[-1]
     assert goal.header.frame_id == 'map'
     x, y, yaw = goal_pose(goal)
-    expected = GOALS['kitchen/table_2']
-    np.testing.assert_allclose([x, y], expected[:2], atol=1e-9)
-    assert same_heading(yaw, expected[2])
-    assert [m.data for m in probe.results.messages] == ['kitchen/table_2']
+    np.testing.assert_allclose([x, y], GOALS[TABLE][:2], atol=1e-9)
+    assert same_heading(yaw, GOALS[TABLE][2])
+    assert [m.data for m in probe.results.messages] == [TABLE]
     probe.wait_labels(['stop'])
     probe.wait_state('driving')
-    left = math.hypot(x - 2.0, y - 7.0)
-    assert graph.spin_until(lambda: probe.progress.last is not None and probe.progress.last.data
-                            == f"driving to 'kitchen/table_2': {left:.1f} m left", 10.0), \
-        probe.progress.last
-    probe.robot_at(x - 1.0, y, yaw)
-    assert graph.spin_until(lambda: probe.progress.last.data.endswith(': 1.0 m left'), 10.0)
-    probe.robot_at(x - 0.1, y + 0.05, yaw + 0.1)
-    assert graph.spin_until(lambda: probe.progress.last.data
-                            == "arrived at 'kitchen/table_2'", 10.0)
+    navigator.feedback(3.04)
+    probe.progress_is(f"driving to '{TABLE}': 3.0 m left")
+    navigator.feedback(0.1)         # nearly there: still driving until the result says
+    probe.progress_is(f"driving to '{TABLE}': 0.1 m left")
+    graph.spin_for(0.3)
+    assert probe.labels() == ['stop']
+    navigator.finish('succeed')
+    probe.progress_is(f"arrived at '{TABLE}'")
     probe.wait_labels(ROOMS)    # the next task
-    assert len(probe.robot_goals.messages) == 1
+    assert len(navigator.goals) == 1 and navigator.cancels == 0
+
+
+def test_no_navigation_server_is_said_at_once(graph):
+    # No timeout involved: the feedback timeout is ten minutes.
+    menu, probe = confirming(graph, feedback_timeout_s=600.0)
+    # A server of an earlier test on this domain may linger in discovery for a moment.
+    assert graph.spin_until(lambda: not menu._navigator.server_is_ready(), 30.0)
+    go_and_send(probe)
+    probe.progress_is(f"the robot refused the goal to '{TABLE}': no navigation server on "
+                      f'/{NAVIGATE_TO_POSE_ACTION}: choose again')
+    probe.wait_labels(KITCHEN_TABLES)
+
+
+def test_a_rejected_goal_is_said_at_once(graph):
+    navigator = graph.add(ScriptedNavigator, accept=False)
+    menu, probe = confirming(graph, feedback_timeout_s=600.0)
+    assert graph.spin_until(lambda: menu._navigator.server_is_ready(), 10.0)
+    go_and_send(probe)
+    probe.progress_is(f"the robot refused the goal to '{TABLE}': /{NAVIGATE_TO_POSE_ACTION} "
+                      'rejected it: choose again')
+    probe.wait_labels(KITCHEN_TABLES)
+    assert len(navigator.goals) == 1
+
+
+def test_an_aborted_goal_is_said_in_nav2s_words(graph):
+    menu, probe, navigator = driving(graph)
+    navigator.feedback(4.0)
+    navigator.finish('abort', 208, 'no path through the kitchen door')
+    probe.progress_is(f"the robot did not reach '{TABLE}': there is no path to the goal (no "
+                      'path through the kitchen door): choose again')
+    probe.wait_labels(KITCHEN_TABLES)
+
+
+def test_a_feedback_gap_is_said_and_stop_stays_offered(graph):
+    menu, probe, navigator = driving(graph, feedback_timeout_s=1.0)
+    navigator.feedback(5.0)
+    probe.progress_is(f"driving to '{TABLE}': 5.0 m left")
+    probe.progress_is('no feedback from the robot for 1 s...')
+    assert probe.labels() == ['stop'] and menu.state == 'driving' and navigator.executing
+    navigator.feedback(4.0)             # it speaks again: the drive goes on
+    probe.progress_is(f"driving to '{TABLE}': 4.0 m left")
+    navigator.finish('succeed')
+    probe.progress_is(f"arrived at '{TABLE}'")
+    assert navigator.cancels == 0 and len(navigator.goals) == 1
+
+
+def test_the_menu_reads_no_odometry(graph):
+    menu, probe = start(graph)
+    topics = {subscription.topic_name for subscription in menu.subscriptions}
+    assert not topics & {'/odom', '/goal_pose'}
+    assert not {publisher.topic_name for publisher in menu.publishers} & {'/goal_pose'}
+
+
+@pytest.mark.parametrize('when', ['accepted', 'with feedback', 'silent'])
+def test_stop_is_a_cancel_in_every_drive_state(graph, when):
+    menu, probe, navigator = driving(graph, feedback_timeout_s=1.0)
+    if when != 'accepted':
+        navigator.feedback(6.0)
+        probe.progress_is(f"driving to '{TABLE}': 6.0 m left")
+    if when == 'silent':
+        probe.progress_is('no feedback from the robot...')
+    probe.ask_and_answer('stop')
+    assert graph.spin_until(lambda: navigator.cancels == 1, 10.0)
+    probe.progress_is(f"stopped on the way to '{TABLE}'")
+    probe.wait_labels(ROOMS)
+    assert len(navigator.goals) == 1      # no goal: a stop is a cancel
+
+
+def test_a_refused_stop_is_said_and_stop_cancels_again(graph):
+    menu, probe, navigator = driving(graph)
+    navigator.accept_cancel = False
+    probe.ask_and_answer('stop')
+    probe.progress_is(f"the robot refused the stop on the way to '{TABLE}' (the server "
+                      "rejected it): choose 'stop' again")
+    assert probe.labels() == ['stop'] and navigator.executing
+    navigator.accept_cancel = True
+    probe.ask_and_answer('stop')
+    probe.progress_is(f"stopped on the way to '{TABLE}'")
+    assert navigator.cancels == 2 and len(navigator.goals) == 1
+
+
+def test_a_menu_restarted_mid_drive_offers_stop_first(graph):
+    navigator = graph.add(ScriptedNavigator)
+    # The goal of a menu that died without a word (SIGKILL): a client gone, its goal driving.
+    dead_menu = graph.add(GoalSender)
+    assert graph.spin_until(dead_menu.client.server_is_ready, 10.0)
+    dead_menu.send()
+    assert graph.spin_until(lambda: navigator.executing, 10.0)
+    probe = Probe(graph)
+    menu = graph.add(ChoiceMenu, parameter_overrides=[
+        Parameter(name, value=value) for name, value in FAST.items()])
+    probe.wait_labels(['stop'])
+    probe.progress_is('the robot drives to a goal this menu did not send...')
+    probe.answer_when_asked(menu, 'stop')
+    assert graph.spin_until(lambda: navigator.cancels == 1 and not navigator.executing, 10.0)
+    probe.progress_is('the robot stopped')
+    probe.wait_labels(ROOMS)        # then the menu starts over
+    assert len(navigator.goals) == 1 and menu.state != 'driving'
+
+
+def test_a_goal_that_preempts_the_menus_is_met_with_stop(graph, capfd):
+    menu, probe, navigator = driving(graph)
+    rviz_user = graph.add(GoalSender)
+    assert graph.spin_until(rviz_user.client.server_is_ready, 10.0)
+    rviz_user.send()                    # nav2 aborts the menu's goal, drives to this one
+    probe.progress_is("the robot drives to a goal this menu did not send: 'stop' is offered "
+                      'first')
+    # Said in the log too (the latched progress topic may carry only the newer line).
+    assert f"the robot did not reach '{TABLE}': it ended without a reason (another goal may " \
+        'have taken its place): choose again' in capfd.readouterr().err
+    probe.wait_labels(['stop'])
+    probe.answer_when_asked(menu, 'stop')
+    probe.progress_is('the robot stopped')
+    probe.wait_labels(ROOMS)
+    assert len(navigator.goals) == 2 and navigator.cancels == 1
+
+
+def test_looking_away_neither_sends_nor_stops(graph):
+    navigator = graph.add(ScriptedNavigator)
+    menu, probe = confirming(graph)
+    probe.on_screen.publish(Bool(data=False))         # the person looks away: no 'go'
+    probe.wait_state('paused')
+    graph.spin_for(1.0)
+    assert not navigator.goals and probe.labels() == CONFIRM
+    probe.on_screen.publish(Bool(data=True))
+    go_and_send(probe)
+    assert graph.spin_until(lambda: navigator.executing, 10.0)
+    probe.on_screen.publish(Bool(data=False))         # ... and it drives on
+    probe.wait_state('paused')
+    for step in range(5):
+        navigator.feedback(5.0 - step)
+        graph.spin_for(0.2)
+    assert len(navigator.goals) == 1 and navigator.cancels == 0
+    assert menu.options == ('stop',) and navigator.executing
+    assert probe.progress.last.data.startswith('driving')
 
 
 def test_back_in_the_confirmation_sends_no_goal(graph):
+    navigator = graph.add(ScriptedNavigator)
     menu, probe = confirming(graph)
     probe.ask_and_answer('back')
     probe.wait_labels(KITCHEN_TABLES)
     probe.ask_and_answer('back')       # and back to the rooms: no destination either
     probe.wait_labels(ROOMS)
     graph.spin_for(0.5)
-    assert not probe.robot_goals.messages and not probe.results.messages
-
-
-def test_stop_while_driving_sends_a_goal_at_the_robots_pose(graph):
-    menu, probe = confirming(graph)
-    go_and_send(probe)
-    probe.wait_labels(['stop'])
-    probe.robot_at(3.0, 8.0, 0.5)
-    assert graph.spin_until(lambda: probe.progress.last.data.endswith('m left'), 10.0)
-    probe.ask_and_answer('stop')
-    assert graph.spin_until(lambda: len(probe.robot_goals.messages) == 2, 10.0)
-    x, y, yaw = goal_pose(probe.robot_goals.last)
-    np.testing.assert_allclose([x, y], [3.0, 8.0], atol=1e-9)
-    assert same_heading(yaw, 0.5)
-    assert graph.spin_until(lambda: probe.progress.last.data.startswith('stopped'), 10.0)
-
-
-def test_looking_away_neither_sends_nor_stops(graph):
-    menu, probe = confirming(graph)
-    probe.on_screen.publish(Bool(data=False))         # the person looks away: no 'go'
-    probe.wait_state('paused')
-    graph.spin_for(1.0)
-    assert not probe.robot_goals.messages and probe.labels() == CONFIRM
-    probe.on_screen.publish(Bool(data=True))
-    go_and_send(probe)
-    probe.wait_labels(['stop'])
-    probe.on_screen.publish(Bool(data=False))         # ... and it drives on
-    probe.wait_state('paused')
-    for step in range(5):
-        probe.robot_at(2.0 + 0.2 * step, 7.0, 0.0)
-        graph.spin_for(0.2)
-    assert len(probe.robot_goals.messages) == 1 and menu.options == ('stop',)
-    assert probe.progress.last.data.startswith('driving')
+    assert not navigator.goals and not probe.results.messages
 
 
 def test_an_unanswered_confirmation_returns_to_the_tables_and_sends_nothing(graph):
+    navigator = graph.add(ScriptedNavigator)
     menu, probe = start(graph, confirm_rounds=2, min_answer_s=0.0)
     probe.ask_and_answer('kitchen')
     probe.wait_labels(KITCHEN_TABLES)
@@ -458,15 +589,95 @@ def test_an_unanswered_confirmation_returns_to_the_tables_and_sends_nothing(grap
         assert probe.labels() == CONFIRM
         probe.no_choice.publish(String(data='no fixation'))
     probe.wait_labels(KITCHEN_TABLES)
-    assert not probe.robot_goals.messages and not probe.results.messages
+    assert not navigator.goals and not probe.results.messages
 
 
-def test_a_robot_that_does_not_move_is_reported(graph):
-    menu, probe = confirming(graph, drive_timeout_s=1.0)
+def test_ctrl_c_mid_drive_cancels_the_goal(graph):
+    """The menu's process gets SIGINT (Ctrl-C, launch's shutdown): the server sees the cancel."""
+    navigator = graph.add(ScriptedNavigator)
+    probe = Probe(graph)
+    arguments = [f'{name}:={value}' for name, value in FAST.items()]
+    env = dict(os.environ, ROS_DOMAIN_ID=str(graph.domain))
+    process = subprocess.Popen(
+        [sys.executable, '-m', 'eye_bci_ros2.nodes.choice_menu', '--ros-args',
+         *[part for argument in arguments for part in ('-p', argument)]],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, cwd=REPO)
+    try:
+        probe.wait_labels(ROOMS)
+        assert graph.spin_until(lambda: probe.publisher.get_subscription_count() > 0, 30.0)
+        probe.wait_state('asking', 30.0)        # asked maybe before the probe listened
+        probe.answered = len(probe.requests.messages)
+        graph.spin_for(0.15)
+        probe.choose('kitchen')
+        probe.wait_labels(KITCHEN_TABLES)
+        probe.ask_and_answer(TABLE)
+        probe.wait_labels(CONFIRM)
+        go_and_send(probe)
+        assert graph.spin_until(lambda: navigator.executing, 20.0)
+        navigator.feedback(7.0)
+        probe.progress_is(f"driving to '{TABLE}': 7.0 m left")
+        process.send_signal(signal.SIGINT)
+        assert graph.spin_until(lambda: navigator.cancels == 1, 20.0)
+        assert graph.spin_until(lambda: process.poll() is not None, 20.0)
+        output = process.stdout.read()
+        assert process.returncode == 0, output
+        assert 'the robot goal is cancelled: the menu ends' in output
+        assert 'Traceback' not in output and len(navigator.goals) == 1
+    finally:
+        if process.poll() is None:
+            process.kill()
+        process.wait()
+
+
+# -- the real menu and the real sim_robot, at real speed --------------------------------------
+
+def test_the_menu_drives_sim_robot_across_the_scene_at_real_speed(graph):
+    """'go' to a table two rooms away: the robot at 0.5 m/s, the menu says it all."""
+    robot = graph.add(SimRobot)
+    menu, probe = start(graph)
+    table = 'office/table_3'        # from (5, 5) through two doors: about 14 m
+    probe.ask_and_answer('office')
+    probe.wait_labels(['office/table_1', 'office/table_2', table, 'back'])
+    probe.ask_and_answer(table)
+    probe.wait_labels(CONFIRM)
+    assert graph.spin_until(lambda: menu._navigator.server_is_ready(), 10.0)
     go_and_send(probe)
-    probe.robot_at(2.0, 7.0, 0.0, frame='odom')       # not the map frame: ignored
-    assert graph.spin_until(lambda: probe.progress.last is not None and 'did not move'
-                            in probe.progress.last.data, 10.0)
-    assert 'no odometry' in probe.progress.last.data
-    probe.wait_labels(KITCHEN_TABLES)                 # the task again
-    assert len(probe.robot_goals.messages) == 1       # nothing more sent: no pose known
+    probe.wait_labels(['stop'])
+    probe.progress_is(f"driving to '{table}'...")
+    sent = len(probe.progress.messages)
+    # 0.5 m/s at most: 30 s or more; the menu follows the whole way.
+    probe.progress_is(f"arrived at '{table}'", timeout=120.0)
+    lines = [m.data for m in probe.progress.messages[sent - 1:]]
+    left = [float(line.split(': ')[1].split(' m')[0]) for line in lines
+            if line.startswith('driving to')]
+    assert left[0] > 10.0 and left[-1] < 1.0 and left == sorted(left, reverse=True), lines
+    assert not [line for line in lines if line.startswith(('no feedback', 'the robot did'))]
+    probe.wait_labels(ROOMS)
+    # The simulated robot stands at the menu's goal.
+    goal = menu.robot_goals[table]
+    pose = robot.drive.pose
+    assert math.hypot(*(pose[:2] - goal[:2])) <= RobotSettings().goal_tolerance_m
+
+
+def test_stop_stands_sim_robot_mid_drive(graph):
+    """'stop' while cruising: a cancel; the robot brakes and stands, nothing drives it back."""
+    robot = graph.add(SimRobot)
+    menu, probe = start(graph)
+    probe.ask_and_answer('living_room')
+    probe.wait_labels(['living_room/table_1', 'living_room/table_2', 'living_room/table_3',
+                       'back'])
+    probe.ask_and_answer('living_room/table_3')
+    probe.wait_labels(CONFIRM)
+    assert graph.spin_until(lambda: menu._navigator.server_is_ready(), 10.0)
+    go_and_send(probe)
+    probe.wait_labels(['stop'])
+    start_pose = np.array(robot.drive.pose)
+    assert graph.spin_until(lambda: math.hypot(*(robot.drive.pose[:2] - start_pose[:2]))
+                            > 2.0, 60.0)
+    probe.ask_and_answer('stop')
+    probe.progress_is("stopped on the way to 'living_room/table_3'", timeout=10.0)
+    stood = np.array(robot.drive.pose)
+    graph.spin_for(1.0)
+    assert np.allclose(robot.drive.pose, stood, atol=1e-6)      # standing still
+    assert math.hypot(*(stood[:2] - start_pose[:2])) > 2.0     # not driven back
+    probe.wait_labels(ROOMS)

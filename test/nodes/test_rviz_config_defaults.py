@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from eye_bci_ros2.navigation.frames import MAP_FRAME
 from eye_bci_ros2.nodes.camera_tracker import DEFAULT_EYE, DEFAULT_FOCUS, DEFAULT_UP
 from eye_bci_ros2.nodes.marker_projector import PARAMETERS as PROJECTOR_PARAMETERS
 from eye_bci_ros2.projection.rviz_config import read_rviz_config
@@ -63,3 +64,13 @@ def test_displays_show_the_robot_its_map_and_its_plan_with_the_publishers_qos():
         durability = display['Topic']['Durability Policy'].replace(' ', '_').upper()
         assert durability == qos.durability.name, topic
         assert display['Topic']['Reliability Policy'].upper() == qos.reliability.name, topic
+
+
+def test_the_robot_is_shown_through_tf_in_the_map_frame_and_the_plan_with_headings():
+    document = yaml.safe_load(CONFIG.read_text())
+    manager = document['Visualization Manager']
+    assert manager['Global Options']['Fixed Frame'] == MAP_FRAME
+    (tf_display,) = [d for d in manager['Displays'] if d['Class'] == 'rviz_default_plugins/TF']
+    assert tf_display['Enabled'] is True and tf_display['Frames']['All Enabled'] is True
+    plan = [d for d in manager['Displays'] if d['Class'] == 'rviz_default_plugins/Path'][0]
+    assert plan['Pose Style'] == 'Arrows'

@@ -14,6 +14,7 @@ from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.experiments import demo
 from eye_bci_ros2.experiments.metrics import itr_bits_per_minute, wolpaw_bits
 from eye_bci_ros2.experiments.render import png_size
+from eye_bci_ros2.navigation.robot_settings import RobotSettings
 from eye_bci_ros2.ros.package_files import default_scene_path
 from eye_bci_ros2.task.menu import BACK_LABEL, GO_LABEL, SEND_LABEL
 from eye_bci_ros2.task.scene import load_scene
@@ -141,7 +142,7 @@ def test_menu_goes_from_rooms_to_the_room_view_to_its_tables(quick_run):
     assert send['offered'] == [SEND_LABEL]
     robot = tables['robot']
     assert robot['arrived'] and len(robot['goal']) == 3
-    assert robot['drive_s'] > 0 and robot['path_m'] > 0
+    assert_drove_the_plan(robot)
     assert rooms['robot'] is None and confirm['robot'] is None and send['robot'] is None
 
 
@@ -204,7 +205,7 @@ def test_the_demos_bag_holds_every_question_choice_and_drive(quick_run):
     for (t_choice, _), (t_answer, _) in zip(found['/choice'], found['/choice_menu/answer']):
         assert any(t <= t_choice for t in requests) and t_choice <= t_answer
     # The drive: the goal, the map, the plan, the odometry, the menu's arrival.
-    (_, goal), = found['/goal_pose']
+    (_, goal), = found['/choice_menu/goal']
     assert [goal.pose.position.x, goal.pose.position.y] == pytest.approx(
         summary['selections'][1]['robot']['goal'][:2], abs=1e-3)
     assert len(found['/odom']) > 5 and found['/plan'] and found['/map']
@@ -265,7 +266,39 @@ def test_make_demo_confirms_every_table_and_the_robot_arrives(tmp_path):
         assert [(s['step'], s['chosen']) for s in later] == [('confirm', GO_LABEL),
                                                              ('send', SEND_LABEL)]
         assert table['robot']['arrived'], table['robot']
+        assert_drove_the_plan(table['robot'])
     assert printed.count('arrived after') == 4
+
+
+def assert_drove_the_plan(robot):
+    """Assert the robot drove its plan, no faster than its top speed, never silent."""
+    # The robot's time (sim_robot's time_scale x the wall clock); 0.5 m/s at most.
+    assert robot['drive_s'] >= robot['path_m'] / RobotSettings().max_speed, robot
+    assert robot['plan_m'] > 0 and abs(robot['path_m'] - robot['plan_m']) <= \
+        0.1 * robot['plan_m'], robot
+    assert robot['silences'] == [], robot
+
+
+@pytest.mark.ros
+@pytest.mark.lsl
+def test_the_demo_at_real_speed_arrives_at_every_table(tmp_path):
+    """``demo --robot-time-scale 1 --rounds 2``: every drive at 0.5 m/s arrives, none held."""
+    stdout = io.StringIO()
+    with contextlib.redirect_stdout(stdout):
+        code = demo.main(['--robot-time-scale', '1', '--rounds', '2', '--seed', '1',
+                          '--output-dir', str(tmp_path), '--no-pictures'])
+    printed = stdout.getvalue()
+    assert code == 0, printed[-2000:]
+    summary = json.loads((tmp_path / 'summary.json').read_text())
+    drives = [s['robot'] for s in summary['selections'] if s['robot'] is not None]
+    assert len(drives) == 2 and summary['outcomes'] == summary['script']
+    # The second drive goes from one room's table to another room's: across the scene.
+    assert len({entry.split('/')[0] for entry in summary['script']}) == 2
+    for robot in drives:
+        assert robot['arrived'], robot
+        assert_drove_the_plan(robot)
+    # At real speed a drive across the scene takes longer than the old 10 s progress timeout.
+    assert max(robot['drive_s'] for robot in drives) > 10.0, drives
 
 
 @pytest.mark.ros

@@ -5,7 +5,8 @@ What a ROS 2 user types, with the real ``ros2`` command line, on a colcon-built 
 and the dump given back with ``--params-file``, a mistyped parameter name,
 ``ros2 topic echo /choice`` while a simulated tracker looks at an option,
 and ``ros2 launch`` of both launch files stopped by Ctrl-C (once, twice,
-during start-up): exit status, no traceback, no process left behind.
+during start-up): exit status, no traceback, no process left behind; Ctrl-C
+mid-drive with a robot of one's own (``robot:=none``) stops that robot.
 
 The command line (ros2cli, launch, launch_ros; not on PyPI) is installed
 from ``../shared/tools/ros2cli/install.sh`` into ``build/ros2cli``; without
@@ -422,3 +423,85 @@ def test_launch_ends_every_node_when_one_dies_at_start_up(ros2, env, tmp_path):
         assert 'lsl_gaze_bridge ended' in output or 'was required' in output, output[-3000:]
         assert not alive(started_pids(output)), output[-3000:]
         assert status == 0 and not TRACEBACK.search(output), output[-3000:]
+
+
+def test_ctrl_c_on_the_launch_mid_drive_stops_a_robot_of_its_own(ros2, env, tmp_path):
+    """
+    ``robot:=none`` with a robot of one's own (sim_robot apart, as a nav2 robot would be).
+
+    The person confirms a table; the robot drives; Ctrl-C on the launch: the menu cancels
+    its goal before it ends, the goal ends CANCELED and the robot stands.
+    """
+    import rclpy
+    from rclpy.context import Context
+    from action_msgs.msg import GoalStatus, GoalStatusArray
+    from nav_msgs.msg import Odometry
+    from package_commands import stop_all
+    from ros_harness import Collector
+    from std_msgs.msg import String
+    from eye_bci_ros2.ros.runner import make_executor, spin_for, spin_until
+    from eye_bci_ros2.ros import topics
+    with domain_id() as domain:
+        robot = Process([str(ros2), 'run', PACKAGE, 'sim_robot'], env, domain,
+                        tmp_path / 'robot.log')
+        # No tracker: the bridge must not take another run's gaze stream on this machine.
+        params = tmp_path / 'no_tracker.yaml'
+        params.write_text(yaml.safe_dump({'/lsl_gaze_bridge': {'ros__parameters': {
+            'source_id': f'no-tracker-{domain}-{time.monotonic_ns()}'}}}))
+        experiment = launch(ros2, env, domain, tmp_path, 'experiment.launch.py', 'rviz:=false',
+                            'robot:=none', f'params_file:={params}', name='experiment')
+        context = Context()
+        rclpy.init(context=context, domain_id=domain)
+        executor = make_executor(context=context)
+        try:
+            person = rclpy.create_node('person', context=context)
+            executor.add_node(person)
+            state = Collector(person, String, topics.MENU_STATE_TOPIC, topics.LATCHED_QOS)
+            progress = Collector(person, String, topics.MENU_PROGRESS_TOPIC,
+                                 topics.LATCHED_QOS)
+            status = Collector(person, GoalStatusArray, topics.NAVIGATE_TO_POSE_STATUS_TOPIC,
+                               topics.ACTION_STATUS_QOS)
+            odom = Collector(person, Odometry, topics.ODOM_TOPIC, topics.ODOM_QOS)
+            answers = Collector(person, String, topics.MENU_ANSWER_TOPIC, topics.EVENT_QOS)
+            choose = person.create_publisher(String, topics.CHOICE_TOPIC, topics.EVENT_QOS)
+
+            def answer(label):
+                """Choose ``label`` when asked, until the menu acts on it (choice_menu/answer)."""
+                taken = len([m for m in answers.messages if m.data == label])
+                for _ in range(30):
+                    assert spin_until(executor, lambda: state.last is not None
+                                      and state.last.data in ('asking', 'driving'), WAIT_S), \
+                        experiment.output()[-3000:]
+                    spin_for(executor, 0.2)
+                    choose.publish(String(data=label))
+                    if spin_until(executor, lambda: len(
+                            [m for m in answers.messages if m.data == label]) > taken, 2.0):
+                        return
+                raise AssertionError(f"'{label}' was never taken:\n{experiment.output()[-3000:]}")
+
+            def lines():
+                return [message.data for message in progress.messages]
+
+            for label in ('living_room', 'living_room/table_3', 'go', 'send'):
+                answer(label)
+            assert spin_until(executor, lambda: odom.last is not None
+                              and odom.last.twist.twist.linear.x > 0.3, WAIT_S), lines()
+            experiment.interrupt()
+            assert_clean_stop(experiment, experiment.finish(), None)
+
+            def cancelled():
+                last = status.last
+                return last is not None and [s.status for s in last.status_list][-1:] == [
+                    GoalStatus.STATUS_CANCELED]
+            assert spin_until(executor, cancelled, 10.0), status.last
+            # Standing: the odometry's twist is zero and its pose stays.
+            assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, 5.0)
+            standing = odom.last.pose.pose.position
+            spin_for(executor, 1.0)
+            assert abs(odom.last.pose.pose.position.x - standing.x) < 1e-6
+            assert abs(odom.last.pose.pose.position.y - standing.y) < 1e-6
+            assert 'the robot goal is cancelled: the menu ends' in experiment.output()
+        finally:
+            stop_all(experiment, robot)
+            executor.shutdown()
+            context.try_shutdown()

@@ -6,9 +6,11 @@ import numpy as np
 from paths import CONFIG
 import pytest
 
+from eye_bci_ros2.navigation.nav2_codes import (
+    GOAL_OCCUPIED, GOAL_OUTSIDE_MAP, NO_VALID_PATH, START_OCCUPIED, START_OUTSIDE_MAP)
 from eye_bci_ros2.navigation.occupancy import (
     Obstacles, OCCUPIED, rasterise, scene_grid, scene_obstacles)
-from eye_bci_ros2.navigation.planner import NoPath, Planner
+from eye_bci_ros2.navigation.planner import NoPath, Plan, Planner
 from eye_bci_ros2.task.scene import load_scene
 
 SCENE = load_scene(CONFIG / 'scene.yaml')
@@ -81,17 +83,56 @@ def test_no_door_no_path():
         Planner(rasterise(closed), 0.2).plan([1.0, 1.5], [5.0, 1.5])
 
 
-@pytest.mark.parametrize('goal, reason', [
-    ((10.0, 3.0), r'the goal \(10.00, 3.00\) is inside a wall or table'),
-    ((5.0, 2.0), r'inside a wall or table'),  # bedroom/table_2
-    ((30.0, 5.0), r'off the map \(x in \[-0.10, 20.10\], y in \[-0.10, 12.10\] m\)'),
-    ((-3.0, -3.0), r'off the map'),
-    ((math.nan, 5.0), r'not a finite position'),
-    ((0.2, 0.2), r"closer to a wall or table than the robot's radius 0.3 m allows"),
+@pytest.mark.parametrize('goal, reason, code', [
+    ((10.0, 3.0), r'the goal \(10.00, 3.00\) is inside a wall or table', GOAL_OCCUPIED),
+    ((5.0, 2.0), r'inside a wall or table', GOAL_OCCUPIED),  # bedroom/table_2
+    ((30.0, 5.0), r'off the map \(x in \[-0.10, 20.10\], y in \[-0.10, 12.10\] m\)',
+     GOAL_OUTSIDE_MAP),
+    ((-3.0, -3.0), r'off the map', GOAL_OUTSIDE_MAP),
+    ((math.nan, 5.0), r'not a finite position', GOAL_OUTSIDE_MAP),
+    ((0.2, 0.2), r"closer to a wall or table than the robot's radius 0.3 m allows",
+     GOAL_OCCUPIED),
 ])
-def test_a_goal_that_cannot_be_reached_says_why(goal, reason):
-    with pytest.raises(NoPath, match=reason):
+def test_a_goal_that_cannot_be_reached_says_why_with_nav2s_code(goal, reason, code):
+    with pytest.raises(NoPath, match=reason) as refused:
         Planner(scene_grid(SCENE), 0.3).plan([5.0, 5.0], goal)
+    assert refused.value.code == code
+
+
+def test_no_passage_is_nav2s_no_valid_path_and_a_bad_start_its_start_codes():
+    grid = rasterise(two_rooms(door_width=0.8))
+    with pytest.raises(NoPath) as refused:
+        Planner(grid, 0.45).plan([1.0, 1.5], [5.0, 1.5])
+    assert refused.value.code == NO_VALID_PATH
+    planner = Planner(scene_grid(SCENE), 0.3)
+    for start, code in (([10.0, 3.0], START_OCCUPIED), ([40.0, 3.0], START_OUTSIDE_MAP)):
+        with pytest.raises(NoPath) as refused:
+            planner.plan(start, [5.0, 5.0])
+        assert refused.value.code == code
+
+
+def test_plan_poses_head_along_each_segment_and_end_at_the_goals_heading():
+    plan = Plan(points=np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [1.0, 2.0], [0.0, 2.0]]))
+    poses = plan.poses(goal_yaw=4.0)
+    assert poses.shape == (5, 3) and np.allclose(poses[:, :2], plan.points)
+    # East, (a repeated corner keeps east), north, west, then the goal's 4 rad wrapped.
+    assert np.allclose(poses[:, 2], [0.0, 0.0, math.pi / 2, -math.pi, 4.0 - 2 * math.pi])
+
+
+def test_the_batched_shortcut_keeps_the_greedy_walks_corners():
+    """Each kept corner is the one before the first a straight segment cannot reach."""
+    planner = Planner(scene_grid(SCENE), 0.3)
+    cells = planner.plan([2.0, 5.0], [18.0, 10.5])
+    dense = samples(cells.points, step=0.05)
+    kept = planner.shortcut(dense)
+    index, expected = 0, [0]
+    while index < len(dense) - 1:
+        reach = index + 1
+        while reach + 1 < len(dense) and planner.segment_free(dense[index], dense[reach + 1]):
+            reach += 1
+        expected.append(reach)
+        index = reach
+    assert np.array_equal(kept, dense[expected])
 
 
 def test_a_start_in_an_obstacle_is_refused_and_one_just_too_close_is_moved_out():

@@ -6,11 +6,12 @@ import pytest
 from eye_bci_ros2.projection.camera_model import look_at_pose, rviz_intrinsic
 from eye_bci_ros2.projection.geometry import project_points
 from eye_bci_ros2.ros.package_files import default_scene_path
-from eye_bci_ros2.task.menu import (Answer, ASKING, BACK_LABEL, back_marker, confirm_markers,
-                                    DRIVING, FINISHED, GO_LABEL, Log, LOOK_AWAY, MenuProtocol,
-                                    Offer, PAUSED, Progress, ProtocolSettings, READY, Request,
-                                    Result, SEND_DOWN, SEND_LABEL, send_marker, SendGoal,
-                                    STOP_LABEL, WAITING_FOR_CAMERA)
+from eye_bci_ros2.task.menu import (ABORTED, Answer, ASKING, BACK_LABEL, back_marker,
+                                    CANCELED, CancelGoal, confirm_markers, DRIVING, FINISHED,
+                                    GO_LABEL, Log, LOOK_AWAY, MenuProtocol, Offer, PAUSED,
+                                    Progress, ProtocolSettings, READY, Request, Result,
+                                    SEND_DOWN, SEND_LABEL, send_marker, SendGoal, STOP_LABEL,
+                                    SUCCEEDED, VALIDATING, WAITING_FOR_CAMERA)
 from eye_bci_ros2.task.scene import load_scene
 
 SCENE = load_scene(default_scene_path())
@@ -282,15 +283,17 @@ def confirming(**settings):
     return menu, 2.5
 
 
-def driving(**settings):
+def driving(accept=True, **settings):
+    """Return a menu whose 'go' was just chosen (and accepted), its actions and the time."""
     menu, now = confirming(**settings)
-    menu.on_odometry(2.0, 7.0, 0.0, now)
     actions = menu.on_choice(GO_LABEL, now)
+    if accept:
+        actions += menu.on_goal_response(True, '', now + 0.1)
     return menu, actions, now
 
 
 def test_a_table_is_sent_only_after_go():
-    menu, actions, now = driving()
+    menu, actions, now = driving(accept=False)
     goal = kinds(actions, SendGoal)
     assert [g.label for g in goal] == [TABLE]
     np.testing.assert_allclose(goal[0].pose, GOALS[TABLE])
@@ -298,7 +301,11 @@ def test_a_table_is_sent_only_after_go():
     assert menu.options == (STOP_LABEL,) and menu.state == DRIVING
     # The stop is asked at once: no look-away gate, no camera move.
     assert kinds(actions, Request)
-    assert kinds(actions, Progress)[0].text == f"driving to '{TABLE}': 3.0 m left"
+    assert kinds(actions, Progress)[0].text == f"sending the robot to '{TABLE}'"
+    # The distance left comes from the robot's feedback.
+    menu.on_goal_response(True, '', now + 0.1)
+    assert kinds(menu.on_feedback(3.04, now + 0.2), Progress)[0].text == \
+        f"driving to '{TABLE}': 3.0 m left"
 
 
 def test_an_unanswered_confirmation_returns_to_the_tables_without_a_goal():
@@ -328,7 +335,6 @@ def test_an_unanswered_confirmation_returns_to_the_tables_without_a_goal():
 
 def test_go_offers_send_where_the_gaze_was_not_and_only_send_sends_the_robot():
     menu, now = confirming(send_rounds=1)
-    menu.on_odometry(2.0, 7.0, 0.0, now)
     actions = menu.on_choice(GO_LABEL, now)
     assert not kinds(actions, SendGoal) and not kinds(actions, Result)
     assert menu.options == (SEND_LABEL,) and menu.pending == TABLE
@@ -388,76 +394,175 @@ def test_looking_away_neither_sends_nor_stops():
         assert not kinds(menu.tick(t), SendGoal)
     assert menu.state == PAUSED and menu.pending == TABLE
     menu.on_screen(True, now + 30.0)
-    menu, actions, now = driving(pause_after_s=1.0, drive_timeout_s=60.0)
+    menu, actions, now = driving(pause_after_s=1.0)
     menu.on_screen(False, now + 0.1)
     later = []
     for step, t in enumerate(np.arange(now + 0.5, now + 20.0, 0.5)):
-        later += menu.on_odometry(2.0 + 0.1 * step, 7.0, 0.0, t) + menu.tick(t)
-    assert not kinds(later, SendGoal) and menu.drive is not None and menu.state == PAUSED
+        later += menu.on_feedback(5.0 - 0.1 * step, t) + menu.tick(t)
+    assert not kinds(later, (SendGoal, CancelGoal)) and menu.drive is not None
+    assert menu.state == PAUSED
 
 
-def test_stop_while_driving_is_a_goal_at_the_robots_pose():
+def test_stop_is_a_cancel_and_stays_offered_until_the_goal_has_ended():
     menu, actions, now = driving()
-    menu.on_odometry(3.0, 7.2, 0.5, now + 1.0)
+    menu.on_feedback(2.0, now + 1.0)
     actions = menu.on_choice(STOP_LABEL, now + 1.2)
-    stop = kinds(actions, SendGoal)
-    assert [g.label for g in stop] == [STOP_LABEL]
-    np.testing.assert_allclose(stop[0].pose, [3.0, 7.2, 0.5])
+    assert kinds(actions, CancelGoal) == [CancelGoal(every=False)]
+    assert not kinds(actions, SendGoal)
+    assert kinds(actions, Progress)[0].text == f"stopping on the way to '{TABLE}'"
+    assert menu.options == (STOP_LABEL,) and menu.state != ASKING
+    # The robot brakes: its feedback says no more progress; the end says stopped.
+    assert not kinds(menu.on_feedback(1.8, now + 1.4), Progress)
+    assert menu.on_cancel_response(True, '', now + 1.3)[0].level == 'info'
+    actions = menu.on_goal_result(CANCELED, '', now + 2.0)
+    assert kinds(actions, Progress)[0].text == f"stopped on the way to '{TABLE}'"
     assert menu.drive is None and menu.options == ROOMS     # the next task
-    assert 'stopped' in kinds(actions, Progress)[0].text
+    assert not kinds(actions, (SendGoal, CancelGoal))
 
 
-def test_progress_and_arrival_within_the_tolerances():
+def test_stop_in_every_drive_state_never_sends_a_goal():
+    # Before the goal is accepted: the cancel goes out when it is.
+    menu, actions, now = driving(accept=False)
+    actions = menu.on_choice(STOP_LABEL, now + 0.2)
+    assert not kinds(actions, (CancelGoal, SendGoal))
+    assert kinds(menu.on_goal_response(True, '', now + 0.3), CancelGoal) == [CancelGoal()]
+    # ... or it was refused anyway: nothing to cancel.
+    menu, actions, now = driving(accept=False)
+    menu.on_choice(STOP_LABEL, now + 0.2)
+    actions = menu.on_goal_response(False, 'rejected', now + 0.3)
+    assert not kinds(actions, (CancelGoal, SendGoal)) and menu.drive is None
+    # While silent: a cancel.
     menu, actions, now = driving()
-    x, y, yaw = GOALS[TABLE]
+    menu.tick(now + 10.0)
+    menu.tick(now + 10.5)
+    assert kinds(menu.on_choice(STOP_LABEL, now + 11.0), CancelGoal) == [CancelGoal()]
+    # A refused cancel is said; 'stop' is offered and cancels again.
+    actions = menu.on_cancel_response(False, 'refused', now + 11.1)
+    assert 'refused the stop' in kinds(actions, Progress)[0].text
+    assert menu.options == (STOP_LABEL,) and menu.drive is not None
+    menu.tick(now + 13.0)
+    assert kinds(menu.on_choice(STOP_LABEL, now + 13.5), CancelGoal)
+    # The robot arrived before the cancel reached it: arrived.
+    actions = menu.on_goal_result(SUCCEEDED, '', now + 13.6)
+    assert kinds(actions, Progress)[0].text == f"arrived at '{TABLE}'"
+
+
+def test_arrival_and_failure_come_from_the_result_and_progress_from_feedback():
+    menu, actions, now = driving()
     lines = []
-    for step, distance in enumerate((2.5, 2.45, 2.3, 1.0)):
-        lines += kinds(menu.on_odometry(x - distance, y, yaw, now + step), Progress)
+    for step, distance in enumerate((2.5, 2.45, 2.3, 1.0, 0.3, 0.0)):
+        lines += kinds(menu.on_feedback(distance, now + step), Progress)
     # A line when the distance left changed by 0.1 m or more.
     assert [p.text for p in lines] == [f"driving to '{TABLE}': {d} m left"
-                                       for d in ('2.5', '2.3', '1.0')]
-    assert not kinds(menu.on_odometry(x - 0.25, y, yaw, now + 5), Offer)   # 0.25 m: not yet
-    assert not kinds(menu.on_odometry(x - 0.1, y, yaw + np.radians(20), now + 6), Offer)
-    assert menu.state == DRIVING
-    actions = menu.on_odometry(x - 0.15, y + 0.1, yaw - np.radians(10), now + 7)
+                                       for d in ('2.5', '2.3', '1.0', '0.3', '0.0')]
+    assert menu.state == DRIVING            # no guess: only the result ends the drive
+    actions = menu.on_goal_result(SUCCEEDED, '', now + 7)
     assert kinds(actions, Progress)[-1].text == f"arrived at '{TABLE}'"
-    assert menu.drive is None and menu.options == ROOMS and not kinds(actions, SendGoal)
+    assert menu.drive is None and menu.options == ROOMS
+    assert not kinds(actions, (SendGoal, CancelGoal))
     done, _, now = driving(repeat=False)
-    x, y, yaw = GOALS[TABLE]
-    done.on_odometry(x, y, yaw + 2 * np.pi, now + 1)       # the same heading
+    done.on_goal_result(SUCCEEDED, '', now + 1)
     assert done.state == FINISHED
+    # Aborted: the reason in words, the tables again; nothing sent.
+    menu, actions, now = driving()
+    actions = menu.on_goal_result(ABORTED, 'there is no path to the goal', now + 1)
+    text = kinds(actions, Progress)[0].text
+    assert text == (f"the robot did not reach '{TABLE}': there is no path to the goal: "
+                    'choose again')
+    assert [a.text for a in kinds(actions, Log) if a.level == 'warning'] == [text]
+    assert menu.options == TABLES and menu.drive is None
+    assert not kinds(actions, (SendGoal, CancelGoal))
+    # Cancelled by someone else: said, the tables again.
+    menu, actions, now = driving()
+    actions = menu.on_goal_result(CANCELED, '', now + 1)
+    assert 'not by this menu' in kinds(actions, Progress)[0].text
+    assert menu.options == TABLES
 
 
-def test_a_robot_that_does_not_move_is_reported_and_the_task_offered_again():
-    # No odometry at all: said in one line, nothing sent, the tables again.
-    menu, now = confirming(drive_timeout_s=5.0)
-    menu.on_choice(GO_LABEL, now)
-    assert not kinds(menu.tick(now + 4.9), Log)
-    actions = menu.tick(now + 5.0)
-    warnings = [a.text for a in kinds(actions, Log) if a.level == 'warning']
-    assert len(warnings) == 1 and 'no odometry' in warnings[0]
-    assert not kinds(actions, SendGoal) and menu.options == TABLES and menu.drive is None
-    # Odometry, but no nearer (a refused goal): held where it is.
-    menu, actions, now = driving(drive_timeout_s=5.0)
-    for t in np.arange(now, now + 4.9, 0.5):
-        menu.on_odometry(2.0, 7.0, 0.0, t)
-        assert not kinds(menu.tick(t), SendGoal)
-    actions = menu.tick(now + 5.0)
-    assert [g.label for g in kinds(actions, SendGoal)] == [STOP_LABEL]
-    assert 'no nearer' in kinds(actions, Progress)[0].text and menu.options == TABLES
-    # Progress resets the wait.
-    menu, actions, now = driving(drive_timeout_s=5.0)
-    for step, t in enumerate(np.arange(now + 1, now + 20, 1.0)):
-        menu.on_odometry(2.0 + 0.1 * step, 7.0, 0.0, t)
-        assert menu.tick(t) == [] or menu.drive is not None
-    assert menu.drive is not None
+def test_a_refused_goal_is_said_at_once():
+    menu, actions, now = driving(accept=False)
+    actions = menu.on_goal_response(False, 'no navigation server on navigate_to_pose', now)
+    text = kinds(actions, Progress)[0].text
+    assert text == (f"the robot refused the goal to '{TABLE}': no navigation server on "
+                    'navigate_to_pose: choose again')
+    assert [a.text for a in kinds(actions, Log) if a.level == 'warning'] == [text]
+    assert menu.options == TABLES and menu.drive is None
+    assert not kinds(actions, (SendGoal, CancelGoal))
+    # A late refusal of a goal no longer followed changes nothing.
+    assert not kinds(menu.on_goal_response(False, 'gone', now + 1), (Offer, CancelGoal))
 
 
-def test_a_new_scene_while_driving_stops_the_robot():
+def test_silence_is_said_and_never_ends_the_drive():
+    menu, actions, now = driving(feedback_timeout_s=3.0)
+    for t in np.arange(now + 0.5, now + 60.0, 0.1):     # a minute of feedback, 0.5 m/s
+        assert not kinds(menu.on_feedback(max(0.0, 30.0 - 0.5 * (t - now)), t)
+                         + menu.tick(t), Log)
+    assert menu.drive is not None and menu.state == DRIVING
+    # No feedback for 3 s: one line, 'stop' stays offered.
+    t = now + 60.0
+    assert not kinds(menu.tick(t + 2.9), Log)
+    actions = menu.tick(t + 3.0)
+    text = kinds(actions, Progress)[0].text
+    assert text.startswith('no feedback from the robot for 3 s') and "'stop'" in text
+    assert [a.level for a in kinds(actions, Log)] == ['warning']
+    assert not kinds(menu.tick(t + 10.0), Log)              # said once
+    assert menu.options == (STOP_LABEL,) and menu.drive is not None
+    assert not kinds(menu.tick(t + 100.0), (SendGoal, CancelGoal, Offer))
+    assert kinds(menu.on_feedback(1.0, t + 101.0), Log)[0].text.startswith(
+        'the robot answers again')
+    # No answer to the goal (a server gone but not yet seen gone): given up, the tables
+    # again; a late acceptance is cancelled.
+    menu, actions, now = driving(accept=False, feedback_timeout_s=3.0)
+    assert not kinds(menu.tick(now + 2.9), Log)
+    actions = menu.tick(now + 3.0)
+    assert kinds(actions, Progress)[0].text == (f"no answer to the goal to '{TABLE}' in 3 s: "
+                                                'choose again')
+    assert menu.drive is None and menu.options == TABLES
+    assert kinds(menu.on_goal_response(True, '', now + 4.0), CancelGoal) == [CancelGoal()]
+    with pytest.raises(ValueError, match='feedback_timeout_s'):
+        ProtocolSettings(feedback_timeout_s=float('nan'))
+
+
+def test_a_new_scene_while_driving_cancels_the_goal():
     menu, actions, now = driving()
     actions = menu.start(now + 1.0)
-    assert [g.label for g in kinds(actions, SendGoal)] == [STOP_LABEL]
-    assert menu.drive is None
+    assert kinds(actions, CancelGoal) == [CancelGoal()] and not kinds(actions, SendGoal)
+    assert menu.drive is None and menu.options == ROOMS
+    # ... a goal not yet accepted: nothing to cancel now (a late acceptance is not followed).
+    menu, actions, now = driving(accept=False)
+    assert not kinds(menu.start(now + 1.0), CancelGoal)
+    assert not kinds(menu.cancel_drive('again', now + 1.0), CancelGoal)
+
+
+def test_a_goal_the_menu_did_not_send_is_met_with_stop_first():
+    menu = asked_menu(validate_first=False)
+    actions = menu.on_other_goals(True, 1.0)
+    assert menu.options == (STOP_LABEL,) and menu.state == DRIVING
+    assert 'did not send' in kinds(actions, Progress)[0].text
+    assert menu.on_other_goals(True, 1.1) == []             # said once
+    arrive(menu, SCENE.overview, 1.2)
+    assert menu.state == DRIVING and menu.asked_at is not None
+    actions = menu.on_choice(STOP_LABEL, 1.5)
+    assert kinds(actions, CancelGoal) == [CancelGoal(every=True)]
+    # It ended (status): the menu starts over at the rooms.
+    actions = menu.on_other_goals(False, 2.0)
+    assert kinds(actions, Progress)[0].text == 'the robot stopped'
+    assert menu.options == ROOMS and menu.drive is None
+    # A room chosen while another's goal drives is no room: only 'stop' counts.
+    menu = asked_menu()
+    menu.on_other_goals(True, 1.0)
+    assert 'not one of' in menu.on_choice('kitchen', 3.0)[0].text
+    # The menu ending does not cancel a goal that is not its own; a new scene does.
+    assert menu.cancel_drive('the menu ends', 3.0, own_only=True) == []
+    assert kinds(menu.cancel_drive('new scene', 3.0), CancelGoal) == [CancelGoal(every=True)]
+    # Even during the first validation: 'stop' first, the validation after it.
+    menu = MenuProtocol(SCENE, ProtocolSettings(validate_first=True))
+    menu.start(0.0)
+    assert menu.state == VALIDATING
+    menu.on_other_goals(True, 0.5)
+    assert menu.options == (STOP_LABEL,)
+    menu.on_other_goals(False, 2.0)
+    assert menu.state == VALIDATING
 
 
 def test_without_robot_goals_a_table_is_the_outcome_and_nothing_moves():
@@ -499,13 +604,6 @@ def test_send_is_its_own_saccade_from_go_and_far_from_the_tables_in_every_room()
             assert np.hypot(*(uv[1] - uv[0])) >= 0.75 * SEND_DOWN * 360, room.marker.text
             # About 6 deg or more from 'back' and every table: outside their 3 sigma halo.
             assert np.hypot(*(uv[2:] - uv[1]).T).min() >= 240, (room.marker.text, table.text)
-
-
-def test_arrival_tolerances_are_the_robots():
-    from eye_bci_ros2.navigation.robot_settings import GOAL_TOLERANCE_DEG, GOAL_TOLERANCE_M
-    settings = ProtocolSettings()
-    assert (settings.goal_tolerance_m, settings.goal_tolerance_deg) == (GOAL_TOLERANCE_M,
-                                                                        GOAL_TOLERANCE_DEG)
 
 
 def test_the_arbiters_urgent_option_is_the_menus_stop():
