@@ -186,10 +186,11 @@ MIDAS_REPLAYS = 20
 def send_layout(recording: GazeRecording, go: np.ndarray, rng: np.random.Generator,
                 clearance_deg: float = midas.CLEARANCE_DEG) -> Optional[np.ndarray]:
     """
-    Return the 'send' step's centre (1, 2) for 'go' at ``go``, or None (module doc).
+    Return the 'send' step's centres (2, 2), ('send', 'back'), for 'go' at ``go``, or None.
 
-    :data:`SEND_GAP_DEG` above or below 'go' towards the screen's centre, else
-    the other side, else anywhere at least that far from 'go'; clear of the dots.
+    'send' :data:`SEND_GAP_DEG` above or below 'go' towards the screen's centre,
+    else the other side, else anywhere at least that far from 'go'; clear of the
+    dots; 'back' on 'go''s place (:func:`eye_bci_ros2.task.menu.send_markers`).
     """
     go = np.asarray(go, dtype=float)
     gap = SEND_GAP_DEG * _ppd(recording, go)
@@ -198,7 +199,7 @@ def send_layout(recording: GazeRecording, go: np.ndarray, rng: np.random.Generat
     places = [go + [0.0, inwards * gap], go - [0.0, inwards * gap]] + list(
         rng.uniform(SIZE / 2, screen - SIZE / 2, (midas.TRIES, 2)))
     for place in places:
-        centres = place.reshape(1, 2)
+        centres = np.array([place, go])
         if (np.hypot(*(place - go)) >= gap - 1e-9 and _fits(centres, SIZE, recording)
                 and midas._edge_distance(place, SIZE, recording.targets.places).min()
                 >= clearance_deg * _ppd(recording, place)):
@@ -230,7 +231,7 @@ def _empty_tally() -> Dict:
             **{f'{step} offered': 0 for step in STEPS},
             **{f'{step} passed': 0 for step in STEPS},
             'tables back': 0, 'confirm back': 0, 'confirm unanswered': 0,
-            'send unanswered': 0}
+            'send back': 0, 'send unanswered': 0}
 
 
 def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: ProtocolSettings,
@@ -251,7 +252,7 @@ def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: Proto
         dots, :func:`bench.midas.layout`, :func:`midas_confirm_layout`, :func:`send_layout`):
         'rooms' () -> (ROOMS, 2), 'tables' (room index) -> (TABLES + 1, 2) with 'back'
         last, 'confirm' (the table's centre) -> (2, 2) 'go', 'back', 'send' ('go''s centre)
-        -> (1, 2); None from any ends the layout's replay.
+        -> (2, 2) 'send', 'back'; None from any ends the layout's replay.
     :returns: the tally: minutes of menu, rounds, per step how often it was
         offered and passed (rooms: a room chosen; tables: a table; confirm:
         'go'; send: 'send'), 'back' and unanswered counts, goals, per goal
@@ -316,8 +317,8 @@ def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: Proto
                 total['tables passed'] += 1
                 table_at = start
                 step, centres = 'confirm', draw['confirm'](tables[room][chosen])
-            elif step == 'confirm' and chosen == 1:
-                total['confirm back'] += 1
+            elif step in ('confirm', 'send') and chosen == 1:
+                total[f'{step} back'] += 1
                 step, centres = 'tables', tables[room]
             elif step == 'confirm' and settings.send_rounds:
                 total['confirm passed'] += 1
@@ -340,7 +341,8 @@ def step_trials(recording: GazeRecording, rule: ArbiterSettings, step: str, roun
     The step's options appear at moments ``rounds`` windows apart (trials that
     share no gaze), at places drawn anew for each, clear of the dots, and are
     asked ``rounds`` rounds: 'confirm' ('go' / 'back', 'back' at the drawn place,
-    'go' as the menu puts it) passes on 'go'; 'send' (one option) on 'send'.
+    'go' as the menu puts it) passes on 'go'; 'send' ('back' at the drawn place, where
+    'go' was, 'send' as the menu puts it) on 'send'.
     """
     rng = np.random.default_rng([seed, 37, len(recording.stamps), len(step)])
     stamps, points = midas._valid(recording)
@@ -352,7 +354,9 @@ def step_trials(recording: GazeRecording, rule: ArbiterSettings, step: str, roun
             place = midas.layout(recording, 1, SIZE, midas.CLEARANCE_DEG, rng)
             if place is None:
                 continue
-            centres = place if step == 'send' else midas_confirm_layout(recording, place[0], rng)
+            # 'send' with 'back' on the 'go' at the drawn place; 'go' / 'back' with 'back' there.
+            centres = (send_layout if step == 'send' else midas_confirm_layout)(
+                recording, place[0], rng)
             if centres is None:
                 continue
             options, start, chosen = midas._options(centres, SIZE, onset), onset, None
@@ -407,8 +411,9 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
         before = (counts['rounds'], counts['go'])
         for onset, centres in confirm_rounds(recording, gap, rng):
             index = onsets.index(onset)
-            if index + 2 >= len(onsets):
-                continue        # no next dot for 'send'
+            if index + 2 >= len(onsets) or np.hypot(*(places[index + 1] - places[index])) \
+                    < PITCH * SIZE:
+                continue        # no next dot for 'send', or one too near for 'back' beside it
             counts['rounds'] += 1
             label, go_s = ask(midas._options(centres[::-1], SIZE, onset), onset,
                               min(onsets[index + 1], onset + settings.confirm_rounds
@@ -421,14 +426,16 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
                 counts['go after'].append(go_s)
                 continue
             later = onsets[index + 1]
-            label, send_s = ask(midas._options(places[index + 1].reshape(1, 2), SIZE, later),
+            # 'send' on the next dot, 'back' on this one (where 'go' was: send_markers).
+            label, send_s = ask(midas._options(np.array([places[index + 1], places[index]]),
+                                               SIZE, later),
                                 later, min(onsets[index + 2], later + settings.send_rounds
                                            * rule.window_s))
             if label == '0':
                 counts['go'] += 1
                 counts['go after'].append(go_s + send_s)
             else:
-                counts['none'] += 1
+                counts['back' if label == '1' else 'none'] += 1
         if counts['rounds'] > before[0]:
             counts['people'][recording.name] = (counts['rounds'] - before[0],
                                                 counts['go'] - before[1])

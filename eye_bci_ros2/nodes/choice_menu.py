@@ -9,7 +9,8 @@ the camera to that room's view and offers its tables and a ``back`` option
 (offers nothing).  With a robot (``robot_goals``, the default) a chosen
 table is confirmed first: the menu offers ``go`` and ``back`` (in the
 same view; 'go' away from where the person was looking), then, after
-``go``, ``send`` (``send_rounds``: a second look, elsewhere); only that
+``go``, ``send`` and ``back`` (``send_rounds``: a second look, elsewhere;
+'back' where 'go' was); only 'send'
 publishes the table's approach pose on ``goal_pose`` and reports the
 outcome; while the robot drives it offers ``stop`` and says the distance
 left on ``choice_menu/progress``; on arrival (``odom`` within
@@ -162,10 +163,9 @@ _PROTOCOL_PARAMETERS = {
     'confirm_rounds': ("A confirmation ('go' / 'back') asked this many times without an "
                        'answer (choice/none) returns to the tables, no goal (a stray look '
                        'answers it late)', None),
-    'send_rounds': ("After 'go', 'send' appears where the gaze was not; a fresh look at it "
-                    'within this many rounds sends the robot, else back to the tables (0: '
-                    "'go' sends at once; set 0 with the arbiter's input_mode ssvep or hybrid: "
-                    'one option gives SSVEP nothing to compare)', None),
+    'send_rounds': ("After 'go', 'send' appears where the gaze was not, 'back' where 'go' "
+                    'was; a fresh look at send within this many rounds sends the robot, else '
+                    "back to the tables (0: 'go' sends at once)", None),
 }
 
 #: The robot's radius the approach poses are made for: sim_robot's default.
