@@ -169,6 +169,8 @@ def midas_confirm_layout(recording: GazeRecording, back: np.ndarray, rng: np.ran
     return None
 
 
+#: An intended 'go' must be sent within this from 'go' appearing, s (issue 38).
+INTENDED_S = 1.5
 #: The rooms step: 4 rooms (the default scene's), :data:`SIZE` px.
 ROOMS = 4
 #: 'send' to 'go' on the default screen, degrees: SEND_DOWN half-heights of the 720 px
@@ -373,7 +375,7 @@ def step_trials(recording: GazeRecording, rule: ArbiterSettings, step: str, roun
 
 
 def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
-                seed: int = 0) -> Dict:
+                seed: int = 0, base: Optional[ArbiterSettings] = None) -> Dict:
     """
     Count the intended 'go' on real gaze, through 'go' and 'send' (module doc).
 
@@ -385,13 +387,14 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
     sum of the two reactions, each from its target's onset.
 
     :returns: ``{'rounds', 'go' (both passed), 'back', 'none', 'go after': s per 'go',
-        'people': {recording: (rounds, go)}}``.
+        'people': {recording: (rounds, go, go within INTENDED_S)}}``.
     """
     counts: Dict = {'rounds': 0, 'go': 0, 'back': 0, 'none': 0, 'go after': [], 'people': {}}
+    base = base or RULES['default']
     rng = np.random.default_rng([seed, 31])
     gap = next(iter(LAYOUTS.values()))
     for recording in recordings:
-        rule = settings_for_recording(RULES['default'], recording)
+        rule = settings_for_recording(base, recording)
         stamps, points = midas._valid(recording)
         onsets = list(recording.targets.onsets) + [float(recording.stamps[-1])]
         places = recording.targets.places
@@ -408,7 +411,7 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
                 start, side = asked_again(stamps, start, rule.window_s), 'right'
             return None, math.nan
 
-        before = (counts['rounds'], counts['go'])
+        before = (counts['rounds'], counts['go'], len(counts['go after']))
         for onset, centres in confirm_rounds(recording, gap, rng):
             index = onsets.index(onset)
             if index + 2 >= len(onsets) or np.hypot(*(places[index + 1] - places[index])) \
@@ -437,8 +440,9 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
             else:
                 counts['back' if label == '1' else 'none'] += 1
         if counts['rounds'] > before[0]:
-            counts['people'][recording.name] = (counts['rounds'] - before[0],
-                                                counts['go'] - before[1])
+            counts['people'][recording.name] = (
+                counts['rounds'] - before[0], counts['go'] - before[1],
+                sum(1 for t in counts['go after'][before[2]:] if t <= INTENDED_S))
     return counts
 
 
@@ -455,7 +459,8 @@ def binomial_upper(passed: int, trials: int, confidence: float) -> float:
 
 
 def run_midas(data=None, layouts: int = MIDAS_REPLAYS, seed: int = 0,
-              settings: Optional[ProtocolSettings] = None) -> Dict:
+              settings: Optional[ProtocolSettings] = None,
+              base: Optional[ArbiterSettings] = None) -> Dict:
     """
     Goals per minute of looking around without intent, and the intended 'go' (module doc).
 
@@ -467,13 +472,14 @@ def run_midas(data=None, layouts: int = MIDAS_REPLAYS, seed: int = 0,
         ``{'skipped': reason}`` without data.
     """
     settings = settings or ProtocolSettings()
+    base = base or RULES['default']
     recordings = midas.load_recordings(data)
     if recordings is None:
         return {'skipped': midas.NO_DATA}
     chain = _empty_tally()
     trials = {step: {'trials': 0, 'passed': 0} for step in ('confirm', 'send')}
     for recording in recordings:
-        rule = settings_for_recording(RULES['default'], recording)
+        rule = settings_for_recording(base, recording)
         for key, value in menu_replay(recording, rule, settings, layouts, seed).items():
             chain[key] += value
         for step, rounds in (('confirm', settings.confirm_rounds),
@@ -507,11 +513,12 @@ def run_midas(data=None, layouts: int = MIDAS_REPLAYS, seed: int = 0,
         upper *= high
     # The goals counted in the replay bound the rate on their own too; the smaller holds.
     direct = poisson_upper(chain['goals'], minutes, CONFIDENCE)
-    intended = intended_go(recordings, settings, seed)
+    intended = intended_go(recordings, settings, seed, base)
     after = intended['go after']
     return {
         'settings': {'confirm_rounds': settings.confirm_rounds,
-                     'send_rounds': settings.send_rounds},
+                     'send_rounds': settings.send_rounds, 'dwell_s': base.dwell_s,
+                     'second_look_dwell_s': base.second_look_dwell_s},
         'recordings': [r.name for r in recordings], 'chain': chain, 'trials': trials,
         'factors': bounded,
         'midas': {'goals': chain['goals'], 'minutes': chain['minutes'],
@@ -523,7 +530,7 @@ def run_midas(data=None, layouts: int = MIDAS_REPLAYS, seed: int = 0,
                         'median_s': float(np.median(after)) if after else math.nan,
                         'slowest_s': float(max(after)) if after else math.nan,
                         'back': intended['back'], 'none': intended['none'],
-                        'within_1_5_s': sum(1 for t in after if t <= 1.5),
+                        'within_1_5_s': sum(1 for t in after if t <= INTENDED_S),
                         'people': intended['people']},
     }
 
@@ -536,7 +543,8 @@ def format_midas(result: Dict) -> List[str]:
     conf = result['settings']
     lines = [f'looking around without intent, through the whole menu (rooms {ROOMS}, tables '
              f'{TABLES} + back, go/back, send; {SIZE} px, clear of the dots), default rule, '
-             f"confirm_rounds {conf['confirm_rounds']}, send_rounds {conf['send_rounds']}:",
+             f"confirm_rounds {conf['confirm_rounds']}, send_rounds {conf['send_rounds']}, "
+             f"dwell_s {conf['dwell_s']:g}, second_look_dwell_s {conf['second_look_dwell_s']:g}:",
              f"{chain['layouts']} replays, {chain['minutes']:.1f} minutes of menu, "
              f"{chain['rounds']} rounds", '',
              '| step | offered | passed | share | then back | unanswered |',
@@ -571,8 +579,9 @@ def format_midas(result: Dict) -> List[str]:
               f"{go['rounds']} ({100 * go['rate']:.1f} %), {go['back']} back, {go['none']} none;"
               f" median {go['median_s']:.2f} s, slowest {go['slowest_s']:.2f} s from 'go' "
               f"appearing (both reactions), {go['within_1_5_s']} within 1.5 s",
-              'per person: ' + ', '.join(
-                  f'{name} {done} of {rounds}' for name, (rounds, done) in go['people'].items())]
+              'per person (sent, within 1.5 s, of the rounds): ' + ', '.join(
+                  f'{name} {done}, {quick} of {rounds}'
+                  for name, (rounds, done, quick) in go['people'].items())]
     return lines
 
 
@@ -619,6 +628,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument('--send-rounds', type=int,
                         help="with --midas: the menu's send_rounds (0: no 'send'; default: "
                              'its default)')
+    parser.add_argument('--second-look-dwell', type=float,
+                        help="with --midas: the arbiter's second_look_dwell_s (default: its "
+                             'default)')
     parser.add_argument('--json', help='with --midas: write the summary here')
     args = parser.parse_args(argv)
     try:
@@ -626,8 +638,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             changed = {name: value for name, value in (
                 ('confirm_rounds', args.confirm_rounds), ('send_rounds', args.send_rounds))
                 if value is not None}
+            base = RULES['default'] if args.second_look_dwell is None else \
+                RULES['default'].replace(second_look_dwell_s=args.second_look_dwell)
             result = run_midas(args.data, args.layouts, args.seed,
-                               replace(ProtocolSettings(), **changed))
+                               replace(ProtocolSettings(), **changed), base)
             lines = format_midas(result)
             if args.json and 'skipped' not in result:
                 with open(args.json, 'w', encoding='utf-8') as out:

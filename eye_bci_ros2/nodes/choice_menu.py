@@ -19,7 +19,8 @@ When to ask and which choices count is the pure
 :class:`eye_bci_ros2.task.menu.MenuProtocol` (its module doc has the rules): the
 question (``choice/request``) is asked once the camera has arrived at the
 step's goal (or settled), the gaze has left the option just chosen (or
-``look_away_s`` passed) and the gaze is not off screen for ``pause_after_s``
+without gaze to judge, ``look_away_s`` passed; a still gaze has not left)
+and the gaze is not off screen for ``pause_after_s``
 (a pause); only a choice that answers the question counts.
 
 Topics:
@@ -138,8 +139,9 @@ _PROTOCOL_PARAMETERS = {
                              'degrees', (0.0, 180.0)),
     'settle_s': ('A camera that has not moved for this long has arrived (settled), s',
                  (0.0, 60.0)),
-    'look_away_s': ('After a choice, ask again at the latest after this even if the gaze '
-                    'stayed on the chosen option, s', (0.0, 60.0)),
+    'look_away_s': ('After a choice, ask again after this when the gaze cannot be judged (no '
+                    'region of the chosen option or no gaze/point since); a gaze seen staying '
+                    'on it is never taken as gone, s', (0.0, 60.0)),
     'look_away_margin_px': ('The gaze must be this far outside the chosen option to have '
                             'left it, px', (0.0, 1000.0)),
     'pause_after_s': ('Gaze off screen (gaze/on_screen false) this long pauses the menu, s',
