@@ -68,14 +68,15 @@ from scipy import stats
 
 from bench import midas
 from bench.real_gaze import (_decide, _fits, _ppd, intent, load_folder, PITCH, RULES,
-                             settings_for_recording)
+                             settings_for_recording, squares)
 from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.experiments.trials import decide_trial
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, px_per_degree_at
 from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.gaze import GazeRecording
-from eye_bci_ros2.task.menu import GO_RIGHT, ProtocolSettings, SEND_DOWN
+from eye_bci_ros2.task.menu import (BACK_LABEL, GO_LABEL, GO_RIGHT, ProtocolSettings,
+                                    SEND_DOWN, SEND_LABEL)
 
 #: Option size, px (the tables step's measured figure is at 100 px).
 SIZE = 100
@@ -211,6 +212,21 @@ def send_layout(recording: GazeRecording, go: np.ndarray, rng: np.random.Generat
 
 #: The steps of the menu as replayed, in order, and what passing each means.
 STEPS = ('rooms', 'tables', 'confirm', 'send')
+#: The labels of the steps whose options the arbiter's rule knows by name (its
+#: second_look_labels): the first passes the step, the second is 'back'.
+STEP_LABELS = {'confirm': (GO_LABEL, BACK_LABEL), 'send': (SEND_LABEL, BACK_LABEL)}
+
+
+def step_options(step: str, centres: np.ndarray, shown: float) -> RegionSet:
+    """Return a step's options as the arbiter sees them: the menu's labels, else indices."""
+    if step not in STEP_LABELS:
+        return midas._options(centres, SIZE, shown)
+    return RegionSet(list(STEP_LABELS[step]), squares(centres, SIZE), shown)
+
+
+def chosen_index(step: str, label: str) -> int:
+    """Return the index of the option a step's label names (:func:`step_options`)."""
+    return STEP_LABELS[step].index(label) if step in STEP_LABELS else int(label)
 
 
 def asked_again(stamps: np.ndarray, start: float, window_s: float) -> float:
@@ -288,7 +304,7 @@ def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: Proto
             low = np.searchsorted(stamps, start, side)
             high = np.searchsorted(stamps, start + rule.window_s)
             outcome = decide_trial(points[low:high], stamps[low:high],
-                                   midas._options(centres, SIZE, shown), rule, start=start,
+                                   step_options(step, centres, shown), rule, start=start,
                                    shown_since=shown)
             total['rounds'] += 1
             if outcome.label is None:
@@ -301,7 +317,7 @@ def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: Proto
                     total['tables offered'] += 1
                     side = 'left'
                 continue
-            chosen = int(outcome.label)
+            chosen = chosen_index(step, outcome.label)
             start = shown = outcome.time_s
             side = 'left'
             unanswered = 0
@@ -361,7 +377,7 @@ def step_trials(recording: GazeRecording, rule: ArbiterSettings, step: str, roun
                 recording, place[0], rng)
             if centres is None:
                 continue
-            options, start, chosen = midas._options(centres, SIZE, onset), onset, None
+            options, start, chosen = step_options(step, centres, onset), onset, None
             side = 'left'
             while start < onset + span - 1e-9 and chosen is None:
                 low = np.searchsorted(stamps, start, side)
@@ -370,7 +386,7 @@ def step_trials(recording: GazeRecording, rule: ArbiterSettings, step: str, roun
                                       start=start, shown_since=onset).label
                 start, side = asked_again(stamps, start, rule.window_s), 'right'
             tally['trials'] += 1
-            tally['passed'] += int(chosen == '0')
+            tally['passed'] += int(chosen == STEP_LABELS[step][0])
     return tally
 
 
@@ -418,11 +434,11 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
                     < PITCH * SIZE:
                 continue        # no next dot for 'send', or one too near for 'back' beside it
             counts['rounds'] += 1
-            label, go_s = ask(midas._options(centres[::-1], SIZE, onset), onset,
+            label, go_s = ask(step_options('confirm', centres[::-1], onset), onset,
                               min(onsets[index + 1], onset + settings.confirm_rounds
                                   * rule.window_s))
-            if label != '0':
-                counts['back' if label == '1' else 'none'] += 1
+            if label != GO_LABEL:
+                counts['back' if label == BACK_LABEL else 'none'] += 1
                 continue
             if not settings.send_rounds:
                 counts['go'] += 1
@@ -430,15 +446,15 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
                 continue
             later = onsets[index + 1]
             # 'send' on the next dot, 'back' on this one (where 'go' was: send_markers).
-            label, send_s = ask(midas._options(np.array([places[index + 1], places[index]]),
-                                               SIZE, later),
+            label, send_s = ask(step_options('send', np.array([places[index + 1],
+                                                               places[index]]), later),
                                 later, min(onsets[index + 2], later + settings.send_rounds
                                            * rule.window_s))
-            if label == '0':
+            if label == SEND_LABEL:
                 counts['go'] += 1
                 counts['go after'].append(go_s + send_s)
             else:
-                counts['back' if label == '1' else 'none'] += 1
+                counts['back' if label == BACK_LABEL else 'none'] += 1
         if counts['rounds'] > before[0]:
             counts['people'][recording.name] = (
                 counts['rounds'] - before[0], counts['go'] - before[1],
