@@ -468,13 +468,13 @@ class FixationEvidence:
 
     @property
     def _first_dwell(self) -> float:
-        """The shortest dwell an option offered now needs, s (module doc, "Second looks")."""
+        """Return the shortest dwell an option offered now needs, s ("Second looks")."""
         if self._second_shown:
             return min(self.dwell_s, self.second_look_dwell_s)
         return self.dwell_s
 
     def _dwell_for(self, label: str) -> float:
-        """The dwell a fixation on this option needs, s."""
+        """Return the dwell a fixation on this option needs, s."""
         return self.second_look_dwell_s if label in self.second_look else self.dwell_s
 
     def _may_decide(self, fixation: _Fixation) -> bool:

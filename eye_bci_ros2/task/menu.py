@@ -78,11 +78,11 @@ ever only lets a stray 'go' come.  **A second look** (``send_rounds``, 1):
 'back' takes the place of 'go' (:func:`send_markers`: where the gaze that
 chose 'go' rests, it can only undo; two options, so SSVEP and the hybrid can
 answer too); only a fresh fixation on 'send' within ``send_rounds`` rounds
-sends the goal; 'back' or no answer: back to the tables.  A person who means 'go' looks at 'send' next (one
-short saccade and fixation); a wandering gaze that chose 'go' by chance
-seldom lands on a target that just appeared elsewhere within a second
-(docs/selection.md, "Looking around without intent": each step's share on
-real gaze).  While the robot drives, the menu offers
+sends the goal; 'back' or no answer: back to the tables.  A person who means
+'go' looks at 'send' next (one short saccade and fixation); a wandering
+gaze that chose 'go' by chance seldom lands on a target that just appeared
+elsewhere within a second (docs/selection.md, "Looking around without
+intent": each step's share on real gaze).  While the robot drives, the menu offers
 ``stop`` (:func:`stop_marker`) and asks at once and again after each round
 without a choice; ``stop`` sends a goal at the robot's pose from odometry
 (:meth:`MenuProtocol.on_odometry`).  Looking away chooses nothing: the robot

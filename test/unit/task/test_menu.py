@@ -380,8 +380,8 @@ def test_back_in_the_send_step_sends_nothing_and_offers_the_tables():
     menu.on_choice(GO_LABEL, now)
     actions = menu.on_choice(BACK_LABEL, now + 0.5)
     assert not kinds(actions, SendGoal) and not kinds(actions, Result)
-    assert f"'{TABLE}' not confirmed: back to the tables" in [a.text for a in
-                                                            kinds(actions, Log)]
+    logged = [a.text for a in kinds(actions, Log)]
+    assert f"'{TABLE}' not confirmed: back to the tables" in logged
     assert menu.options == TABLES and menu.pending is None
     # Offered again ('reoffer', e.g. a new world frame): 'send' and 'back' again.
     menu.tick(now + 1.0)
