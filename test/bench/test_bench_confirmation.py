@@ -92,8 +92,11 @@ def test_a_look_at_a_room_a_table_go_and_send_is_a_robot_goal(tmp_path):
     assert total['rooms passed'] == total['tables passed'] == total['confirm passed'] == 19
     assert total['send offered'] == 19 and total['send unanswered'] == 0
     assert 46.0 / 60 < total['minutes'] <= SECONDS / 60
-    # Each goal 1.2 s after its table (table 0.15 s into T, send 0.15 s into S).
-    assert np.allclose(total['go after'], 1.2, atol=0.05)
+    # Each goal 1.1 s after its table (table dwell_s 0.15 s into T, 'send', a second look,
+    # second_look_dwell_s 0.05 s into S).
+    rule = confirmation.RULES['default']
+    assert np.allclose(total['go after'], 2 * STEP_S - rule.dwell_s + rule.second_look_dwell_s,
+                       atol=0.03)
 
 
 def test_go_without_the_look_at_send_is_no_goal(tmp_path):
