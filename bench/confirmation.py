@@ -35,8 +35,11 @@ looking: options at random places clear of the dots), from the rooms
 'go' :data:`MENU_GAP_DEG` beside it towards the screen's centre, the menu's
 layout, :func:`eye_bci_ros2.task.menu.confirm_markers`; elsewhere when that
 place is not clear of the dots), asked ``confirm_rounds`` rounds, then
-'send' (:data:`SEND_GAP_DEG` above or below 'go', :func:`send_layout`),
-asked ``send_rounds`` rounds; 'send' is a goal, and the rooms again.  Rounds
+'send' (:data:`SEND_GAP_DEG` above or below 'go', :func:`send_layout`) with
+'back' on the place of 'go', asked ``send_rounds`` rounds; 'send' is a goal,
+and the rooms again.  The confirm and send steps' options carry the menu's
+labels (:data:`STEP_LABELS`), so the arbiter's second looks apply
+(``second_look_dwell_s``; ``--second-look-dwell`` for the trade-off).  Rounds
 are asked again as the nodes do (:func:`asked_again`); the camera's arrival
 and the look-away gate are left out (an upper bound in that respect);
 minutes are minutes of menu.  Each step's share is reported, and the steps
@@ -54,6 +57,7 @@ Usage::
     python -m bench.confirmation [--data DIR] [--seed 0]
     python -m bench.confirmation --midas [--json PATH] [--layouts 20]
                                  [--confirm-rounds N] [--send-rounds N]
+                                 [--second-look-dwell S]
 """
 
 import argparse
@@ -398,9 +402,11 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
     Every jump of a dot with a next one is a round: 'go' (100 px) on the dot,
     'back' at the menu's gap beside it, asked ``confirm_rounds`` rounds (and
     until the next jump); then, if 'go' was chosen, 'send' (100 px) on the
-    next dot from its onset (a target that appears elsewhere, as 'send' does),
-    asked ``send_rounds`` rounds (and until the jump after).  The time is the
-    sum of the two reactions, each from its target's onset.
+    next dot from its onset (a target that appears elsewhere, as 'send' does)
+    and 'back' on this dot (where 'go' was), asked ``send_rounds`` rounds (and
+    until the jump after); rounds whose next dot lies within :data:`PITCH`
+    sizes of this one are left out (the menu never puts 'send' there).  The
+    time is the sum of the two reactions, each from its target's onset.
 
     :returns: ``{'rounds', 'go' (both passed), 'back', 'none', 'go after': s per 'go',
         'people': {recording: (rounds, go, go within INTENDED_S)}}``.
