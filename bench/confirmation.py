@@ -35,8 +35,11 @@ looking: options at random places clear of the dots), from the rooms
 'go' :data:`MENU_GAP_DEG` beside it towards the screen's centre, the menu's
 layout, :func:`eye_bci_ros2.task.menu.confirm_markers`; elsewhere when that
 place is not clear of the dots), asked ``confirm_rounds`` rounds, then
-'send' (:data:`SEND_GAP_DEG` above or below 'go', :func:`send_layout`),
-asked ``send_rounds`` rounds; 'send' is a goal, and the rooms again.  Rounds
+'send' (:data:`SEND_GAP_DEG` above or below 'go', :func:`send_layout`) with
+'back' on the place of 'go', asked ``send_rounds`` rounds; 'send' is a goal,
+and the rooms again.  The confirm and send steps' options carry the menu's
+labels (:data:`STEP_LABELS`), so the arbiter's second looks apply
+(``second_look_dwell_s``; ``--second-look-dwell`` for the trade-off).  Rounds
 are asked again as the nodes do (:func:`asked_again`); the camera's arrival
 and the look-away gate are left out (an upper bound in that respect);
 minutes are minutes of menu.  Each step's share is reported, and the steps
@@ -54,6 +57,7 @@ Usage::
     python -m bench.confirmation [--data DIR] [--seed 0]
     python -m bench.confirmation --midas [--json PATH] [--layouts 20]
                                  [--confirm-rounds N] [--send-rounds N]
+                                 [--second-look-dwell S]
 """
 
 import argparse
@@ -68,14 +72,15 @@ from scipy import stats
 
 from bench import midas
 from bench.real_gaze import (_decide, _fits, _ppd, intent, load_folder, PITCH, RULES,
-                             settings_for_recording)
+                             settings_for_recording, squares)
 from eye_bci_ros2.decision.regions import RegionSet
 from eye_bci_ros2.decision.rounds import ArbiterSettings
 from eye_bci_ros2.experiments.trials import decide_trial
 from eye_bci_ros2.projection.visual_angle import DEFAULT_VIEWING, px_per_degree_at
 from eye_bci_ros2.recordings import find_data
 from eye_bci_ros2.recordings.gaze import GazeRecording
-from eye_bci_ros2.task.menu import GO_RIGHT, ProtocolSettings, SEND_DOWN
+from eye_bci_ros2.task.menu import (BACK_LABEL, GO_LABEL, GO_RIGHT, ProtocolSettings,
+                                    SEND_DOWN, SEND_LABEL)
 
 #: Option size, px (the tables step's measured figure is at 100 px).
 SIZE = 100
@@ -169,6 +174,8 @@ def midas_confirm_layout(recording: GazeRecording, back: np.ndarray, rng: np.ran
     return None
 
 
+#: An intended 'go' must be sent within this from 'go' appearing, s (issue 38).
+INTENDED_S = 1.5
 #: The rooms step: 4 rooms (the default scene's), :data:`SIZE` px.
 ROOMS = 4
 #: 'send' to 'go' on the default screen, degrees: SEND_DOWN half-heights of the 720 px
@@ -186,10 +193,11 @@ MIDAS_REPLAYS = 20
 def send_layout(recording: GazeRecording, go: np.ndarray, rng: np.random.Generator,
                 clearance_deg: float = midas.CLEARANCE_DEG) -> Optional[np.ndarray]:
     """
-    Return the 'send' step's centre (1, 2) for 'go' at ``go``, or None (module doc).
+    Return the 'send' step's centres (2, 2), ('send', 'back'), for 'go' at ``go``, or None.
 
-    :data:`SEND_GAP_DEG` above or below 'go' towards the screen's centre, else
-    the other side, else anywhere at least that far from 'go'; clear of the dots.
+    'send' :data:`SEND_GAP_DEG` above or below 'go' towards the screen's centre,
+    else the other side, else anywhere at least that far from 'go'; clear of the
+    dots; 'back' on 'go''s place (:func:`eye_bci_ros2.task.menu.send_markers`).
     """
     go = np.asarray(go, dtype=float)
     gap = SEND_GAP_DEG * _ppd(recording, go)
@@ -198,7 +206,7 @@ def send_layout(recording: GazeRecording, go: np.ndarray, rng: np.random.Generat
     places = [go + [0.0, inwards * gap], go - [0.0, inwards * gap]] + list(
         rng.uniform(SIZE / 2, screen - SIZE / 2, (midas.TRIES, 2)))
     for place in places:
-        centres = place.reshape(1, 2)
+        centres = np.array([place, go])
         if (np.hypot(*(place - go)) >= gap - 1e-9 and _fits(centres, SIZE, recording)
                 and midas._edge_distance(place, SIZE, recording.targets.places).min()
                 >= clearance_deg * _ppd(recording, place)):
@@ -208,6 +216,21 @@ def send_layout(recording: GazeRecording, go: np.ndarray, rng: np.random.Generat
 
 #: The steps of the menu as replayed, in order, and what passing each means.
 STEPS = ('rooms', 'tables', 'confirm', 'send')
+#: The labels of the steps whose options the arbiter's rule knows by name (its
+#: second_look_labels): the first passes the step, the second is 'back'.
+STEP_LABELS = {'confirm': (GO_LABEL, BACK_LABEL), 'send': (SEND_LABEL, BACK_LABEL)}
+
+
+def step_options(step: str, centres: np.ndarray, shown: float) -> RegionSet:
+    """Return a step's options as the arbiter sees them: the menu's labels, else indices."""
+    if step not in STEP_LABELS:
+        return midas._options(centres, SIZE, shown)
+    return RegionSet(list(STEP_LABELS[step]), squares(centres, SIZE), shown)
+
+
+def chosen_index(step: str, label: str) -> int:
+    """Return the index of the option a step's label names (:func:`step_options`)."""
+    return STEP_LABELS[step].index(label) if step in STEP_LABELS else int(label)
 
 
 def asked_again(stamps: np.ndarray, start: float, window_s: float) -> float:
@@ -230,7 +253,7 @@ def _empty_tally() -> Dict:
             **{f'{step} offered': 0 for step in STEPS},
             **{f'{step} passed': 0 for step in STEPS},
             'tables back': 0, 'confirm back': 0, 'confirm unanswered': 0,
-            'send unanswered': 0}
+            'send back': 0, 'send unanswered': 0}
 
 
 def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: ProtocolSettings,
@@ -251,7 +274,7 @@ def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: Proto
         dots, :func:`bench.midas.layout`, :func:`midas_confirm_layout`, :func:`send_layout`):
         'rooms' () -> (ROOMS, 2), 'tables' (room index) -> (TABLES + 1, 2) with 'back'
         last, 'confirm' (the table's centre) -> (2, 2) 'go', 'back', 'send' ('go''s centre)
-        -> (1, 2); None from any ends the layout's replay.
+        -> (2, 2) 'send', 'back'; None from any ends the layout's replay.
     :returns: the tally: minutes of menu, rounds, per step how often it was
         offered and passed (rooms: a room chosen; tables: a table; confirm:
         'go'; send: 'send'), 'back' and unanswered counts, goals, per goal
@@ -285,7 +308,7 @@ def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: Proto
             low = np.searchsorted(stamps, start, side)
             high = np.searchsorted(stamps, start + rule.window_s)
             outcome = decide_trial(points[low:high], stamps[low:high],
-                                   midas._options(centres, SIZE, shown), rule, start=start,
+                                   step_options(step, centres, shown), rule, start=start,
                                    shown_since=shown)
             total['rounds'] += 1
             if outcome.label is None:
@@ -298,7 +321,7 @@ def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: Proto
                     total['tables offered'] += 1
                     side = 'left'
                 continue
-            chosen = int(outcome.label)
+            chosen = chosen_index(step, outcome.label)
             start = shown = outcome.time_s
             side = 'left'
             unanswered = 0
@@ -316,8 +339,8 @@ def menu_replay(recording: GazeRecording, rule: ArbiterSettings, settings: Proto
                 total['tables passed'] += 1
                 table_at = start
                 step, centres = 'confirm', draw['confirm'](tables[room][chosen])
-            elif step == 'confirm' and chosen == 1:
-                total['confirm back'] += 1
+            elif step in ('confirm', 'send') and chosen == 1:
+                total[f'{step} back'] += 1
                 step, centres = 'tables', tables[room]
             elif step == 'confirm' and settings.send_rounds:
                 total['confirm passed'] += 1
@@ -340,7 +363,8 @@ def step_trials(recording: GazeRecording, rule: ArbiterSettings, step: str, roun
     The step's options appear at moments ``rounds`` windows apart (trials that
     share no gaze), at places drawn anew for each, clear of the dots, and are
     asked ``rounds`` rounds: 'confirm' ('go' / 'back', 'back' at the drawn place,
-    'go' as the menu puts it) passes on 'go'; 'send' (one option) on 'send'.
+    'go' as the menu puts it) passes on 'go'; 'send' ('back' at the drawn place, where
+    'go' was, 'send' as the menu puts it) on 'send'.
     """
     rng = np.random.default_rng([seed, 37, len(recording.stamps), len(step)])
     stamps, points = midas._valid(recording)
@@ -352,10 +376,12 @@ def step_trials(recording: GazeRecording, rule: ArbiterSettings, step: str, roun
             place = midas.layout(recording, 1, SIZE, midas.CLEARANCE_DEG, rng)
             if place is None:
                 continue
-            centres = place if step == 'send' else midas_confirm_layout(recording, place[0], rng)
+            # 'send' with 'back' on the 'go' at the drawn place; 'go' / 'back' with 'back' there.
+            centres = (send_layout if step == 'send' else midas_confirm_layout)(
+                recording, place[0], rng)
             if centres is None:
                 continue
-            options, start, chosen = midas._options(centres, SIZE, onset), onset, None
+            options, start, chosen = step_options(step, centres, onset), onset, None
             side = 'left'
             while start < onset + span - 1e-9 and chosen is None:
                 low = np.searchsorted(stamps, start, side)
@@ -364,30 +390,33 @@ def step_trials(recording: GazeRecording, rule: ArbiterSettings, step: str, roun
                                       start=start, shown_since=onset).label
                 start, side = asked_again(stamps, start, rule.window_s), 'right'
             tally['trials'] += 1
-            tally['passed'] += int(chosen == '0')
+            tally['passed'] += int(chosen == STEP_LABELS[step][0])
     return tally
 
 
 def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
-                seed: int = 0) -> Dict:
+                seed: int = 0, base: Optional[ArbiterSettings] = None) -> Dict:
     """
     Count the intended 'go' on real gaze, through 'go' and 'send' (module doc).
 
     Every jump of a dot with a next one is a round: 'go' (100 px) on the dot,
     'back' at the menu's gap beside it, asked ``confirm_rounds`` rounds (and
     until the next jump); then, if 'go' was chosen, 'send' (100 px) on the
-    next dot from its onset (a target that appears elsewhere, as 'send' does),
-    asked ``send_rounds`` rounds (and until the jump after).  The time is the
-    sum of the two reactions, each from its target's onset.
+    next dot from its onset (a target that appears elsewhere, as 'send' does)
+    and 'back' on this dot (where 'go' was), asked ``send_rounds`` rounds (and
+    until the jump after); rounds whose next dot lies within :data:`PITCH`
+    sizes of this one are left out (the menu never puts 'send' there).  The
+    time is the sum of the two reactions, each from its target's onset.
 
     :returns: ``{'rounds', 'go' (both passed), 'back', 'none', 'go after': s per 'go',
-        'people': {recording: (rounds, go)}}``.
+        'people': {recording: (rounds, go, go within INTENDED_S)}}``.
     """
     counts: Dict = {'rounds': 0, 'go': 0, 'back': 0, 'none': 0, 'go after': [], 'people': {}}
+    base = base or RULES['default']
     rng = np.random.default_rng([seed, 31])
     gap = next(iter(LAYOUTS.values()))
     for recording in recordings:
-        rule = settings_for_recording(RULES['default'], recording)
+        rule = settings_for_recording(base, recording)
         stamps, points = midas._valid(recording)
         onsets = list(recording.targets.onsets) + [float(recording.stamps[-1])]
         places = recording.targets.places
@@ -404,34 +433,38 @@ def intended_go(recordings: Sequence[GazeRecording], settings: ProtocolSettings,
                 start, side = asked_again(stamps, start, rule.window_s), 'right'
             return None, math.nan
 
-        before = (counts['rounds'], counts['go'])
+        before = (counts['rounds'], counts['go'], len(counts['go after']))
         for onset, centres in confirm_rounds(recording, gap, rng):
             index = onsets.index(onset)
-            if index + 2 >= len(onsets):
-                continue        # no next dot for 'send'
+            if index + 2 >= len(onsets) or np.hypot(*(places[index + 1] - places[index])) \
+                    < PITCH * SIZE:
+                continue        # no next dot for 'send', or one too near for 'back' beside it
             counts['rounds'] += 1
-            label, go_s = ask(midas._options(centres[::-1], SIZE, onset), onset,
+            label, go_s = ask(step_options('confirm', centres[::-1], onset), onset,
                               min(onsets[index + 1], onset + settings.confirm_rounds
                                   * rule.window_s))
-            if label != '0':
-                counts['back' if label == '1' else 'none'] += 1
+            if label != GO_LABEL:
+                counts['back' if label == BACK_LABEL else 'none'] += 1
                 continue
             if not settings.send_rounds:
                 counts['go'] += 1
                 counts['go after'].append(go_s)
                 continue
             later = onsets[index + 1]
-            label, send_s = ask(midas._options(places[index + 1].reshape(1, 2), SIZE, later),
+            # 'send' on the next dot, 'back' on this one (where 'go' was: send_markers).
+            label, send_s = ask(step_options('send', np.array([places[index + 1],
+                                                               places[index]]), later),
                                 later, min(onsets[index + 2], later + settings.send_rounds
                                            * rule.window_s))
-            if label == '0':
+            if label == SEND_LABEL:
                 counts['go'] += 1
                 counts['go after'].append(go_s + send_s)
             else:
-                counts['none'] += 1
+                counts['back' if label == BACK_LABEL else 'none'] += 1
         if counts['rounds'] > before[0]:
-            counts['people'][recording.name] = (counts['rounds'] - before[0],
-                                                counts['go'] - before[1])
+            counts['people'][recording.name] = (
+                counts['rounds'] - before[0], counts['go'] - before[1],
+                sum(1 for t in counts['go after'][before[2]:] if t <= INTENDED_S))
     return counts
 
 
@@ -448,7 +481,8 @@ def binomial_upper(passed: int, trials: int, confidence: float) -> float:
 
 
 def run_midas(data=None, layouts: int = MIDAS_REPLAYS, seed: int = 0,
-              settings: Optional[ProtocolSettings] = None) -> Dict:
+              settings: Optional[ProtocolSettings] = None,
+              base: Optional[ArbiterSettings] = None) -> Dict:
     """
     Goals per minute of looking around without intent, and the intended 'go' (module doc).
 
@@ -460,13 +494,14 @@ def run_midas(data=None, layouts: int = MIDAS_REPLAYS, seed: int = 0,
         ``{'skipped': reason}`` without data.
     """
     settings = settings or ProtocolSettings()
+    base = base or RULES['default']
     recordings = midas.load_recordings(data)
     if recordings is None:
         return {'skipped': midas.NO_DATA}
     chain = _empty_tally()
     trials = {step: {'trials': 0, 'passed': 0} for step in ('confirm', 'send')}
     for recording in recordings:
-        rule = settings_for_recording(RULES['default'], recording)
+        rule = settings_for_recording(base, recording)
         for key, value in menu_replay(recording, rule, settings, layouts, seed).items():
             chain[key] += value
         for step, rounds in (('confirm', settings.confirm_rounds),
@@ -500,11 +535,12 @@ def run_midas(data=None, layouts: int = MIDAS_REPLAYS, seed: int = 0,
         upper *= high
     # The goals counted in the replay bound the rate on their own too; the smaller holds.
     direct = poisson_upper(chain['goals'], minutes, CONFIDENCE)
-    intended = intended_go(recordings, settings, seed)
+    intended = intended_go(recordings, settings, seed, base)
     after = intended['go after']
     return {
         'settings': {'confirm_rounds': settings.confirm_rounds,
-                     'send_rounds': settings.send_rounds},
+                     'send_rounds': settings.send_rounds, 'dwell_s': base.dwell_s,
+                     'second_look_dwell_s': base.second_look_dwell_s},
         'recordings': [r.name for r in recordings], 'chain': chain, 'trials': trials,
         'factors': bounded,
         'midas': {'goals': chain['goals'], 'minutes': chain['minutes'],
@@ -516,7 +552,7 @@ def run_midas(data=None, layouts: int = MIDAS_REPLAYS, seed: int = 0,
                         'median_s': float(np.median(after)) if after else math.nan,
                         'slowest_s': float(max(after)) if after else math.nan,
                         'back': intended['back'], 'none': intended['none'],
-                        'within_1_5_s': sum(1 for t in after if t <= 1.5),
+                        'within_1_5_s': sum(1 for t in after if t <= INTENDED_S),
                         'people': intended['people']},
     }
 
@@ -529,7 +565,8 @@ def format_midas(result: Dict) -> List[str]:
     conf = result['settings']
     lines = [f'looking around without intent, through the whole menu (rooms {ROOMS}, tables '
              f'{TABLES} + back, go/back, send; {SIZE} px, clear of the dots), default rule, '
-             f"confirm_rounds {conf['confirm_rounds']}, send_rounds {conf['send_rounds']}:",
+             f"confirm_rounds {conf['confirm_rounds']}, send_rounds {conf['send_rounds']}, "
+             f"dwell_s {conf['dwell_s']:g}, second_look_dwell_s {conf['second_look_dwell_s']:g}:",
              f"{chain['layouts']} replays, {chain['minutes']:.1f} minutes of menu, "
              f"{chain['rounds']} rounds", '',
              '| step | offered | passed | share | then back | unanswered |',
@@ -564,8 +601,9 @@ def format_midas(result: Dict) -> List[str]:
               f"{go['rounds']} ({100 * go['rate']:.1f} %), {go['back']} back, {go['none']} none;"
               f" median {go['median_s']:.2f} s, slowest {go['slowest_s']:.2f} s from 'go' "
               f"appearing (both reactions), {go['within_1_5_s']} within 1.5 s",
-              'per person: ' + ', '.join(
-                  f'{name} {done} of {rounds}' for name, (rounds, done) in go['people'].items())]
+              'per person (sent, within 1.5 s, of the rounds): ' + ', '.join(
+                  f'{name} {done}, {quick} of {rounds}'
+                  for name, (rounds, done, quick) in go['people'].items())]
     return lines
 
 
@@ -612,6 +650,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument('--send-rounds', type=int,
                         help="with --midas: the menu's send_rounds (0: no 'send'; default: "
                              'its default)')
+    parser.add_argument('--second-look-dwell', type=float,
+                        help="with --midas: the arbiter's second_look_dwell_s (default: its "
+                             'default)')
     parser.add_argument('--json', help='with --midas: write the summary here')
     args = parser.parse_args(argv)
     try:
@@ -619,8 +660,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             changed = {name: value for name, value in (
                 ('confirm_rounds', args.confirm_rounds), ('send_rounds', args.send_rounds))
                 if value is not None}
+            base = RULES['default'] if args.second_look_dwell is None else \
+                RULES['default'].replace(second_look_dwell_s=args.second_look_dwell)
             result = run_midas(args.data, args.layouts, args.seed,
-                               replace(ProtocolSettings(), **changed))
+                               replace(ProtocolSettings(), **changed), base)
             lines = format_midas(result)
             if args.json and 'skipped' not in result:
                 with open(args.json, 'w', encoding='utf-8') as out:

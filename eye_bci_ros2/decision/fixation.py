@@ -64,6 +64,15 @@ chooses as a fresh one does: once it has lasted ``dwell_s`` within the round
 offered stops the robot as fast as a gaze that lands on it.  Only the urgent
 options: a resting fixation on any other option still chooses nothing.
 
+Second looks (``second_look``: the menu's 'go' and 'send').  An option the
+menu places where the gaze was not, offered as the confirmation of a choice
+just made, is chosen by a new saccade onto a target that just appeared
+elsewhere: that saccade is itself evidence of intent, so a fresh fixation on
+one decides after ``second_look_dwell_s`` instead of ``dwell_s`` (fresh
+only: a resting gaze still never chooses it; the other options keep
+``dwell_s``).  The price in choices of an idle gaze is measured with the
+menu's: ``python -m bench.confirmation --midas`` (docs/selection.md).
+
 Still fixations only.  An eye following a moving thing (smooth pursuit) drags
 a dispersion window along; a fixation decides only while the means of the
 first and second halves of its last ``dwell_s`` lie within
@@ -240,7 +249,8 @@ class FixationEvidence:
                  shown_since: Optional[float] = None,
                  confidence: float = 0.95,
                  classifier: Optional[Callable[[RegionSet], RegionSet]] = None,
-                 urgent: Tuple[str, ...] = ()):
+                 urgent: Tuple[str, ...] = (), second_look: Tuple[str, ...] = (),
+                 second_look_dwell_s: Optional[float] = None):
         """Start an empty round."""
         if not sigma_gaze_deg > 0:
             raise ValueError(f'the gaze error must be > 0 deg, got {sigma_gaze_deg}')
@@ -255,6 +265,11 @@ class FixationEvidence:
         self.confidence = float(confidence)
         self._classifier = classifier
         self.urgent = frozenset(label for label in urgent if label)
+        self.second_look = frozenset(label for label in second_look if label)
+        self.second_look_dwell_s = self.dwell_s if second_look_dwell_s is None else float(
+            second_look_dwell_s)
+        # Whether a second-look option is offered now: its dwell may be the shorter one.
+        self._second_shown = False
         # Whether an urgent option is offered now: a resting fixation may decide then.
         self._urgent_shown = False
         centre_scale = float(px_per_degree_at(screen.centre_px.reshape(1, 2), screen)[0])
@@ -287,6 +302,7 @@ class FixationEvidence:
     def configure(self, settings) -> None:
         """Take the timing settings of an :class:`ArbiterSettings` from the next sample on."""
         self.dwell_s = float(settings.dwell_s)
+        self.second_look_dwell_s = float(settings.second_look_dwell_s)
         self.min_samples = max(int(settings.min_samples), 1)
         self.min_reaction_s = float(settings.min_reaction_s)
         self.confidence = float(settings.confidence)
@@ -336,6 +352,8 @@ class FixationEvidence:
             self._latest = region_set
             self._urgent_shown = bool(self.urgent) and not self.urgent.isdisjoint(
                 region_set.labels)
+            self._second_shown = bool(self.second_look) and not self.second_look.isdisjoint(
+                region_set.labels)
         for label in region_set.labels:
             if label not in self._counts:
                 self._counts[label] = 0
@@ -365,11 +383,13 @@ class FixationEvidence:
                 continue
             current = self._current
             if confidence is None or not self._may_decide(current) \
-                    or not self._settled(current):
+                    or not self._settled(current, self._first_dwell):
                 continue
             label, posterior, margin = self._judge_current(current, region_set, 'decision')
             if label is not None and posterior >= confidence and (
-                    current.fresh or label in self.urgent):
+                    current.fresh or label in self.urgent) and (
+                    self._dwell_for(label) <= self._first_dwell
+                    or self._settled(current, self._dwell_for(label))):
                 self.last_stamp = stamp
                 # As one at a time: the samples after the deciding one are not taken.
                 self.samples -= len(points) - index - 1
@@ -408,7 +428,7 @@ class FixationEvidence:
             # Stamps rise: the samples after which it cannot settle yet are a prefix (by
             # span), or as many as min_samples still needs.
             before_dwell = int(np.count_nonzero(
-                stamps[position:] - current.first < self.dwell_s - 1e-6))
+                stamps[position:] - current.first < self._first_dwell - 1e-6))
             run = min(run, max(before_dwell, self.min_samples - current.count - 1))
             if run < 1:
                 return 0
@@ -444,7 +464,18 @@ class FixationEvidence:
         current = self._current
         if self.decision is not None or current is None or not self._may_decide(current):
             return None
-        return current.first + self.dwell_s
+        return current.first + self._first_dwell
+
+    @property
+    def _first_dwell(self) -> float:
+        """Return the shortest dwell an option offered now needs, s ("Second looks")."""
+        if self._second_shown:
+            return min(self.dwell_s, self.second_look_dwell_s)
+        return self.dwell_s
+
+    def _dwell_for(self, label: str) -> float:
+        """Return the dwell a fixation on this option needs, s."""
+        return self.second_look_dwell_s if label in self.second_look else self.dwell_s
 
     def _may_decide(self, fixation: _Fixation) -> bool:
         """Whether a fixation may choose: fresh, or any while an urgent option is offered."""
@@ -472,7 +503,7 @@ class FixationEvidence:
         reason = f'no fixation of {self.dwell_s:g} s' if self.valid else 'no valid gaze sample'
         best = None
         settled = [(fixation, region_set) for fixation, region_set in candidates
-                   if self._settled(fixation)]
+                   if self._settled(fixation, self._first_dwell)]
         if settled:
             # Only where the gaze last settled: an earlier fixation the person left is not
             # their answer (the resting gaze they moved away from, a transient landing).
@@ -487,6 +518,8 @@ class FixationEvidence:
             elif not fixation.fresh and label not in self.urgent:
                 reason = (f"the gaze rested {'on' if inside else 'near'} '{label}' from the "
                           'round start: look away and back to choose it')
+            elif not self._settled(fixation, self._dwell_for(label)):
+                reason = f"no fixation of {self._dwell_for(label):g} s on '{label}'"
             else:
                 best = (label, fixation, posterior, margin)
         if best is None:
@@ -515,7 +548,8 @@ class FixationEvidence:
             return out
         chance = 1.0 / max(len(self._latest.label_set), 1)
         belief = 1.0 if confidence <= chance else (posterior - chance) / (confidence - chance)
-        time_part = 1.0 if self.dwell_s <= 0 else current.duration / self.dwell_s
+        dwell = self._dwell_for(label)
+        time_part = 1.0 if dwell <= 0 else current.duration / dwell
         out[label] = clip01(belief) * clip01(time_part)
         return out
 
@@ -577,11 +611,12 @@ class FixationEvidence:
                 self._rest = None     # the gaze left its resting place: it reacts from now on
         return fixation
 
-    def _settled(self, fixation: _Fixation) -> bool:
-        """Whether a fixation lasted dwell_s with min_samples and held still (module doc)."""
-        if fixation.duration < self.dwell_s - 1e-6 or fixation.count < self.min_samples:
+    def _settled(self, fixation: _Fixation, dwell: Optional[float] = None) -> bool:
+        """Whether a fixation lasted ``dwell`` (dwell_s) with min_samples and held still."""
+        dwell = self.dwell_s if dwell is None else dwell
+        if fixation.duration < dwell - 1e-6 or fixation.count < self.min_samples:
             return False
-        moved, noise = fixation.movement(self.dwell_s)
+        moved, noise = fixation.movement(dwell)
         return moved <= self._still_px + STILL_SIGMAS * noise
 
     def _judge_current(self, current: _Fixation, region_set: RegionSet, asker: str

@@ -628,12 +628,11 @@ class ExperimentDriver(Node):
             # Seen which table was chosen: 'go' if it is the one meant, else 'back'.
             self.step = 'confirm'
             self.intended = GO_LABEL if self._pending == f'{room}/{table}' else BACK_LABEL
-        elif labels == {SEND_LABEL}:
-            # After 'go': the second look, at 'send' where it appeared (if 'go' was meant).
+        elif labels == {SEND_LABEL, BACK_LABEL}:
+            # After 'go': the second look, at 'send' where it appeared (if 'go' was meant;
+            # else 'back', on the 'go' just chosen).
             self.step = 'send'
-            self.intended = SEND_LABEL if self._pending == f'{room}/{table}' else None
-            if self.intended is None:
-                self.streamer.set_target(REST_XY, pylsl.local_clock())
+            self.intended = SEND_LABEL if self._pending == f'{room}/{table}' else BACK_LABEL
         elif labels == {STOP_LABEL}:
             # The robot drives: the person looks away from 'stop' (off the panel).
             self.step, self.intended = 'drive', None
@@ -897,10 +896,7 @@ def run_demo(options: DemoOptions, log=print) -> DemoResult:
                                    'early_decision': options.early,
                                    'input_mode': options.input_mode},
                 'choice_menu': {'scene_file': scene_path, 'repeat': True,
-                                'ask_on_arrival': options.ask == 'on-arrival',
-                                # 'send' is one option: SSVEP has no other to tell it from,
-                                # and its EEG confirms 'go' already (docs/selection.md).
-                                **({} if options.input_mode == GAZE else {'send_rounds': 0})},
+                                'ask_on_arrival': options.ask == 'on-arrival'},
             }, with_menu=True)
             named = dict(zip(NODE_NAMES + ('choice_menu',), nodes))
             log(f"decision rule: {named['choice_arbiter'].settings.describe()}")

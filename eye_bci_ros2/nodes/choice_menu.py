@@ -9,17 +9,18 @@ the camera to that room's view and offers its tables and a ``back`` option
 (offers nothing).  With a robot (``robot_goals``, the default) a chosen
 table is confirmed first: the menu offers ``go`` and ``back`` (in the
 same view; 'go' away from where the person was looking), then, after
-``go``, ``send`` (``send_rounds``: a second look, elsewhere); only that
-sends the table's approach pose as a goal of nav2's NavigateToPose action
-and reports the outcome; while the robot drives it offers ``stop`` (a
-cancel of the goal) and says the distance left, from the action's feedback,
-on ``choice_menu/progress``; when the action reports the goal succeeded it
-offers the rooms again.
+``go``, ``send`` and ``back`` (``send_rounds``: a second look, elsewhere;
+'back' where 'go' was); only 'send' sends the table's approach pose as a
+goal of nav2's NavigateToPose action and reports the outcome; while the
+robot drives it offers ``stop`` (a cancel of the goal) and says the distance
+left, from the action's feedback, on ``choice_menu/progress``; when the
+action reports the goal succeeded it offers the rooms again.
 When to ask and which choices count is the pure
 :class:`eye_bci_ros2.task.menu.MenuProtocol` (its module doc has the rules): the
 question (``choice/request``) is asked once the camera has arrived at the
 step's goal (or settled), the gaze has left the option just chosen (or
-``look_away_s`` passed) and the gaze is not off screen for ``pause_after_s``
+without gaze to judge, ``look_away_s`` passed; a still gaze has not left)
+and the gaze is not off screen for ``pause_after_s``
 (a pause); only a choice that answers the question counts.
 
 Topics:
@@ -175,8 +176,9 @@ _PROTOCOL_PARAMETERS = {
                              'degrees', (0.0, 180.0)),
     'settle_s': ('A camera that has not moved for this long has arrived (settled), s',
                  (0.0, 60.0)),
-    'look_away_s': ('After a choice, ask again at the latest after this even if the gaze '
-                    'stayed on the chosen option, s', (0.0, 60.0)),
+    'look_away_s': ('After a choice, ask again after this when the gaze cannot be judged (no '
+                    'region of the chosen option or no gaze/point since); a gaze seen staying '
+                    'on it is never taken as gone, s', (0.0, 60.0)),
     'look_away_margin_px': ('The gaze must be this far outside the chosen option to have '
                             'left it, px', (0.0, 1000.0)),
     'pause_after_s': ('Gaze off screen (gaze/on_screen false) this long pauses the menu, s',
@@ -197,10 +199,9 @@ _PROTOCOL_PARAMETERS = {
     'confirm_rounds': ("A confirmation ('go' / 'back') asked this many times without an "
                        'answer (choice/none) returns to the tables, no goal (a stray look '
                        'answers it late)', None),
-    'send_rounds': ("After 'go', 'send' appears where the gaze was not; a fresh look at it "
-                    'within this many rounds sends the robot, else back to the tables (0: '
-                    "'go' sends at once; set 0 with the arbiter's input_mode ssvep or hybrid: "
-                    'one option gives SSVEP nothing to compare)', None),
+    'send_rounds': ("After 'go', 'send' appears where the gaze was not, 'back' where 'go' "
+                    'was; a fresh look at send within this many rounds sends the robot, else '
+                    "back to the tables (0: 'go' sends at once)", None),
 }
 
 #: The robot's radius the approach poses are made for: sim_robot's default.

@@ -23,11 +23,15 @@ When a question is asked (``choice/request``), all of these at once:
    short of the goal, or no view controller: the static view never moves);
    a camera that starts moving more than ``settle_s`` after the goal is
    taken as settled too early;
-3. **looked away** (after a choice): the gaze (``gaze/point``, screen px) has
-   left the chosen option's screen region as it was at the choice (from
-   ``choices/regions``) by more than ``look_away_margin_px``, or the gaze went
-   off screen, or ``look_away_s`` has passed since the choice (the pause
-   that lets a person who keeps looking go on);
+3. **looked away** (after a choice), judged from the samples: the gaze
+   (``gaze/point``, screen px) has left the chosen option's screen region as
+   it was at the choice (from ``choices/regions``) by more than
+   ``look_away_margin_px``, and stayed out for :data:`LEFT_S` over
+   :data:`LEFT_SAMPLES` samples or more in a row (one sample or a short burst
+   out is a tracker's spike, not a look elsewhere); or the gaze went off
+   screen.  A gaze that never left has not left, however long it stays: only
+   when nothing can be judged (no region of the chosen option, or no gaze
+   sample since the choice) does ``look_away_s`` pass the gate by time;
 4. **not paused**: the gaze has not been off screen (``gaze/on_screen``
    false) for ``pause_after_s`` or more; it resumes when ``gaze/on_screen``
    is true again, and the question is asked again.
@@ -72,12 +76,14 @@ every intended 'go' measured in the first two 1 s rounds), so asking for
 ever only lets a stray 'go' come.  **A second look** (``send_rounds``, 1):
 'go' chosen does not send yet; 'send' (:data:`SEND_LABEL`,
 :func:`send_marker`) appears where the gaze was not and is asked at once;
-only a fresh fixation on it within ``send_rounds`` rounds sends the goal,
-else back to the tables.  A person who means 'go' looks at 'send' next (one
-short saccade and fixation); a wandering gaze that chose 'go' by chance
-seldom lands on a target that just appeared elsewhere within a second
-(docs/selection.md, "Looking around without intent": each step's share on
-real gaze).
+'back' takes the place of 'go' (:func:`send_markers`: where the gaze that
+chose 'go' rests, it can only undo; two options, so SSVEP and the hybrid can
+answer too); only a fresh fixation on 'send' within ``send_rounds`` rounds
+sends the goal; 'back' or no answer: back to the tables.  A person who means
+'go' looks at 'send' next (one short saccade and fixation); a wandering
+gaze that chose 'go' by chance seldom lands on a target that just appeared
+elsewhere within a second (docs/selection.md, "Looking around without
+intent": each step's share on real gaze).
 
 **The drive** follows the navigation action, never a guess from odometry.  From
 the goal sent until it ends the menu offers ``stop`` (:func:`stop_marker`) and
@@ -142,6 +148,11 @@ PROGRESS_STEP_M = 0.1
 SUCCEEDED = 'succeeded'
 ABORTED = 'aborted'
 CANCELED = 'canceled'
+#: The gaze has left the chosen option when this many gaze points in a row, spanning
+#: :data:`LEFT_S` or more, lie beyond the margin: a look elsewhere (a fixation lasts
+#: 0.1 s or more), not a spike or a burst of noise (one or two samples).
+LEFT_SAMPLES = 2
+LEFT_S = 0.1
 #: What the protocol waits for (:attr:`MenuProtocol.state`).
 WAITING_FOR_CAMERA = 'waiting_for_camera'
 LOOK_AWAY = 'waiting_for_look_away'
@@ -166,7 +177,8 @@ class ProtocolSettings:
     :param arrive_tolerance_m: camera position within this of the goal, m.
     :param arrive_tolerance_deg: camera orientation within this of the goal, degrees.
     :param settle_s: a camera that has not moved for this long has arrived, s.
-    :param look_away_s: after a choice, ask again at the latest after this, s.
+    :param look_away_s: after a choice, ask again after this when the gaze cannot be
+        judged (no region of the chosen option, no gaze point since the choice), s.
     :param look_away_margin_px: the gaze must be this far outside the chosen
         option's region, px.
     :param pause_after_s: gaze off screen this long pauses the menu, s.
@@ -451,6 +463,24 @@ def send_marker(view: View, go: CubeMarker, avoid: Sequence[CubeMarker] = (),
                        aspect)
 
 
+def send_markers(view: View, go: CubeMarker, avoid: Sequence[CubeMarker] = (),
+                 fov_y_deg: float = 45.0, aspect: float = 16.0 / 9.0
+                 ) -> Tuple[CubeMarker, CubeMarker]:
+    """
+    Return the second look's options, ('send', 'back'): 'back' takes the place of 'go'.
+
+    'send' appears where the gaze was not (:func:`send_marker`); 'back' where it
+    is most likely to linger, on the 'go' just chosen, so that whatever a gaze
+    that stays or comes back there does, it only undoes (as the confirmation's
+    'back' on the table).  Two options, not one: every input mode can answer
+    (SSVEP compares the options' responses, and the hybrid arbiter needs its
+    EEG to tell one option from another; 'send' alone was never answered by
+    them), and looking back is an explicit "no".
+    """
+    send = send_marker(view, go, avoid, fov_y_deg, aspect)
+    return send, replace(go, text=BACK_LABEL, color=np.asarray(BACK_COLOUR, dtype=float))
+
+
 def stop_marker(go: CubeMarker, back: CubeMarker) -> CubeMarker:
     """
     Return the stop option shown while the robot drives: where 'back' was.
@@ -480,6 +510,20 @@ class _LookAway:
     chosen_at: float
     region: Optional[np.ndarray] = None     # (K, 2) screen px, the chosen option at the choice
     done: bool = False
+    samples: int = 0                        # gaze points judged since the choice
+    outside: int = 0                        # ... of them beyond the margin, in a row
+    outside_since: float = math.nan         # the first of that run, s
+
+    def take(self, distance: float, margin: float, now: float) -> bool:
+        """Take a gaze point ``distance`` px from the region; True once the gaze has left."""
+        self.samples += 1
+        if not distance > margin:
+            self.outside, self.outside_since = 0, math.nan
+            return False
+        if not self.outside:
+            self.outside_since = now
+        self.outside += 1
+        return self.outside >= LEFT_SAMPLES and now - self.outside_since >= LEFT_S - 1e-9
 
 
 @dataclass
@@ -747,7 +791,7 @@ class MenuProtocol:
         if gate.region is None:
             return self.tick(now)
         distance = float(polygon_distances([[x, y]], gate.region[None])[0, 0])
-        if distance > self.settings.look_away_margin_px:
+        if gate.take(distance, self.settings.look_away_margin_px, now):
             gate.done = True
             return [Log('info', 'gaze left the chosen option')] + self.tick(now)
         return self.tick(now)
@@ -858,9 +902,9 @@ class MenuProtocol:
         if goal is not None and goal.arrived and not self._shown:
             actions += self._show()
         gate = self._look_away
-        if gate is not None and not gate.done and now - gate.chosen_at >= \
-                self.settings.look_away_s:
-            gate.done = True
+        if gate is not None and not gate.done and (gate.region is None or not gate.samples) \
+                and now - gate.chosen_at >= self.settings.look_away_s:
+            gate.done = True    # nothing to judge the gaze by (module doc, rule 3)
         if (self._off_screen_since is not None and not self._paused and self.offered
                 and not self.finished
                 and now - self._off_screen_since >= self.settings.pause_after_s):
@@ -998,13 +1042,13 @@ class MenuProtocol:
         return self._confirmed(label in (GO_LABEL, SEND_LABEL), now)
 
     def _offer_send(self, now: float) -> List[Action]:
-        """Offer 'send' and ask at once: it is where the gaze was not (no look-away gate)."""
+        """Offer 'send' and 'back' (:func:`send_markers`) and ask at once (no look-away gate)."""
         self._unanswered = 0
         self._sending = True
         self._look_away = None
         go, back = confirm_markers(self.room.view, self.room.table(self.pending).marker)
-        send = send_marker(self.room.view, go, [back] + [t.marker for t in self.room.tables])
-        return self._offer([send], CONFIRM_NS, self.room.view, now)
+        markers = send_markers(self.room.view, go, [back] + [t.marker for t in self.room.tables])
+        return self._offer(markers, CONFIRM_NS, self.room.view, now)
 
     def _offer_confirm(self, now: float) -> List[Action]:
         self._unanswered = 0

@@ -53,14 +53,14 @@ def test_rounds_put_back_on_the_dot_and_go_beside_it():
 
 # A person who looks around with no intent, from place to place (screen px); nothing else
 # is looked at.  Rooms: room 0 at R; its tables: table 0 at T, 'back' far away; the
-# confirmation: 'go' at G, 'back' on T; 'send' at S.
+# confirmation: 'go' at G, 'back' on T; 'send' at S, 'back' on G.
 R, T, G, S = (300.0, 200.0), (400.0, 540.0), (1400.0, 540.0), (1400.0, 900.0)
 ELSEWHERE = (960.0, 100.0)
 FAR = [(1800.0, 100.0), (1800.0, 300.0), (1800.0, 500.0)]
 PLACES = {'rooms': lambda: np.array([R] + FAR),
           'tables': lambda room: np.array([T, (960.0, 300.0), (960.0, 760.0), FAR[0]]),
           'confirm': lambda table: np.array([G, table]),
-          'send': lambda go: np.array([S])}
+          'send': lambda go: np.array([S, go])}
 STEP_S = 0.6
 SECONDS = 48.3
 
@@ -92,8 +92,11 @@ def test_a_look_at_a_room_a_table_go_and_send_is_a_robot_goal(tmp_path):
     assert total['rooms passed'] == total['tables passed'] == total['confirm passed'] == 19
     assert total['send offered'] == 19 and total['send unanswered'] == 0
     assert 46.0 / 60 < total['minutes'] <= SECONDS / 60
-    # Each goal 1.2 s after its table (table 0.15 s into T, send 0.15 s into S).
-    assert np.allclose(total['go after'], 1.2, atol=0.05)
+    # Each goal 1.1 s after its table (table dwell_s 0.15 s into T, 'send', a second look,
+    # second_look_dwell_s 0.05 s into S).
+    rule = confirmation.RULES['default']
+    assert np.allclose(total['go after'], 2 * STEP_S - rule.dwell_s + rule.second_look_dwell_s,
+                       atol=0.03)
 
 
 def test_go_without_the_look_at_send_is_no_goal(tmp_path):
@@ -105,6 +108,13 @@ def test_go_without_the_look_at_send_is_no_goal(tmp_path):
     total = replay(recording)
     assert total['goals'] == 0 and total['confirm passed'] >= 19
     assert total['send unanswered'] == total['send offered'] == total['confirm passed']
+    # ... and a gaze that goes to 'back' in the send step (here put where it goes next)
+    # answers 'back': the tables, no goal.
+    places = dict(PLACES, send=lambda go: np.array([S, ELSEWHERE]))
+    rule = confirmation.settings_for_recording(confirmation.RULES['default'], recording)
+    total = confirmation.menu_replay(recording, rule, ProtocolSettings(), layouts=1,
+                                     places=places)
+    assert total['goals'] == 0 and total['send back'] == total['confirm passed'] >= 19
 
 
 def test_an_unanswered_confirmation_returns_to_the_tables(tmp_path):
@@ -122,8 +132,9 @@ def test_an_unanswered_confirmation_returns_to_the_tables(tmp_path):
 def test_send_lies_where_the_gaze_was_not(tmp_path):
     recording = looking_around(tmp_path, [R])
     go = np.array([1400.0, 300.0])                    # above the screen's centre
-    send, = confirmation.send_layout(recording, go, np.random.default_rng(0))
+    send, back = confirmation.send_layout(recording, go, np.random.default_rng(0))
     assert send[0] == go[0] and send[1] > go[1]       # below 'go', towards the centre
+    np.testing.assert_array_equal(back, go)           # 'back' where 'go' was
     assert send[1] - go[1] == pytest.approx(
         confirmation.SEND_GAP_DEG * confirmation._ppd(recording, go))
     assert confirmation.SEND_GAP_DEG > 2 * 2.0        # beyond the resting radius, twice

@@ -116,3 +116,20 @@ def test_a_gaze_resting_on_go_is_still_no_choice(graph):
     rig.send(rig.looks(LEFT, 60, 8.0), start)
     assert graph.spin_until(lambda: rig.none.messages, 10.0)
     assert "rested on 'go'" in rig.none.messages[0].data and rig.labels == []
+
+
+def test_a_fresh_look_at_send_chooses_after_the_second_look_dwell(graph):
+    # 'send' appeared where the gaze was not ('back' where it rests): the node's defaults
+    # decide a fresh fixation on it after second_look_dwell_s, not dwell_s.
+    rig = Rig(graph, **DEFAULT_RULE)
+    assert rig.arbiter.get_parameter('second_look_labels').value.split() == ['go', 'send']
+    second = rig.arbiter.get_parameter('second_look_dwell_s').value
+    assert second < ArbiterSettings().dwell_s
+    start = rig.offer({'send': RIGHT, 'back': LEFT})
+    glance(rig, start, LEFT, RIGHT)
+    assert graph.spin_until(lambda: rig.labels, 10.0)
+    assert rig.labels == ['send']
+    decision = rig.arbiter.last_decision
+    # The fixation began at 0.3 s: decided second_look_dwell_s later (a sample, 10 ms, and
+    # the landing's settling at most), well before dwell_s would allow.
+    assert 0.3 + second - 0.011 <= decision.time_to_decision < 0.3 + ArbiterSettings().dwell_s

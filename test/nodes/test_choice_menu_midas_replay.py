@@ -123,6 +123,8 @@ def _bench_labels(menu, places, answers):
             labels.append((names[chosen], at))
         elif step == 'confirm':
             labels.append(((GO_LABEL, BACK_LABEL)[chosen], at))
+        elif chosen == 1:
+            labels.append((BACK_LABEL, at))     # 'back' in the send step: the tables
         else:
             labels.append((SEND_LABEL, at))
             break                       # a goal: the robot drives (the bench goes on)
@@ -133,10 +135,11 @@ def _bench_offers(answers):
     """Return the steps the bench offered, in order: [(step, s)], up to a goal."""
     offers = [('rooms', 0.0)]
     for step, chosen, at in answers:
-        if step == 'send':
+        if step == 'send' and chosen == 0:
             break
         following = {'rooms': 'tables', 'confirm': 'tables' if chosen != 0 else 'send',
-                     'tables': 'rooms' if chosen == confirmation.TABLES else 'confirm'}
+                     'tables': 'rooms' if chosen == confirmation.TABLES else 'confirm',
+                     'send': 'tables'}
         offers.append((following[step], at))
     return offers
 
@@ -166,7 +169,7 @@ class Projector:
         room = protocol.room
         index = list(scene.room_labels).index(room.marker.text)
         tables = self.places.draw_tables(index)
-        if set(labels) == {GO_LABEL, BACK_LABEL} or labels == [SEND_LABEL]:
+        if set(labels) == {GO_LABEL, BACK_LABEL} or labels == [SEND_LABEL, BACK_LABEL]:
             chosen = [t.marker.text for t in room.tables].index(protocol.pending)
             confirm = self.places.draw_confirm(tables[chosen])
             return confirm if labels[0] == GO_LABEL else self.places.draw_send(confirm[0])

@@ -139,7 +139,7 @@ def test_menu_goes_from_rooms_to_the_room_view_to_its_tables(quick_run):
     assert np.allclose(confirm['camera_eye'], SCENE.room(room).view.eye, atol=1e-3)
     # ... and 'go' by the second look, at 'send', which appeared then (send_rounds).
     assert send['step'] == 'send' and send['intended'] == send['chosen'] == SEND_LABEL
-    assert send['offered'] == [SEND_LABEL]
+    assert send['offered'] == [SEND_LABEL, BACK_LABEL]
     robot = tables['robot']
     assert robot['arrived'] and len(robot['goal']) == 3
     assert_drove_the_plan(robot)
@@ -239,9 +239,11 @@ def test_quick_demo_with_ssvep_input_chooses_right(tmp_path, mode):
     printed = stdout.getvalue()
     assert code == 0, printed[-2000:]
     summary = json.loads((tmp_path / 'summary.json').read_text())
-    # No 'send' with SSVEP input (one option: nothing to tell it from; the demo sets
-    # send_rounds 0): the room, the table and 'go'.
-    assert [s['correct'] for s in summary['selections']] == [True, True, True]
+    # The menu's defaults in every input mode: the room, the table, 'go' and 'send' (offered
+    # with 'back', so the SSVEP decoder and the hybrid arbiter can answer it), then the drive.
+    assert [(s['step'], s['chosen'], s['correct']) for s in summary['selections']][2:] == [
+        ('confirm', GO_LABEL, True), ('send', SEND_LABEL, True)]
+    assert all(s['correct'] for s in summary['selections'])
     assert {s['method'] for s in summary['selections']} == {mode}
     assert summary['selections'][1]['robot']['arrived']
     assert summary['itr_bits_per_min'] > 0

@@ -67,7 +67,8 @@ def test_the_rule_fields_are_the_ones_declared_as_rule():
     assert set(RULE_FIELDS) == {
         'classification', 'accuracy_deg', 'precision_deg', 'k_sigma', 'ratio', 'size_aware',
         'min_share', 'screen_width_mm', 'screen_height_mm', 'viewing_distance_mm',
-        'screen_width', 'screen_height', 'urgent_label'}
+        'screen_width', 'screen_height', 'urgent_label', 'second_look_labels',
+        'second_look_dwell_s'}
 
 
 def test_a_declaration_refuses_a_default_that_breaks_it():

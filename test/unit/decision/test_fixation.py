@@ -301,3 +301,30 @@ def test_a_gaze_resting_on_stop_chooses_it_as_fast_as_a_fresh_look():
     none = decide(*path([(1.0, CENTRES['left'], CENTRES['left'])]),
                   ArbiterSettings(urgent_label=''), regions=_stop_options())
     assert none.label is None
+
+
+def test_a_fresh_look_at_a_second_look_option_chooses_after_its_shorter_dwell():
+    """'send' appears where the gaze was not: a fresh fixation on it decides sooner."""
+    quick = ArbiterSettings(second_look_dwell_s=0.06)
+    send_and_back = {'send': CENTRES['left'], 'back': CENTRES['right']}
+    look = path([(0.2, AWAY, AWAY), (0.04, AWAY, CENTRES['left']),
+                 (0.7, CENTRES['left'], CENTRES['left'])], rate=600.0)
+    landed = 0.24
+    second = decide(*look, quick, regions=options(0.0, send_and_back))
+    assert second.label == 'send'
+    assert landed + 0.06 - 0.02 <= second.time_s <= landed + 0.06 + 0.02
+    # Any other option keeps dwell_s (a room, a table, 'back').
+    other = decide(*look, quick, regions=options(0.0, {'table': CENTRES['left'],
+                                                       'back': CENTRES['right']}))
+    assert other.label == 'table' and other.time_s >= landed + quick.dwell_s - 0.02
+    # A fixation on 'send' shorter than its dwell is no choice, at the window end too.
+    short = path([(0.2, AWAY, AWAY), (0.04, AWAY, CENTRES['left']),
+                  (0.04, CENTRES['left'], CENTRES['left']), (0.72, AWAY, AWAY)], rate=600.0)
+    late = quick.replace(early_decision=False)
+    assert decide(*short, late, regions=options(0.0, send_and_back)).label is None
+    # A resting gaze on it still never chooses (a second look is a fresh one).
+    resting = decide(*path([(1.0, CENTRES['left'], CENTRES['left'])]), quick,
+                     regions=options(0.0, send_and_back))
+    assert resting.label is None and 'rested' in resting.decision.reason
+    # The default: 'go' and 'send' are the second looks.
+    assert ArbiterSettings().second_look_labels.split() == ['go', 'send']

@@ -138,17 +138,37 @@ def test_after_a_choice_the_gaze_must_leave_the_chosen_option():
     assert menu.state == LOOK_AWAY
     assert not kinds(menu.on_gaze_point(150.0, 150.0, 1.6), Request)   # still on it
     assert not kinds(menu.on_gaze_point(205.0, 150.0, 1.7), Request)   # within the margin
-    assert kinds(menu.on_gaze_point(260.0, 150.0, 1.8), Request)
+    # Out, judged from the samples: a run of LEFT_SAMPLES spanning LEFT_S or more.
+    assert not kinds(menu.on_gaze_point(260.0, 150.0, 1.8), Request)
+    assert not kinds(menu.on_gaze_point(262.0, 152.0, 1.85), Request)
+    actions = menu.on_gaze_point(261.0, 149.0, 1.9)
+    assert kinds(actions, Request) and 'gaze left the chosen option' in [
+        a.text for a in kinds(actions, Log)]
     assert menu.state == ASKING
 
 
-def test_or_a_pause_passes():
+def test_a_gaze_that_never_left_has_not_left_however_long_it_stays():
     menu = asked_menu(look_away_s=1.5)
     menu.on_regions(['kitchen'], SQUARE[None])
     menu.on_choice('kitchen', 1.0)
     arrive(menu, KITCHEN.view, 1.2)
-    menu.on_gaze_point(150.0, 150.0, 2.0)
+    # A still gaze on the chosen place, with a tracker's spikes beyond the margin (one
+    # sample, or two within 0.05 s): never "left", never asked, long after look_away_s.
+    rng = np.random.default_rng(0)
+    spikes = {30: 400.0, 90: 380.0, 91: 390.0}
+    for k in range(300):                        # 10 s at 30 Hz
+        now = 2.0 + k / 30.0
+        x, y = 150.0 + rng.normal(0, 5, 2)
+        actions = menu.on_gaze_point(spikes.get(k, x), y, now) + menu.tick(now)
+        assert not kinds(actions, Request), now
+        assert 'gaze left the chosen option' not in [a.text for a in kinds(actions, Log)]
     assert menu.state == LOOK_AWAY
+    # Without a gaze point since the choice there is nothing to judge: look_away_s passes.
+    menu = asked_menu(look_away_s=1.5)
+    menu.on_regions(['kitchen'], SQUARE[None])
+    menu.on_choice('kitchen', 1.0)
+    arrive(menu, KITCHEN.view, 1.2)
+    assert not kinds(menu.tick(2.4), Request)
     assert kinds(menu.tick(2.5), Request)
 
 
@@ -337,7 +357,7 @@ def test_go_offers_send_where_the_gaze_was_not_and_only_send_sends_the_robot():
     menu, now = confirming(send_rounds=1)
     actions = menu.on_choice(GO_LABEL, now)
     assert not kinds(actions, SendGoal) and not kinds(actions, Result)
-    assert menu.options == (SEND_LABEL,) and menu.pending == TABLE
+    assert menu.options == (SEND_LABEL, BACK_LABEL) and menu.pending == TABLE
     # Asked at once (no look-away gate: 'send' is not where the gaze is), in the same view.
     assert kinds(actions, Request) and menu.state == ASKING
     assert kinds(actions, Offer)[0].view is not None and \
@@ -345,8 +365,10 @@ def test_go_offers_send_where_the_gaze_was_not_and_only_send_sends_the_robot():
     # 'send' lies SEND_DOWN half-heights from 'go', far from 'back' and every table.
     intrinsic = rviz_intrinsic(1280, 720)
     go, back = confirm_markers(KITCHEN.view, KITCHEN.table(TABLE).marker)
-    send = kinds(actions, Offer)[0].markers[0]
+    send, back_on_go = kinds(actions, Offer)[0].markers
     assert send.text == SEND_LABEL
+    # 'back' where the gaze that chose 'go' rests: staying there can only undo.
+    assert back_on_go.text == BACK_LABEL and np.allclose(back_on_go.position, go.position)
     uv, depth = project_points(np.array([go.position, back.position, send.position]
                                         + [t.marker.position for t in KITCHEN.tables]),
                                intrinsic, KITCHEN.view.external())
@@ -357,6 +379,23 @@ def test_go_offers_send_where_the_gaze_was_not_and_only_send_sends_the_robot():
     assert [g.label for g in kinds(actions, SendGoal)] == [TABLE]
     assert [r.label for r in kinds(actions, Result)] == [TABLE]
     assert menu.options == (STOP_LABEL,) and menu.state == DRIVING
+
+
+def test_back_in_the_send_step_sends_nothing_and_offers_the_tables():
+    menu, now = confirming(send_rounds=1)
+    menu.on_choice(GO_LABEL, now)
+    actions = menu.on_choice(BACK_LABEL, now + 0.5)
+    assert not kinds(actions, SendGoal) and not kinds(actions, Result)
+    logged = [a.text for a in kinds(actions, Log)]
+    assert f"'{TABLE}' not confirmed: back to the tables" in logged
+    assert menu.options == TABLES and menu.pending is None
+    # Offered again ('reoffer', e.g. a new world frame): 'send' and 'back' again.
+    menu.tick(now + 1.0)
+    menu.on_choice(TABLE, now + 1.5)
+    menu.tick(now + 3.5)
+    menu.on_choice(GO_LABEL, now + 4.0)
+    assert [m.text for m in kinds(menu.reoffer(now + 4.1), Offer)[0].markers] == [
+        SEND_LABEL, BACK_LABEL]
 
 
 def test_send_unanswered_returns_to_the_tables_without_a_goal():
