@@ -280,6 +280,12 @@ def launch(ros2, env, domain, tmp_path, *arguments, name='launch') -> Process:
                    tmp_path / f'{name}.log')
 
 
+#: The processes each launch file starts: the pipeline (bridge, camera tracker, projector,
+#: arbiter, session markers); the experiment adds the menu and sim_robot (robot:=sim).
+PIPELINE_NODES = 5
+EXPERIMENT_NODES = PIPELINE_NODES + 2
+
+
 def assert_clean_stop(process: Process, status: int, expected_nodes: Optional[int]) -> None:
     """Status 0, no traceback, every started node gone."""
     output = process.output()
@@ -291,8 +297,8 @@ def assert_clean_stop(process: Process, status: int, expected_nodes: Optional[in
     assert not alive(pids), f'left running: {alive(pids)}\n{output[-3000:]}'
 
 
-@pytest.mark.parametrize('file, nodes', [('pipeline.launch.py', 5),
-                                         ('experiment.launch.py', 7)])
+@pytest.mark.parametrize('file, nodes', [('pipeline.launch.py', PIPELINE_NODES),
+                                         ('experiment.launch.py', EXPERIMENT_NODES)])
 def test_launch_then_ctrl_c_once_stops_every_node(ros2, env, tmp_path, file, nodes):
     arguments = [file] + (['rviz:=false'] if file.startswith('experiment') else [])
     with domain_id() as domain:
@@ -316,7 +322,7 @@ def test_launch_ctrl_c_twice_a_third_of_a_second_apart_exits_0(ros2, env, tmp_pa
             assert process.wait_for(r'process has (finished cleanly|died)', count=6, timeout=30)
             process.interrupt()
         status = process.finish()
-        assert_clean_stop(process, status, 7)
+        assert_clean_stop(process, status, EXPERIMENT_NODES)
         # An intended stop is no node's failure: no "was required" line for each node.
         assert 'was required' not in process.output(), process.output()[-300:]
 
@@ -339,8 +345,8 @@ def test_launch_ctrl_c_twice_and_during_start_up(ros2, env, tmp_path):
         status = twice.finish()
         # Every node stops cleanly, and launch too: a second SIGINT after the nodes have gone
         # is ignored (ros/launch_stop.py), not a KeyboardInterrupt.
-        assert stopped_cleanly(twice.output()) == 6, twice.output()
-        assert_clean_stop(twice, status, 7)
+        assert stopped_cleanly(twice.output()) == EXPERIMENT_NODES, twice.output()
+        assert_clean_stop(twice, status, EXPERIMENT_NODES)
         # While the nodes still import (rclpy is loaded, no node exists yet).  Earlier, in
         # Python's own start-up, only Python itself could keep quiet.
         early = launch(ros2, env, domain, tmp_path, 'pipeline.launch.py', name='early')
@@ -349,7 +355,7 @@ def test_launch_ctrl_c_twice_and_during_start_up(ros2, env, tmp_path):
         while not importing_rclpy(started_pids(early.output())) and time.monotonic() < end:
             time.sleep(0.01)
         early.interrupt()
-        assert_clean_stop(early, early.finish(), 5)
+        assert_clean_stop(early, early.finish(), PIPELINE_NODES)
 
 
 def test_launch_refuses_a_missing_params_file_and_rviz2_before_starting_anything(
@@ -410,7 +416,7 @@ def test_launch_refuses_a_boolean_argument_that_is_not_one(ros2, env, tmp_path):
                           name='accepted')
         assert accepted.wait_for('waiting for camera/pose'), accepted.output()
         accepted.interrupt()
-        assert_clean_stop(accepted, accepted.finish(), 6)
+        assert_clean_stop(accepted, accepted.finish(), PIPELINE_NODES + 1)
 
 
 def test_launch_ends_every_node_when_one_dies_at_start_up(ros2, env, tmp_path):
