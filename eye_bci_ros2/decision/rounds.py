@@ -57,9 +57,9 @@ RECENT_MARGIN_S = 0.5
 #: The fixation rule's dwell on an option that appeared where the gaze was not, s
 #: (``second_look_dwell_s``): the landing has settled (SETTLE_S, 0.04 s, and a sample) and,
 #: with the two options 6 deg or more apart, a transient landing short of or beyond the
-#: target is still nearer it than the other.  On real gaze (docs/selection.md, "Second
-#: looks") the most intended 'go' within 1.5 s with the Midas bound kept under 0.0017 per
-#: minute; chosen so leave-one-person-out: 97.6 % within 1.5 s.
+#: target is still nearer it than the other.  On real gaze the most intended 'go' within
+#: 1.5 s with the Midas bound kept under 0.0017 per minute; chosen so leave-one-person-out:
+#: 97.6 % within 1.5 s (docs/selection.md, "Looking around without intent").
 SECOND_LOOK_DWELL_S = 0.05
 
 _EMPTY_REGIONS = RegionSet([], np.zeros((0, 3, 2)))

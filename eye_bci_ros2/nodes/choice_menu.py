@@ -88,8 +88,8 @@ and cancelled if accepted later).  The menu reads no odometry: where the
 robot is and whether it has arrived is the navigation server's word (nav2
 checks arrival with its own goal checker, in its own frames).  It never
 publishes ``goal_pose``: a goal on a topic cannot be cancelled, so a stop
-would have to be another goal (docs/DESIGN.md, "The robot").  ``robot_goals``
-false: a chosen table is the outcome at once and nothing is sent.
+would have to be another goal (docs/DESIGN.md, "The protocol in the shipped nodes").
+``robot_goals`` false: a chosen table is the outcome at once and nothing is sent.
 
 Setting ``scene_file`` (even to its current value) reloads the scene and
 starts over at the rooms; a bad file is rejected with the reason and the

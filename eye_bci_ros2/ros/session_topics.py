@@ -20,7 +20,8 @@ from typing import NamedTuple, Tuple
 
 from rclpy.qos import qos_profile_action_status_default, QoSProfile
 
-from eye_bci_ros2.ros.topics import (CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC, CHOICE_TOPIC,
+from eye_bci_ros2.ros.topics import (CAMERA_GOAL_TOPIC, CAMERA_POSE_TOPIC,
+                                     CHOICE_DETAIL_TOPIC, CHOICE_TOPIC,
                                      CHOICES_QOS, CHOICES_TOPIC, CUE_TOPIC, EVENT_QOS,
                                      FEEDBACK_QOS, FEEDBACK_TOPIC, GAZE_ON_SCREEN_TOPIC,
                                      GAZE_QOS, GAZE_SAMPLES_TOPIC, GOAL_POSE_TOPIC, GOAL_QOS,
@@ -71,6 +72,7 @@ RECORDED_TOPICS: Tuple[RecordedTopic, ...] = (
     RecordedTopic(REQUEST_TOPIC, 'std_msgs/msg/Empty', EVENT_QOS),
     RecordedTopic(CHOICE_TOPIC, _STRING, EVENT_QOS),
     RecordedTopic(NO_CHOICE_TOPIC, _STRING, EVENT_QOS),
+    RecordedTopic(CHOICE_DETAIL_TOPIC, _STRING, EVENT_QOS),
     RecordedTopic(CUE_TOPIC, _STRING, LATCHED_QOS),
     RecordedTopic(MENU_STATE_TOPIC, _STRING, LATCHED_QOS),
     RecordedTopic(MENU_ANSWER_TOPIC, _STRING, EVENT_QOS),
