@@ -16,7 +16,7 @@ without ``.xdf``, ``_report``):
   as a star;
 * ``drive_NN.png`` per robot drive (a ``goal_pose``, else the menu's ``go``, to the
   menu's next word on the drive: arrived, stopped, failed): the map, the plan
-  and the path driven (``odom``, else the action's feedback poses);
+  and the path driven (the action's feedback poses, in the map frame; else ``odom``);
 * ``timeline.png``: questions, choices, rounds without a choice, drives and
   the gaze rate over the session;
 * with both, ``report.json``'s ``xdf`` compares them: the questions, choices, rounds
@@ -214,7 +214,9 @@ def find_drives(session: Session) -> List[Drive]:
         ending = [(t, text) for t, text in session.progress
                   if start <= t < limit and progress_event(text) in DRIVE_ENDS]
         end, outcome = ending[0] if ending else (min(limit, session.end), 'recording ended')
-        poses = session.odometry if len(session.odometry) else session.robot_poses
+        # The feedback's current_pose is the robot in the map frame; odometry is in its own
+        # drifting odom frame (REP-105), drawn only where a recording has no feedback.
+        poses = session.robot_poses if len(session.robot_poses) else session.odometry
         driven = poses[(poses[:, 0] >= start - 0.05) & (poses[:, 0] <= end + 0.05)]
         steps = np.diff(driven[:, 1:3], axis=0)
         plans = [plan for t, plan in session.plans if start - 0.5 <= t <= end and len(plan)]

@@ -169,6 +169,13 @@ def test_quick_demo_pictures_are_the_recorded_sessions_report(quick_run):
     robot = summary['selections'][1]['robot']
     assert drive['arrived'] and drive['goal'] == robot['goal']
     assert drive['path_m'] == pytest.approx(robot['path_m'], abs=0.3)
+    # The path drawn is the robot's in the map frame (the feedback's), not odometry's own
+    # drifting frame: it ends where the goal is and starts where the plan does.
+    from eye_bci_ros2.experiments.session_bag import read_session
+    from eye_bci_ros2.experiments.session_report import build_report
+    (drawn,) = build_report(read_session(out / demo.BAG_NAME)).drives
+    assert np.hypot(*(drawn.path[-1, :2] - robot['goal'][:2])) < 0.25, drawn.path[-1]
+    assert np.hypot(*(drawn.path[0, :2] - drawn.plan[0])) < 0.25, (drawn.path[0], drawn.plan[0])
     assert os.path.basename(drive['picture']) == 'drive_01.png'
     assert os.path.getsize(drive['picture']) > 20000
     assert os.path.getsize(out / 'timeline.png') > 20000
