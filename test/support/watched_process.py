@@ -10,6 +10,8 @@ from typing import List
 
 #: Longest wait for a process to start, answer or stop, s.
 WAIT_S = 60.0
+#: The lines that must never reach a user.
+TRACEBACK = re.compile(r'Traceback \(most recent call last\)|KeyboardInterrupt')
 
 
 class Process:

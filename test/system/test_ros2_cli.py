@@ -23,13 +23,12 @@ import subprocess
 import time
 from typing import List, Optional
 
-from colcon_workspace import (build_workspace, PACKAGE, ros2_command, sourced_environment,
-                              Unavailable)
+from colcon_workspace import build_workspace, PACKAGE, sourced_environment
 from domain_coordinator import domain_id
 from lsl_outlets import bridge_parameters, make_outlet, sample_for
 from paths import loaded
 import pytest
-from watched_process import Process, WAIT_S
+from watched_process import Process, TRACEBACK, WAIT_S
 import yaml
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -37,17 +36,6 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 #: Without the daemon, a ros2 command discovers the graph itself: give it time (a user's
 #: daemon has been listening all along).
 DISCOVERY = ('--spin-time', '2', '--timeout', '10')
-#: The lines that must never reach a user.
-TRACEBACK = re.compile(r'Traceback \(most recent call last\)|KeyboardInterrupt')
-
-
-@pytest.fixture(scope='module')
-def ros2():
-    """Return the path of the real ``ros2`` wrapper (skip when it cannot be installed)."""
-    try:
-        return ros2_command()
-    except Unavailable as reason:
-        pytest.skip(f'the real ros2 command line is not at hand: {reason}')
 
 
 @pytest.fixture(scope='module')

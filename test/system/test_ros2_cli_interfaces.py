@@ -11,7 +11,6 @@ it has no ``ros2 interface`` (ros2interface is not among the shared sources).
 import os
 import subprocess
 
-from colcon_workspace import ros2_command, Unavailable
 from nav2_msgs.action import NavigateToPose
 import pytest
 from rclpy.action import ActionServer
@@ -25,15 +24,6 @@ TF_MESSAGE_HASH = 'RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe
 DISCOVERY = ('--no-daemon', '--spin-time', '3')
 #: How long a ros2 command may take on a loaded 2-core machine, s.
 COMMAND_S = 120.0
-
-
-@pytest.fixture(scope='module')
-def ros2():
-    """Return the path of the real ``ros2`` wrapper (skip when it cannot be installed)."""
-    try:
-        return str(ros2_command())
-    except Unavailable as reason:
-        pytest.skip(f'the real ros2 command line is not at hand: {reason}')
 
 
 def on_graph(graph, command):

@@ -18,14 +18,13 @@ import sys
 import time
 
 from action_msgs.msg import GoalStatus, GoalStatusArray
-from colcon_workspace import ros2_command, Unavailable
 from domain_coordinator import domain_id
 from nav_msgs.msg import Odometry
 import pytest
 import rclpy
 from rclpy.context import Context
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from watched_process import Process, WAIT_S
+from watched_process import Process, TRACEBACK, WAIT_S
 
 from eye_bci_ros2.navigation.frames import BASE_FRAME, MAP_FRAME, ODOM_FRAME
 from eye_bci_ros2.ros.runner import make_executor, spin_until
@@ -43,19 +42,6 @@ FAR = '{pose: {header: {frame_id: map}, pose: {position: {x: 15.0, y: 8.5}, ' \
       'orientation: {w: 1.0}}}}'
 #: The robot stands this soon after the cancel, s (the issue's bound).
 STAND_WITHIN_S = 1.5
-
-
-#: The lines that must never reach a user.
-TRACEBACK = re.compile(r'Traceback \(most recent call last\)|KeyboardInterrupt')
-
-
-@pytest.fixture(scope='module')
-def ros2():
-    """Return the path of the real ``ros2`` wrapper (skip when it cannot be installed)."""
-    try:
-        return ros2_command()
-    except Unavailable as reason:
-        pytest.skip(f'the real ros2 command line is not at hand: {reason}')
 
 
 @pytest.fixture
