@@ -191,8 +191,13 @@ class SimRobot(Node):
         return self._scene.frame_id
 
     def destroy_node(self):
-        """End the planning thread, then the node."""
+        """End the planning thread, the action server and its own client, then the node."""
         self._worker.close()
+        # rclpy's destroy_node leaves action servers and clients alive: a later graph on the
+        # same domain would still see this server and its goals' latched status.
+        self._server.destroy()
+        if self._self_client is not None:
+            self._self_client.destroy()
         return super().destroy_node()
 
     # -- the map -----------------------------------------------------------------------

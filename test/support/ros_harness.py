@@ -120,6 +120,13 @@ class RosGraph:
         self.executor.shutdown()
         for node in self.nodes:
             node.destroy_node()
+            # Then the action servers and clients the node left: rclpy's destroy_node leaves
+            # them, and with them the node's participant, whose latched goal status a later
+            # graph on the same domain would still see.
+            for waitable in list(node.waitables):
+                destroy = getattr(waitable, 'destroy', None)
+                if destroy is not None:
+                    destroy()
         self.context.try_shutdown()
 
 
