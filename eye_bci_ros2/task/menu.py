@@ -47,8 +47,9 @@ starts when the request arrives and a fresh fixation on a second look ('go',
 'send') decides ``second_look_dwell_s`` (0.05 s) later.  A choice ignored as
 too early asks again: the menu cannot tell it from the answer, whose round
 has then closed (without a new question nothing would ever come).  Any other
-choice is logged and ignored (an unknown label while asking asks again).  So the menu never advances on its own, whatever the
-arbiter decides between questions.
+choice is logged and ignored (an unknown label while asking asks again).  So
+the menu never advances on its own, whatever the arbiter decides between
+questions.
 
 ``ask_on_arrival`` false gives the previous behaviour: every valid choice
 counts at once, nothing is asked except after an unusable choice or an
