@@ -41,11 +41,15 @@ reports that its round ended without a choice (``choice/none``,
 :meth:`MenuProtocol.on_no_choice`).  A choice counts only when it
 answers the question: it arrives while the menu is asking, at least
 ``min_answer_s`` after the request (a decision made before the request, in
-flight when it went out, is not an answer: the arbiter's early rule needs
-fresh gaze at least 0.1 s after a round start anyway), and names an offered
-option.  Any other choice is logged and ignored (an unknown label while
-asking asks again).  So the menu never advances on its own, whatever the
-arbiter decides between questions.
+flight when it went out, is not an answer), and names an offered option.
+``min_answer_s`` must stay below the arbiter's fastest answer: its round
+starts when the request arrives and a fresh fixation on a second look ('go',
+'send') decides ``second_look_dwell_s`` (0.05 s) later.  A choice ignored as
+too early asks again: the menu cannot tell it from the answer, whose round
+has then closed (without a new question nothing would ever come).  Any other
+choice is logged and ignored (an unknown label while asking asks again).  So
+the menu never advances on its own, whatever the arbiter decides between
+questions.
 
 ``ask_on_arrival`` false gives the previous behaviour: every valid choice
 counts at once, nothing is asked except after an unusable choice or an
@@ -204,7 +208,7 @@ class ProtocolSettings:
     look_away_s: float = 1.5
     look_away_margin_px: float = 10.0
     pause_after_s: float = 2.0
-    min_answer_s: float = 0.1
+    min_answer_s: float = 0.04
     validate_first: bool = False
     validation_retries: int = 1
     robot_goals: bool = True
@@ -824,8 +828,11 @@ class MenuProtocol:
                 why = 'paused' if self._paused else f'not asked ({self.state})'
                 return [Log('info', f"ignoring choice '{label}': {why}")]
             if now - self._asked_at < self.settings.min_answer_s:
+                # Asked again: if this was the answer after all, the round the question
+                # opened has closed with it, and nothing else would ever come.
+                since, self._asked_at = now - self._asked_at, now
                 return [Log('info', f"ignoring choice '{label}': made before the question "
-                                    f'({now - self._asked_at:.3f} s after it)')]
+                                    f'({since:.3f} s after it): asking again'), Request()]
         if label not in self.offered:
             self._asked_at = None
             again = self.tick(now) if self.settings.ask_on_arrival else [Request()]
